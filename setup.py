@@ -1,0 +1,60 @@
+"""Packaging for vigen: TorchRL modules for visual generalization in reinforcement learning.
+
+The core pins the stack measured to work together on a CPU-only machine (torch 2.13, torchrl
+0.14.1, tensordict 0.14.3, mujoco 3.8.1, dm-control 1.0.41). Two pins resolve conflicts with the
+optional extras so that ``pip install -e ".[all]"`` gives one working environment:
+
+* ``numpy<2``: robosuite 1.5.2 pins numpy below 2 (through mink), so the core does too.
+* ``opencv-*<4.12``: OpenCV 4.12 and newer require numpy 2. robosuite asks for ``opencv-python``
+  (the GUI build) while vigen wants ``opencv-python-headless``; both are held to the same
+  release so that whichever of the two writes the shared ``cv2`` folder last, it is the same
+  OpenCV version built against numpy 1.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from setuptools import find_packages, setup
+
+ROOT = Path(__file__).parent
+VERSION = re.search(r'^__version__ = "([^"]+)"', (ROOT / "vigen" / "__init__.py").read_text(), re.M).group(1)
+
+OPENCV_RANGE = ">=4.8,<4.12"
+
+install_requires = [
+    "torch==2.13.*",
+    "torchrl==0.14.1",
+    "tensordict==0.14.3",
+    "mujoco==3.8.1",
+    "dm-control==1.0.41",
+    "gymnasium>=1.0,<1.5",
+    "numpy>=1.24,<2",
+    f"opencv-python-headless{OPENCV_RANGE}",
+]
+
+extras_require = {
+    "robosuite": ["robosuite==1.5.2", f"opencv-python{OPENCV_RANGE}"],
+    "adroit": ["gymnasium-robotics==1.4.2"],
+    "wandb": ["wandb>=0.17"],
+    "test": ["pytest>=7", "pytest-timeout>=2"],
+}
+extras_require["all"] = sorted({req for reqs in extras_require.values() for req in reqs})
+
+setup(
+    name="vigen",
+    version=VERSION,
+    description="TorchRL transforms, losses and envs for visual generalization in reinforcement learning",
+    long_description=(ROOT / "README.md").read_text(encoding="utf-8"),
+    long_description_content_type="text/markdown",
+    license="MIT",
+    packages=find_packages(include=["vigen", "vigen.*"]),
+    python_requires=">=3.10",
+    install_requires=install_requires,
+    extras_require=extras_require,
+    classifiers=[
+        "Programming Language :: Python :: 3",
+        "Topic :: Scientific/Engineering :: Artificial Intelligence",
+    ],
+)
