@@ -10,7 +10,7 @@ measures, in the same run and interleaved so that machine noise hits both alike:
 Each figure is the median over ``--repeats`` blocks of ``--frames`` calls. The ratio is
 default / fast (how many times faster the fast preset is).
 
-Reproduce (about a minute on 2 CPU cores):
+Reproduce (about two minutes on 2 CPU cores):
 
     python benchmarks/render_speed.py
     python benchmarks/render_speed.py --tasks dmc/walker-walk --frames 300 --size 84
@@ -25,7 +25,6 @@ import time
 import vigen  # noqa: F401  (selects the EGL backend before mujoco is imported)
 import torch
 from vigen.envs import make_env
-from vigen.envs.dmc import DEFAULT_CAMERAS, DOMAIN_ALIASES, dmc_physics
 from vigen.rendering import RenderSettings
 
 TASKS = ["dmc/walker-walk", "dmc/cartpole-swingup", "dmc/cheetah-run", "dmc/quadruped-walk", "dmc/finger-spin"]
@@ -41,14 +40,12 @@ def ms_per_call(fn, calls: int) -> float:
 def measure(name: str, size: int, frames: int, repeats: int) -> dict[str, tuple[float, float]]:
     settings = {"default": RenderSettings(), "fast": RenderSettings.fast()}
     envs = {k: make_env(name, seed=0, image_size=size, render_settings=s) for k, s in settings.items()}
-    domain = name.split("/", 1)[1].split("-")[0]
-    camera = DEFAULT_CAMERAS.get(DOMAIN_ALIASES.get(domain, domain), 0)
     renders, steps = {k: [] for k in envs}, {k: [] for k in envs}
     for env in envs.values():
         env.reset()
     for _ in range(repeats):
         for key, env in envs.items():
-            physics = dmc_physics(env)
+            physics, camera = env.base_env.physics, env.base_env.camera_id
             renders[key].append(ms_per_call(lambda: physics.render(size, size, camera_id=camera), frames))
             state = env.reset()
             action = torch.zeros(env.action_spec.shape)

@@ -15,7 +15,7 @@ from torchrl.envs import CatFrames, ParallelEnv, SerialEnv
 from torchrl.envs.utils import check_env_specs
 
 from vigen.envs import make_env
-from vigen.envs.dmc import ActionRepeat, dmc_physics, make_dmc_env
+from vigen.envs.dmc import ActionRepeat, DMCPixelEnv, make_dmc_env
 from vigen.rendering import RenderSettings
 
 FAST = RenderSettings.fast()
@@ -128,7 +128,7 @@ class TestMakeDMCEnv:
 
     def test_action_repeat_renders_once_per_agent_step(self, monkeypatch):
         env = make_dmc_env("walker", "walk", seed=0, render_settings=FAST)
-        physics = dmc_physics(env)
+        physics = env.base_env.physics
         renders = []
         render = physics.render
         monkeypatch.setattr(physics, "render", lambda *a, **k: renders.append(1) or render(*a, **k))
@@ -202,12 +202,14 @@ class TestMakeDMCEnv:
         fast = make_env("dmc/walker-walk", seed=0, frame_stack=1, render_settings=FAST).reset()["pixels"].float()
         assert (exact - fast).abs().mean() < 4.0, "fast rendering should only soften shadows and edges"
 
-    def test_physics_accessor(self):
-        env = make_env("dmc/walker-walk", render_settings=FAST)
-        assert dmc_physics(env) is dmc_physics(env.base_env)
-        assert dmc_physics(env).model.vis.quality.shadowsize == 256
-        with pytest.raises(TypeError, match="one physics per worker"):
-            dmc_physics(SerialEnv(1, partial(make_env, "dmc/walker-walk")))
+    def test_base_env_exposes_physics_and_settings(self):
+        env = make_env("dmc/quadruped-run", render_settings=FAST)
+        assert isinstance(env.base_env, DMCPixelEnv)
+        assert repr(env.base_env) == (
+            "DMCPixelEnv(quadruped-run, camera_id=2, image_size=84, action_repeat=2, episode_length=1000)"
+        )
+        model = env.base_env.physics.model
+        assert (model.vis.quality.shadowsize, model.vis.global_.offwidth) == (256, 84)
 
     def test_bad_arguments(self):
         with pytest.raises(ValueError, match="cameras 0..1"):

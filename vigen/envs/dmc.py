@@ -10,7 +10,8 @@ The chain, innermost first:
 * :class:`ActionRepeat`: repeats the action and ends the episode at ``episode_length`` control
   steps as a time-limit truncation (``discount == 1``);
 * ``dm_control.suite.wrappers.pixels.Wrapper``: renders once per agent step, pixels only;
-* TorchRL's ``DMControlWrapper``: specs, seeding, ``terminated``/``truncated`` from the discount;
+* :class:`DMCPixelEnv` (a TorchRL ``DMControlWrapper``): specs, seeding, ``terminated`` /
+  ``truncated`` from the discount, and the live ``physics``;
 * ``ToTensorImage`` (HWC → CHW, uint8 kept), ``CatFrames`` and ``DoubleToFloat``.
 """
 
@@ -23,7 +24,7 @@ import dm_env
 import torch
 from dm_control import suite
 from dm_control.suite.wrappers import pixels
-from torchrl.envs import CatFrames, Compose, DoubleToFloat, EnvBase, ToTensorImage, TransformedEnv
+from torchrl.envs import CatFrames, Compose, DoubleToFloat, ToTensorImage, TransformedEnv
 from torchrl.envs.libs.dm_control import DMControlWrapper
 
 from vigen.rendering import RenderSettings
@@ -70,9 +71,10 @@ class ActionRepeat(dm_env.Environment):
     Examples:
         >>> from dm_control import suite
         >>> env = ActionRepeat(suite.load("cartpole", "balance", task_kwargs={"time_limit": float("inf")}), 2, 10)
-        >>> steps = [env.step([0.0]) for _ in range(5)]
-        >>> steps[-1].last(), steps[-1].discount
-        (True, 1.0)
+        >>> first = env.reset()
+        >>> steps = [env.step([0.0]) for _ in range(5)]  # 5 agent steps = 10 simulator steps
+        >>> [step.last() for step in steps], steps[-1].discount
+        ([False, False, False, False, True], 1.0)
     """
 
     def __init__(self, env: Any, repeat: int, episode_length: int) -> None:
@@ -129,24 +131,79 @@ class ActionRepeat(dm_env.Environment):
         self._env.close()
 
 
-def dmc_physics(env: EnvBase) -> Any:
-    """The live dm_control ``Physics`` (MuJoCo model, data, render contexts) of a dm_control env.
+class DMCPixelEnv(DMControlWrapper):
+    """A dm_control suite task rendered to uint8 HWC frames, with the action repeat under the renderer.
 
-    Accepts the env :func:`make_dmc_env` returns, its base env, or a ``TransformedEnv`` around
-    either. Batched envs keep one physics per worker, so they are refused.
+    The TorchRL base env of :func:`make_dmc_env` (which adds channel-first frames, frame stacking
+    and float32 actions and rewards). It follows TorchRL's ``DMControlWrapper`` for specs, seeding
+    and flags: an episode that ends with discount 1 (the time limit) is ``truncated``, one that
+    ends with discount 0 is ``terminated``. :attr:`physics` is the live MuJoCo model, data and
+    render contexts, for scene perturbations.
+
+    Args:
+        domain: suite domain, e.g. ``"walker"`` (``"cup"`` is accepted for ``"ball_in_cup"``).
+        task: suite task, e.g. ``"walk"``.
+        action_repeat: simulator steps per agent step; only the last one is rendered.
+        image_size: height and width of the rendered frame.
+        camera_id: camera to render; ``None`` uses 2 for quadruped and 0 elsewhere (DrQ-v2).
+        episode_length: simulator steps per episode.
+        render_settings: MuJoCo render quality; ``None`` keeps dm_control's defaults.
+        seed: seed of the task's random state (initial poses and targets); ``None`` draws one.
+        device: device of the returned tensors.
+
+    Reference: DrQ-v2, https://arxiv.org/abs/2107.09645 (its ``dmc.py`` sets up the same env).
 
     Examples:
-        >>> from vigen.envs.dmc import dmc_physics, make_dmc_env
-        >>> dmc_physics(make_dmc_env("walker", "walk")).model.ncam
-        2
+        >>> from vigen.envs.dmc import DMCPixelEnv
+        >>> env = DMCPixelEnv("walker", "walk", seed=0)
+        >>> env
+        DMCPixelEnv(walker-walk, camera_id=0, image_size=84, action_repeat=2, episode_length=1000)
+        >>> env.reset()["pixels"].shape, env.physics.model.ncam
+        (torch.Size([84, 84, 3]), 2)
     """
-    base = env.base_env if isinstance(env, TransformedEnv) else env
-    if not isinstance(base, DMControlWrapper):
-        raise TypeError(
-            f"Expected a dm_control env built by vigen.envs.make_env('dmc/...'), got {type(base).__name__}. "
-            "Batched envs (SerialEnv, ParallelEnv) hold one physics per worker: reach it inside the worker."
+
+    def __init__(
+        self,
+        domain: str,
+        task: str,
+        *,
+        action_repeat: int = 2,
+        image_size: int = 84,
+        camera_id: int | None = None,
+        episode_length: int = 1000,
+        render_settings: RenderSettings | None = None,
+        seed: int | None = None,
+        device: torch.device | str = "cpu",
+    ) -> None:
+        domain = DOMAIN_ALIASES.get(domain, domain)
+        if (domain, task) not in suite.ALL_TASKS:
+            raise ValueError(f"Unknown dm_control task {domain}-{task}. Valid names: {', '.join(env_names())}.")
+        camera_id = DEFAULT_CAMERAS.get(domain, 0) if camera_id is None else camera_id
+
+        control_env = suite.load(domain, task, task_kwargs={"random": seed, "time_limit": math.inf})
+        model = control_env.physics.model
+        if not 0 <= camera_id < model.ncam:
+            raise ValueError(f"camera_id={camera_id} does not exist: {domain} has cameras 0..{model.ncam - 1}.")
+        (render_settings or RenderSettings()).apply(model, image_size, image_size)
+        rendered = pixels.Wrapper(
+            ActionRepeat(control_env, action_repeat, episode_length),
+            pixels_only=True,
+            render_kwargs={"height": image_size, "width": image_size, "camera_id": camera_id},
         )
-    return base._env.physics
+        super().__init__(rendered, device=device)
+        self.domain_name, self.task_name, self.camera_id = domain, task, camera_id
+        self.image_size, self.action_repeat, self.episode_length = image_size, action_repeat, episode_length
+
+    @property
+    def physics(self) -> Any:
+        """The live dm_control ``Physics``: MuJoCo model and data, and the render contexts."""
+        return self._env.physics
+
+    def __repr__(self) -> str:
+        return (
+            f"{type(self).__name__}({self.domain_name}-{self.task_name}, camera_id={self.camera_id}, "
+            f"image_size={self.image_size}, action_repeat={self.action_repeat}, episode_length={self.episode_length})"
+        )
 
 
 def make_dmc_env(
@@ -189,29 +246,21 @@ def make_dmc_env(
         >>> env.rollout(5)["pixels"].shape
         torch.Size([5, 9, 84, 84])
     """
-    domain = DOMAIN_ALIASES.get(domain, domain)
-    if (domain, task) not in suite.ALL_TASKS:
-        raise ValueError(f"Unknown dm_control task {domain}-{task}. Valid tasks: {', '.join(env_names())}.")
     if frame_stack < 1:
         raise ValueError(f"frame_stack must be at least 1, got {frame_stack}.")
-    camera_id = DEFAULT_CAMERAS.get(domain, 0) if camera_id is None else camera_id
-
-    control_env = suite.load(domain, task, task_kwargs={"random": seed, "time_limit": math.inf})
-    physics = control_env.physics
-    if not 0 <= camera_id < physics.model.ncam:
-        raise ValueError(f"camera_id={camera_id} does not exist: {domain} has cameras 0..{physics.model.ncam - 1}.")
-    (render_settings or RenderSettings()).apply(physics.model, image_size, image_size)
-
-    repeated = ActionRepeat(control_env, action_repeat, episode_length)
-    rendered = pixels.Wrapper(
-        repeated, pixels_only=True, render_kwargs={"height": image_size, "width": image_size, "camera_id": camera_id}
+    env = DMCPixelEnv(
+        domain,
+        task,
+        action_repeat=action_repeat,
+        image_size=image_size,
+        camera_id=camera_id,
+        episode_length=episode_length,
+        render_settings=render_settings,
+        seed=seed,
+        device=device,
     )
-    env = DMControlWrapper(rendered, device=device)
     transforms = [ToTensorImage(in_keys=["pixels"], from_int=False, dtype=torch.uint8)]
     if frame_stack > 1:
         transforms.append(CatFrames(N=frame_stack, dim=-3, in_keys=["pixels"]))
     transforms.append(DoubleToFloat())
-    env = TransformedEnv(env, Compose(*transforms))
-    if seed is not None:
-        env.set_seed(seed)
-    return env
+    return TransformedEnv(env, Compose(*transforms))
