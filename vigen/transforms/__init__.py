@@ -1,7 +1,41 @@
 """Image augmentations (training time) and visual perturbations (evaluation time) as TorchRL Transforms.
 
-This room may import torch, torchrl, tensordict, numpy and mujoco (scene edits only), never
-``vigen.envs`` or ``vigen.losses``.
+Augmentations sample per-sample parameters (``make_params``) apart from applying them
+(``apply``, backed by the pure kernels of :mod:`vigen.transforms.functional`):
+
+========================  ==========================================================  ==========
+transform                 what it does                                                paper
+========================  ==========================================================  ==========
+``RandomShift``           replicate-pad 4, random integer translation                 DrQ(-v2)
+``RandomOverlay``         ``(1-α)·x + α·I`` with a natural image per sample            SVEA
+``RandomConv``            random 3×3 RGB filter per sample, sigmoid                   DMC-GB
+``RandomFrequencyMask``   remove a random square ring of spatial frequencies         SRM
+``RandomCrop``            random window (render larger, crop to 84)                  CURL
+``CenterCrop``            central window (evaluation counterpart of RandomCrop)      CURL
+``RandomColorJitter``     brightness, contrast, saturation, hue per sample            —
+========================  ==========================================================  ==========
+
+This room may import torch, torchrl, tensordict, numpy, OpenCV (image decoding) and mujoco
+(scene edits only), never ``vigen.envs`` or ``vigen.losses``.
 """
 
-__all__: list[str] = []
+from vigen.transforms.augmentation import ImageAugmentation
+from vigen.transforms.color_jitter import RandomColorJitter
+from vigen.transforms.conv import RandomConv
+from vigen.transforms.crop import CenterCrop, RandomCrop
+from vigen.transforms.frequency import RandomFrequencyMask
+from vigen.transforms.image_bank import ImageBank
+from vigen.transforms.overlay import RandomOverlay
+from vigen.transforms.shift import RandomShift
+
+__all__ = [
+    "CenterCrop",
+    "ImageAugmentation",
+    "ImageBank",
+    "RandomColorJitter",
+    "RandomConv",
+    "RandomCrop",
+    "RandomFrequencyMask",
+    "RandomOverlay",
+    "RandomShift",
+]

@@ -1,0 +1,99 @@
+"""Crops: CURL's random crop (render larger, cut the training size) and its deterministic center crop."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from tensordict.utils import NestedKey
+from torch import Tensor
+
+from vigen.transforms import functional
+from vigen.transforms.augmentation import ImageAugmentation, Params
+
+
+def _pair(size: int | Sequence[int]) -> tuple[int, int]:
+    height, width = (size, size) if isinstance(size, int) else tuple(size)
+    if height < 1 or width < 1:
+        raise ValueError(f"crop size must be positive, got {size}.")
+    return int(height), int(width)
+
+
+class _Crop(ImageAugmentation):
+    def __init__(
+        self,
+        size: int | Sequence[int] = 84,
+        in_keys: Sequence[NestedKey] | NestedKey | None = None,
+        out_keys: Sequence[NestedKey] | NestedKey | None = None,
+        *,
+        max_value: float | None = None,
+        seed: int | None = None,
+    ) -> None:
+        super().__init__(in_keys, out_keys, max_value=max_value, seed=seed)
+        self.height, self.width = _pair(size)
+
+    def output_size(self, height: int, width: int) -> tuple[int, int]:
+        if height < self.height or width < self.width:
+            raise ValueError(
+                f"{type(self).__name__} cuts {self.height}x{self.width} windows but the images are "
+                f"{height}x{width}: render larger (e.g. make_env(..., image_size=100) as CURL does)."
+            )
+        return self.height, self.width
+
+    def extra_repr(self) -> str:
+        return f"size=({self.height}, {self.width})"
+
+
+class RandomCrop(_Crop):
+    """Cut a window at a random position, the same for all stacked frames of a sample (CURL).
+
+    CURL renders 100×100 frames and trains on random 84×84 crops. Positions are uniform over all
+    windows that fit; the output is ``[..., C, size, size]``, and the observation spec of an env
+    with this transform is resized to match.
+
+    Paper: CURL, https://arxiv.org/abs/2004.04136.
+
+    Args:
+        size: output ``(height, width)``, or one int for a square.
+        in_keys, out_keys, max_value, seed: see :class:`~vigen.transforms.ImageAugmentation`.
+
+    Examples:
+        >>> import torch
+        >>> from vigen.transforms import RandomCrop
+        >>> RandomCrop(84, seed=0)(pixels=torch.zeros(8, 9, 100, 100, dtype=torch.uint8)).shape
+        torch.Size([8, 9, 84, 84])
+    """
+
+    def make_params(self, images: Tensor) -> Params:
+        height, width = self.output_size(*images.shape[-2:])
+        n = images.shape[0]
+        return {
+            "top": self.randint(images.shape[-2] - height + 1, n, like=images),
+            "left": self.randint(images.shape[-1] - width + 1, n, like=images),
+        }
+
+    def apply(self, images: Tensor, params: Params) -> Tensor:
+        return functional.crop(images, params["top"], params["left"], self.height, self.width)
+
+
+class CenterCrop(_Crop):
+    """Cut the central window: the evaluation-time counterpart of :class:`RandomCrop` (CURL).
+
+    Paper: CURL, https://arxiv.org/abs/2004.04136.
+
+    Args:
+        size: output ``(height, width)``, or one int for a square.
+        in_keys, out_keys, max_value: see :class:`~vigen.transforms.ImageAugmentation`.
+
+    Examples:
+        >>> import torch
+        >>> from vigen.transforms import CenterCrop
+        >>> CenterCrop(84)(pixels=torch.zeros(9, 100, 100)).shape
+        torch.Size([9, 84, 84])
+    """
+
+    def make_params(self, images: Tensor) -> Params:
+        self.output_size(*images.shape[-2:])
+        return {}
+
+    def apply(self, images: Tensor, params: Params) -> Tensor:
+        return functional.center_crop(images, self.height, self.width)

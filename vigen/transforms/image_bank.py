@@ -1,0 +1,152 @@
+"""Natural-image stand-ins for overlay augmentations: a built-in bank (no download) or a user folder."""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import Tensor
+
+IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png", ".bmp", ".webp")
+
+
+class ImageBank:
+    """A fixed set of RGB images, stored once as uint8 ``[M, 3, S, S]`` and resized on demand.
+
+    SVEA overlays Places365 images (DMC-GB and RL-ViGen read them with ``ImageFolder``). No
+    machine that builds or tests vigen can download Places365, so :meth:`builtin` (the default of
+    :class:`~vigen.transforms.RandomOverlay`) needs nothing but the installed packages: the
+    floor, wall and sky textures that ``labmaze`` ships with dm_control, plus procedurally
+    generated images (fractal noise, Voronoi cells, plaids and colour blobs). For the papers'
+    setting, point :meth:`from_folder` at a Places365 copy (``places365_standard/train/<class>/*.jpg``)
+    or any folder of images.
+
+    Args:
+        images: uint8 ``[M, 3, S, S]`` RGB images.
+        name: where they came from, for ``repr``.
+
+    Examples:
+        >>> from vigen.transforms import ImageBank
+        >>> bank = ImageBank.builtin()
+        >>> len(bank) >= 100, bank.resized(84, 84).shape[1:]
+        (True, torch.Size([3, 84, 84]))
+    """
+
+    def __init__(self, images: Tensor, name: str = "custom") -> None:
+        if images.dtype != torch.uint8 or images.ndim != 4 or images.shape[1] != 3 or len(images) == 0:
+            raise ValueError(f"ImageBank takes a non-empty uint8 [M, 3, H, W] tensor, got {images.dtype} {tuple(images.shape)}.")
+        self.images = images
+        self.name = name
+        self._resized: dict[tuple[int, int], Tensor] = {}
+
+    @classmethod
+    def builtin(cls, size: int = 128, procedural: int = 128, seed: int = 0) -> ImageBank:
+        """labmaze's textures (89 with dm-control 1.0.41) plus ``procedural`` generated images."""
+        textures = [_load_image(path, size) for path in _labmaze_textures()]
+        generator = torch.Generator().manual_seed(seed)
+        generated = [_procedural_image(kind=i % 4, size=size, generator=generator) for i in range(procedural)]
+        images = torch.stack([*textures, *generated])
+        return cls(images, name=f"builtin({len(textures)} labmaze textures + {procedural} procedural)")
+
+    @classmethod
+    def from_folder(
+        cls, root: str | os.PathLike, size: int = 128, max_images: int | None = 2000, seed: int = 0
+    ) -> ImageBank:
+        """Every image under ``root`` (searched recursively), or ``max_images`` of them drawn with ``seed``.
+
+        Images are center-cropped to a square and resized to ``size`` (area interpolation).
+        """
+        root = Path(root).expanduser()
+        if not root.is_dir():
+            raise FileNotFoundError(
+                f"Image folder {root} does not exist. Pass a folder of images, e.g. a Places365 copy "
+                "(<root>/places365_standard/train/<class>/*.jpg) or any folder of .jpg/.png files."
+            )
+        paths = sorted(p for p in root.rglob("*") if p.suffix.lower() in IMAGE_SUFFIXES)
+        if not paths:
+            raise FileNotFoundError(f"No images ({', '.join(IMAGE_SUFFIXES)}) found under {root}.")
+        if max_images is not None and len(paths) > max_images:
+            keep = torch.randperm(len(paths), generator=torch.Generator().manual_seed(seed))[:max_images]
+            paths = [paths[i] for i in sorted(keep.tolist())]
+        return cls(torch.stack([_load_image(path, size) for path in paths]), name=str(root))
+
+    def __len__(self) -> int:
+        return len(self.images)
+
+    def resized(self, height: int, width: int) -> Tensor:
+        """The images as uint8 ``[M, 3, height, width]``, computed once per size."""
+        key = (height, width)
+        if key not in self._resized:
+            if self.images.shape[-2:] == key:
+                self._resized[key] = self.images
+            else:
+                resized = F.interpolate(self.images.float(), size=key, mode="bilinear", antialias=True, align_corners=False)
+                self._resized[key] = resized.round_().clamp_(0, 255).to(torch.uint8)
+        return self._resized[key]
+
+    def __getstate__(self) -> dict:
+        return {"images": self.images, "name": self.name, "_resized": {}}
+
+    def __repr__(self) -> str:
+        return f"ImageBank({self.name}, {len(self)} images of {tuple(self.images.shape[-2:])})"
+
+
+def _labmaze_textures() -> list[Path]:
+    try:
+        import labmaze
+    except ImportError:
+        return []
+    return sorted((Path(labmaze.__file__).parent / "assets").glob("**/*.png"))
+
+
+def _load_image(path: Path, size: int) -> Tensor:
+    """Decode with OpenCV, center-crop to a square, resize to ``size``, as uint8 ``[3, size, size]``."""
+    import cv2
+
+    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if image is None:
+        raise OSError(f"OpenCV could not decode the image {path}.")
+    h, w = image.shape[:2]
+    side = min(h, w)
+    top, left = (h - side) // 2, (w - side) // 2
+    image = cv2.resize(image[top : top + side, left : left + side], (size, size), interpolation=cv2.INTER_AREA)
+    return torch.from_numpy(np.ascontiguousarray(image[..., ::-1])).permute(2, 0, 1).contiguous()
+
+
+def _procedural_image(kind: int, size: int, generator: torch.Generator) -> Tensor:
+    """One generated RGB image, uint8 ``[3, size, size]``: fractal noise, Voronoi, plaid or blobs."""
+
+    def rand(*shape: int) -> Tensor:
+        return torch.rand(shape, generator=generator)
+
+    y, x = torch.meshgrid(torch.linspace(0, 1, size), torch.linspace(0, 1, size), indexing="ij")
+    if kind == 0:  # 1/f^beta noise, each channel its own field
+        beta = 1.0 + 1.5 * rand(1)
+        fy, fx = torch.fft.fftfreq(size), torch.fft.rfftfreq(size)
+        radius = torch.sqrt(fy[:, None] ** 2 + fx[None, :] ** 2).clamp_min(1.0 / size)
+        spectrum = torch.fft.rfft2(torch.randn((3, size, size), generator=generator)) / radius**beta
+        field = torch.fft.irfft2(spectrum, s=(size, size))
+        low, high = field.amin(dim=(1, 2), keepdim=True), field.amax(dim=(1, 2), keepdim=True)
+        image = (field - low) / (high - low)
+    elif kind == 1:  # Voronoi cells with random colours
+        cells = 8 + int(32 * rand(1))
+        centers, colors = rand(cells, 2), rand(cells, 3)
+        distance = (y[..., None] - centers[:, 0]) ** 2 + (x[..., None] - centers[:, 1]) ** 2
+        image = colors[distance.argmin(-1)].permute(2, 0, 1)
+    elif kind == 2:  # plaid: a few coloured gratings
+        image = torch.zeros(3, size, size)
+        for _ in range(3):
+            angle, frequency, phase = math.pi * rand(1), 2 + 14 * rand(1), 2 * math.pi * rand(1)
+            wave = 0.5 + 0.5 * torch.sin(2 * math.pi * frequency * (x * torch.cos(angle) + y * torch.sin(angle)) + phase)
+            image += rand(3, 1, 1) * wave / 3
+    else:  # soft colour blobs over a gradient
+        image = torch.lerp(rand(3, 1, 1), rand(3, 1, 1), y[None])
+        for _ in range(5 + int(15 * rand(1))):
+            center, width = rand(2), 0.03 + 0.2 * rand(1)
+            weight = torch.exp(-((y - center[0]) ** 2 + (x - center[1]) ** 2) / (2 * width**2))
+            image = torch.lerp(image, rand(3, 1, 1), weight[None])
+    return (image.clamp(0, 1) * 255).round().to(torch.uint8)

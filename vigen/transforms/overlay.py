@@ -1,0 +1,78 @@
+"""SVEA's random overlay: blend each observation with a natural image."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+from tensordict.utils import NestedKey
+from torch import Tensor
+
+from vigen.transforms import functional
+from vigen.transforms.augmentation import ImageAugmentation, Params
+from vigen.transforms.image_bank import ImageBank
+
+
+class RandomOverlay(ImageAugmentation):
+    """Blend every sample with a random image from a bank: ``(1 - α)·x + α·I`` (SVEA).
+
+    Each sample gets its own image ``I``, the same over all of its stacked frames, as in DMC-GB's
+    and RL-ViGen's ``random_overlay`` (α = 0.5). The bank is loaded once, on first use, and
+    resized once per image size. By default it is :meth:`ImageBank.builtin` (no download); pass a
+    folder (Places365 in ``ImageFolder`` layout, or any folder of images) for the papers' setting.
+    Unlike DMC-GB, images are not re-cropped (``RandomResizedCrop``) at every draw.
+
+    Paper: SVEA, https://arxiv.org/abs/2107.00644.
+
+    Args:
+        alpha: weight of the overlaid image.
+        images: an :class:`ImageBank`, a folder of images, or ``None`` for the built-in bank.
+        in_keys, out_keys, max_value, seed: see :class:`~vigen.transforms.ImageAugmentation`.
+
+    Examples:
+        >>> import torch
+        >>> from vigen.transforms import RandomOverlay
+        >>> overlay = RandomOverlay(alpha=0.5, seed=0)
+        >>> overlay(pixels=torch.zeros(4, 9, 84, 84, dtype=torch.uint8)).float().mean() > 0
+        tensor(True)
+    """
+
+    def __init__(
+        self,
+        alpha: float = 0.5,
+        images: ImageBank | str | os.PathLike | None = None,
+        in_keys: Sequence[NestedKey] | NestedKey | None = None,
+        out_keys: Sequence[NestedKey] | NestedKey | None = None,
+        *,
+        max_value: float | None = None,
+        seed: int | None = None,
+    ) -> None:
+        if not 0 <= alpha <= 1:
+            raise ValueError(f"alpha must be in [0, 1], got {alpha}.")
+        if images is not None and not isinstance(images, ImageBank) and not Path(images).expanduser().is_dir():
+            raise FileNotFoundError(f"Overlay image folder {images} does not exist.")
+        super().__init__(in_keys, out_keys, max_value=max_value, seed=seed)
+        self.alpha = alpha
+        self._images = images
+
+    @property
+    def bank(self) -> ImageBank:
+        """The image bank, loaded on first access."""
+        if not isinstance(self._images, ImageBank):
+            self._images = ImageBank.builtin() if self._images is None else ImageBank.from_folder(self._images)
+        return self._images
+
+    def make_params(self, images: Tensor) -> Params:
+        return {"index": self.randint(len(self.bank), images.shape[0], like=images)}
+
+    def apply(self, images: Tensor, params: Params) -> Tensor:
+        white = self.white(images)
+        backgrounds = self.bank.resized(*images.shape[-2:]).to(images.device)[params["index"]]
+        if backgrounds.dtype != images.dtype or white != 255:
+            backgrounds = backgrounds.float() * (white / 255)
+        return functional.overlay(images, backgrounds, self.alpha, white)
+
+    def extra_repr(self) -> str:
+        source = self._images if isinstance(self._images, ImageBank) else (self._images or "builtin")
+        return f"alpha={self.alpha}, images={source!s}"
