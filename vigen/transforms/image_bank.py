@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 import os
+from concurrent.futures import ThreadPoolExecutor
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -46,7 +48,7 @@ class ImageBank:
     @classmethod
     def builtin(cls, size: int = 128, procedural: int = 128, seed: int = 0) -> ImageBank:
         """labmaze's textures (89 with dm-control 1.0.41) plus ``procedural`` generated images."""
-        textures = [_load_image(path, size) for path in _labmaze_textures()]
+        textures = _load_images(_labmaze_textures(), size)
         generator = torch.Generator().manual_seed(seed)
         generated = [_procedural_image(kind=i % 4, size=size, generator=generator) for i in range(procedural)]
         images = torch.stack([*textures, *generated])
@@ -72,7 +74,7 @@ class ImageBank:
         if max_images is not None and len(paths) > max_images:
             keep = torch.randperm(len(paths), generator=torch.Generator().manual_seed(seed))[:max_images]
             paths = [paths[i] for i in sorted(keep.tolist())]
-        return cls(torch.stack([_load_image(path, size) for path in paths]), name=str(root))
+        return cls(torch.stack(_load_images(paths, size)), name=str(root))
 
     def __len__(self) -> int:
         return len(self.images)
@@ -101,6 +103,12 @@ def _labmaze_textures() -> list[Path]:
     except ImportError:
         return []
     return sorted((Path(labmaze.__file__).parent / "assets").glob("**/*.png"))
+
+
+def _load_images(paths: list[Path], size: int) -> list[Tensor]:
+    """Decode in threads (OpenCV releases the GIL), keeping the order of ``paths``."""
+    with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
+        return list(pool.map(partial(_load_image, size=size), paths))
 
 
 def _load_image(path: Path, size: int) -> Tensor:
