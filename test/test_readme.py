@@ -1,4 +1,4 @@
-"""The README's pipeline example runs as written."""
+"""The README's code examples run as written."""
 
 from __future__ import annotations
 
@@ -12,12 +12,27 @@ import pytest
 README = Path(__file__).resolve().parents[1] / "README.md"
 
 
-@pytest.mark.slow
-@pytest.mark.render
-def test_pipeline_example_runs(tmp_path):
-    code = re.search(r"```python\n(.*?)```", README.read_text(), re.S).group(1)
-    script = tmp_path / "pipeline.py"
+EXAMPLES = re.findall(r"```python\n(.*?)```", README.read_text(), re.S)
+
+
+def run_example(code: str, tmp_path: Path) -> str:
+    script = tmp_path / "example.py"
     script.write_text(code)
     out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, cwd=tmp_path, timeout=300)
     assert out.returncode == 0, out.stderr[-3000:]
-    assert "torch.Size([32, 9, 84, 84]) torch.uint8 torch.Size([32, 1])" in out.stdout
+    return out.stdout
+
+
+def test_every_example_is_checked():
+    assert len(EXAMPLES) == 2
+
+
+@pytest.mark.slow
+@pytest.mark.render
+def test_pipeline_example_runs(tmp_path):
+    out = run_example(EXAMPLES[0], tmp_path)
+    assert "torch.Size([32, 9, 84, 84]) torch.uint8 torch.Size([32, 1])" in out
+
+
+def test_replay_buffer_example_runs(tmp_path):
+    assert "torch.Size([256, 9, 84, 84]) torch.uint8" in run_example(EXAMPLES[1], tmp_path)

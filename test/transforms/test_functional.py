@@ -64,12 +64,19 @@ class TestCrop:
 
 
 class TestOverlay:
-    def test_is_the_stated_blend(self):
-        x = uint8_images(4)
-        backgrounds = uint8_images(4, c=3, seed=1)
-        out = functional.overlay(x, backgrounds, 0.3, 255)
-        expected = 0.7 * x.float() + 0.3 * backgrounds.float().repeat(1, 3, 1, 1)
-        assert (out.float() - expected).abs().max() <= 0.5 + 1e-4
+    @pytest.mark.parametrize("alpha, tolerance", [(0.5, 0.5), (0.25, 0.5), (0.3, 1.5)])
+    def test_uint8_is_the_stated_blend(self, alpha, tolerance):
+        """Exact up to rounding for alpha = j/128 (fixed-point weights), within a grey level otherwise."""
+        x = uint8_images(40)
+        backgrounds = uint8_images(40, c=3, seed=1)
+        out = functional.overlay(x, backgrounds, alpha, 255)
+        expected = (1 - alpha) * x.float() + alpha * backgrounds.float().repeat(1, 3, 1, 1)
+        assert (out.float() - expected).abs().max() <= tolerance
+
+    def test_float_is_the_stated_blend(self):
+        x, backgrounds = torch.rand(40, 9, 8, 8), torch.rand(40, 3, 8, 8)
+        expected = 0.7 * x + 0.3 * backgrounds.repeat(1, 3, 1, 1)
+        assert torch.allclose(functional.overlay(x, backgrounds, 0.3, 1.0), expected, atol=1e-6)
 
     def test_transform_uses_its_bank_image_for_every_frame(self):
         bank = ImageBank(uint8_images(5, c=3, seed=2), name="test")
@@ -83,14 +90,14 @@ class TestOverlay:
 
 class TestRandomConv:
     def test_matches_dmcgb_per_sample_loop(self):
-        x = uint8_images(4).float()
-        kernels = torch.randn(4, 3, 3, 3, 3, generator=torch.Generator().manual_seed(0))
+        x = uint8_images(20).float()  # more than one chunk
+        kernels = torch.randn(20, 3, 3, 3, 3, generator=torch.Generator().manual_seed(0))
         expected = []
-        for i in range(4):  # DMC-GB's augmentations.random_conv, with its kernel draws given
+        for i in range(20):  # DMC-GB's augmentations.random_conv, with its kernel draws given
             frames = x[i : i + 1].reshape(-1, 3, 20, 20) / 255.0
             frames = F.pad(frames, pad=[1] * 4, mode="replicate")
             expected.append(torch.sigmoid(F.conv2d(frames, kernels[i])) * 255.0)
-        expected = torch.cat(expected).reshape(4, 9, 20, 20)
+        expected = torch.cat(expected).reshape(20, 9, 20, 20)
         assert torch.allclose(functional.random_conv(x, kernels, 255.0), expected, atol=1e-3)
 
 
@@ -109,8 +116,8 @@ def rlvigen_random_mask_freq_v2(x: torch.Tensor, low: float, high: float) -> tor
 
 class TestFrequencyMask:
     def test_matches_rlvigen_v2(self):
-        x = uint8_images(3, h=84, w=84).float()
-        low, high = torch.full((3,), 0.12), torch.full((3,), 0.16)
+        x = uint8_images(20, h=84, w=84).float()  # more than one chunk
+        low, high = torch.full((20,), 0.12), torch.full((20,), 0.16)
         expected = rlvigen_random_mask_freq_v2(x, 0.12, 0.16)
         assert torch.allclose(functional.mask_frequency(x, low, high), expected, atol=1e-2)
 

@@ -80,10 +80,8 @@ class RandomFrequencyMask(ImageAugmentation):
         return params
 
     def apply(self, images: Tensor, params: Params) -> Tensor:
-        white = self.white(images)
         out = functional.mask_frequency(images, params["low"], params["high"], params.get("noise"))
-        out = out.clamp_(0, white)
-        return out.round_().to(images.dtype) if not images.dtype.is_floating_point else out.to(images.dtype)
+        return functional.to_dtype(out, images, self.white(images))
 
     def extra_repr(self) -> str:
         return (

@@ -22,11 +22,26 @@ def _frames(images: Tensor) -> Tensor:
     return images.reshape(n, c // FRAME_CHANNELS, FRAME_CHANNELS, h, w)
 
 
-def _to_dtype(values: Tensor, like: Tensor, max_value: float) -> Tensor:
-    """Cast float results back to ``like``'s dtype; integer images are rounded and clipped to [0, max_value]."""
+def _in_chunks(kernel, chunk: int, images: Tensor, *per_sample: Tensor | None, **kwargs) -> Tensor:
+    """Run ``kernel`` on ``chunk`` samples at a time: intermediates then stay in the CPU's cache
+    (measured 2–3× faster than one pass at batch 256, see benchmarks/augmentations.py)."""
+    if images.shape[0] <= chunk:
+        return kernel(images, *per_sample, **kwargs)
+    parts = [
+        kernel(images[i : i + chunk], *[p if p is None else p[i : i + chunk] for p in per_sample], **kwargs)
+        for i in range(0, images.shape[0], chunk)
+    ]
+    return torch.cat(parts)
+
+
+def to_dtype(values: Tensor, like: Tensor, max_value: float) -> Tensor:
+    """Clip float results to [0, max_value] and cast them to ``like``'s dtype (integers round halves up).
+
+    Modifies ``values`` in place (callers pass their own intermediates).
+    """
     if like.dtype.is_floating_point:
-        return values.to(like.dtype)
-    return values.round_().clamp_(0, max_value).to(like.dtype)
+        return values.clamp_(0, max_value).to(like.dtype)
+    return values.add_(0.5).clamp_(0, max_value).to(like.dtype)  # the cast truncates: floor(v + 0.5)
 
 
 def _gather_windows(images: Tensor, rows: Tensor, cols: Tensor) -> Tensor:
@@ -79,6 +94,10 @@ def center_crop(images: Tensor, height: int, width: int) -> Tensor:
 def overlay(images: Tensor, backgrounds: Tensor, alpha: float, max_value: float) -> Tensor:
     """Blend every frame of a sample with that sample's background: ``(1 - α)·x + α·I`` (SVEA).
 
+    uint8 images blended with uint8 backgrounds use 7-bit fixed-point weights in int16 (exact for
+    α = j/128, such as 0.5, and within one grey level otherwise), rounding halves up; other
+    dtypes blend in float32.
+
     Args:
         images: ``[N, 3k, H, W]``.
         backgrounds: ``[N, 3, H, W]`` on the same value scale as ``images``; the same background
@@ -86,8 +105,16 @@ def overlay(images: Tensor, backgrounds: Tensor, alpha: float, max_value: float)
         alpha: weight of the background (DMC-GB and RL-ViGen: 0.5).
         max_value: white level, used to clip integer outputs.
     """
+    return _in_chunks(_overlay, 64, images, backgrounds, alpha=alpha, max_value=max_value)
+
+
+def _overlay(images: Tensor, backgrounds: Tensor, alpha: float, max_value: float) -> Tensor:
+    if images.dtype == torch.uint8 and backgrounds.dtype == torch.uint8:
+        weight = round(alpha * 128)
+        mixed = _frames(images).to(torch.int16) * (128 - weight) + (backgrounds[:, None].to(torch.int16) * weight + 64)
+        return (mixed >> 7).to(torch.uint8).reshape(images.shape)
     mixed = torch.lerp(_frames(images).float(), backgrounds[:, None].float(), alpha)
-    return _to_dtype(mixed.reshape(images.shape), images, max_value)
+    return to_dtype(mixed.reshape(images.shape), images, max_value)
 
 
 def random_conv(images: Tensor, kernels: Tensor, max_value: float) -> Tensor:
@@ -101,13 +128,17 @@ def random_conv(images: Tensor, kernels: Tensor, max_value: float) -> Tensor:
         kernels: ``[N, 3, 3, 3, 3]`` as ``(sample, out RGB, in RGB, kh, kw)``.
         max_value: white level ``m``.
     """
+    return _in_chunks(_random_conv, 8, images, kernels, max_value=max_value)
+
+
+def _random_conv(images: Tensor, kernels: Tensor, max_value: float) -> Tensor:
     n, c, h, w = images.shape
     frames = c // FRAME_CHANNELS
     x = images.float().div(max_value).reshape(1, n * c, h, w)
-    x = F.pad(x, (1, 1, 1, 1), mode="replicate")
+    x = F.pad(x, (1, 1, 1, 1), mode="replicate").contiguous(memory_format=torch.channels_last)
     weight = kernels.float().repeat_interleave(frames, dim=0).reshape(n * c, FRAME_CHANNELS, 3, 3)
     out = torch.sigmoid(F.conv2d(x, weight, groups=n * frames)).mul_(max_value)
-    return _to_dtype(out.reshape(n, c, h, w), images, max_value)
+    return to_dtype(out.reshape(n, c, h, w), images, max_value)
 
 
 def frequency_ring(height: int, width: int, low: Tensor, high: Tensor) -> Tensor:
@@ -135,11 +166,20 @@ def mask_frequency(images: Tensor, low: Tensor, high: Tensor, noise: Tensor | No
         low, high: ``[N]`` ring edges in cycles per pixel.
         noise: optional ``[N, C, H, W]`` replacement image.
     """
-    n, c, h, w = images.shape
+    return _in_chunks(_mask_frequency, 16, images, low, high, noise)
+
+
+def _mask_frequency(images: Tensor, low: Tensor, high: Tensor, noise: Tensor | None) -> Tensor:
+    h, w = images.shape[-2:]
+    if bool((high <= low).all()):
+        return images.to(torch.float32, copy=True)
     spectrum = torch.fft.rfft2(images.float())
     ring = frequency_ring(h, w, low, high)[:, None]
-    fill = torch.fft.rfft2(noise.float()) if noise is not None else torch.zeros((), dtype=spectrum.dtype)
-    return torch.fft.irfft2(torch.where(ring, fill.to(images.device), spectrum), s=(h, w))
+    if noise is None:
+        spectrum.masked_fill_(ring, 0)
+    else:
+        spectrum = torch.where(ring, torch.fft.rfft2(noise.float()), spectrum)
+    return torch.fft.irfft2(spectrum, s=(h, w))
 
 
 def rgb_to_grayscale(frames: Tensor) -> Tensor:
@@ -196,4 +236,4 @@ def color_jitter(
     hsv = _rgb_to_hsv(x)
     hsv = torch.cat(((hsv[..., :1, :, :] + per_sample(hue)) % 1.0, hsv[..., 1:, :, :]), dim=-3)
     x = _hsv_to_rgb(hsv).clamp_(0, 1)
-    return _to_dtype(x.mul_(max_value).reshape(images.shape), images, max_value)
+    return to_dtype(x.mul_(max_value).reshape(images.shape), images, max_value)
