@@ -206,19 +206,7 @@ class DMCPixelEnv(DMControlWrapper):
         )
 
 
-def make_dmc_env(
-    domain: str,
-    task: str,
-    *,
-    frame_stack: int = 3,
-    action_repeat: int = 2,
-    image_size: int = 84,
-    camera_id: int | None = None,
-    episode_length: int = 1000,
-    render_settings: RenderSettings | None = None,
-    seed: int | None = None,
-    device: torch.device | str = "cpu",
-) -> TransformedEnv:
+def make_dmc_env(domain: str, task: str, *, frame_stack: int = 3, **env_options: Any) -> TransformedEnv:
     """Build a dm_control suite task as a TorchRL pixel env (DrQ-v2's setup by default).
 
     Args:
@@ -227,14 +215,10 @@ def make_dmc_env(
         frame_stack: frames stacked along channels (``"pixels"`` is ``[3·frame_stack, H, W]``).
             Use 1 to store single frames and stack at replay-buffer sampling time
             (``CatFrames.make_rb_transform_and_sampler``), which takes a third of the memory.
-        action_repeat: simulator steps per agent step; only the last one is rendered.
-        image_size: height and width of the rendered frame.
-        camera_id: camera to render; ``None`` uses 2 for quadruped and 0 elsewhere (DrQ-v2).
-        episode_length: simulator steps per episode; the end is a truncation, never a termination.
-        render_settings: MuJoCo render quality; ``None`` keeps dm_control's defaults, and
-            :meth:`RenderSettings.fast` is 3–4× faster on CPU-only machines.
-        seed: seeds the task's random state (initial poses and targets) when given.
-        device: device of the returned tensors.
+        **env_options: options of :class:`DMCPixelEnv`: ``action_repeat`` (2), ``image_size``
+            (84), ``camera_id`` (2 for quadruped, else 0), ``episode_length`` (1000 simulator
+            steps), ``render_settings`` (dm_control's; :meth:`RenderSettings.fast` is ~3× faster
+            on CPU-only machines), ``seed`` and ``device``.
 
     Returns:
         A ``TransformedEnv`` with uint8 ``"pixels"``, float32 ``"action"`` in [-1, 1] (task
@@ -248,17 +232,7 @@ def make_dmc_env(
     """
     if frame_stack < 1:
         raise ValueError(f"frame_stack must be at least 1, got {frame_stack}.")
-    env = DMCPixelEnv(
-        domain,
-        task,
-        action_repeat=action_repeat,
-        image_size=image_size,
-        camera_id=camera_id,
-        episode_length=episode_length,
-        render_settings=render_settings,
-        seed=seed,
-        device=device,
-    )
+    env = DMCPixelEnv(domain, task, **env_options)
     transforms = [ToTensorImage(in_keys=["pixels"], from_int=False, dtype=torch.uint8)]
     if frame_stack > 1:
         transforms.append(CatFrames(N=frame_stack, dim=-3, in_keys=["pixels"]))
