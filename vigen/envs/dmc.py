@@ -21,6 +21,7 @@ import math
 from typing import Any
 
 import dm_env
+import mujoco
 import torch
 from dm_control import suite
 from dm_control.suite.wrappers import pixels
@@ -131,6 +132,34 @@ class ActionRepeat(dm_env.Environment):
         self._env.close()
 
 
+class DMCScene:
+    """The :class:`~vigen.transforms.scene.SceneHandle` of a dm_control physics.
+
+    Examples:
+        >>> from vigen.envs.dmc import DMCPixelEnv
+        >>> scene = DMCPixelEnv("walker", "walk").scene
+        >>> scene.model.ntex, scene.data.time
+        (2, 0.0)
+    """
+
+    def __init__(self, physics: Any) -> None:
+        self._physics = physics
+
+    @property
+    def model(self) -> mujoco.MjModel:
+        return self._physics.model.ptr
+
+    @property
+    def data(self) -> mujoco.MjData:
+        return self._physics.data.ptr
+
+    def upload_texture(self, texture_id: int) -> None:
+        contexts = self._physics._contexts  # None until the first render, which uploads everything
+        if contexts is not None:
+            with contexts.gl.make_current() as ctx:
+                ctx.call(mujoco.mjr_uploadTexture, self.model, contexts.mujoco.ptr, texture_id)
+
+
 class DMCPixelEnv(DMControlWrapper):
     """A dm_control suite task rendered to uint8 HWC frames, with the action repeat under the renderer.
 
@@ -198,6 +227,11 @@ class DMCPixelEnv(DMControlWrapper):
     def physics(self) -> Any:
         """The live dm_control ``Physics``: MuJoCo model and data, and the render contexts."""
         return self._env.physics
+
+    @property
+    def scene(self) -> DMCScene:
+        """The handle that scene perturbations (``vigen.transforms``) edit."""
+        return DMCScene(self._env.physics)
 
     def __repr__(self) -> str:
         return (

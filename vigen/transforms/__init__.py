@@ -1,5 +1,8 @@
 """Image augmentations (training time) and visual perturbations (evaluation time) as TorchRL Transforms.
 
+Scene perturbations (``RandomSceneColors``, ``RandomLighting``, ``RandomCamera``) edit the
+live MuJoCo model of the env they sit in, once per episode (see :mod:`vigen.transforms.scene`).
+
 Augmentations sample per-sample parameters (``make_params``) apart from applying them
 (``apply``, backed by the pure kernels of :mod:`vigen.transforms.functional`):
 
@@ -20,12 +23,16 @@ This room may import torch, torchrl, tensordict, numpy, OpenCV (image decoding) 
 """
 
 from vigen.transforms.augmentation import ImageAugmentation
+from vigen.transforms.camera import RandomCamera
 from vigen.transforms.color_jitter import RandomColorJitter
 from vigen.transforms.conv import RandomConv
 from vigen.transforms.crop import CenterCrop, RandomCrop
 from vigen.transforms.frequency import RandomFrequencyMask
 from vigen.transforms.image_bank import ImageBank
+from vigen.transforms.lighting import RandomLighting
 from vigen.transforms.overlay import RandomOverlay
+from vigen.transforms.scene import ScenePerturbation, SceneHandle
+from vigen.transforms.scene_colors import RandomSceneColors, load_dmcgb_palette
 from vigen.transforms.shift import RandomShift
 
 __all__ = [
@@ -38,4 +45,10 @@ __all__ = [
     "RandomFrequencyMask",
     "RandomOverlay",
     "RandomShift",
+    "RandomCamera",
+    "RandomLighting",
+    "RandomSceneColors",
+    "SceneHandle",
+    "ScenePerturbation",
+    "load_dmcgb_palette",
 ]

@@ -1,0 +1,146 @@
+"""Scene perturbations on a real dm_control scene: visible, seeded, drift-free, restorable."""
+
+from __future__ import annotations
+
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+from tensordict import TensorDict
+from torchrl.envs import ParallelEnv, SerialEnv, TransformedEnv
+from torchrl.envs.utils import check_env_specs
+
+from vigen.envs import make_env
+from vigen.rendering import RenderSettings
+from vigen.transforms import RandomCamera, RandomLighting, RandomSceneColors, load_dmcgb_palette
+
+pytestmark = pytest.mark.render
+
+DMCGB = Path(__file__).resolve().parents[3] / "shared" / "data" / "dmcgb"
+FAST = RenderSettings.fast()
+
+PERTURBATIONS = {
+    "colors_easy": partial(RandomSceneColors, scale=0.1),
+    "colors_hard": partial(RandomSceneColors, scale=0.2),
+    "self_color": partial(RandomSceneColors, scale=0.2, parts=("self",)),
+    "light_easy": partial(RandomLighting.rlvigen, "easy"),
+    "light_hard": partial(RandomLighting.rlvigen, "hard"),
+    "camera": partial(RandomCamera, position=0.15, rotation_deg=9, fov_deg=(-10, 10)),
+}
+MODEL_FIELDS = ["mat_rgba", "tex_data", "light_pos", "light_pos0", "light_poscom0", "light_diffuse", "cam_pos",
+                "cam_pos0", "cam_poscom0", "cam_quat", "cam_mat0", "cam_fovy"]
+
+
+def walker(perturbation=None, seed: int = 0, size: int = 48) -> TransformedEnv:
+    env = make_env("dmc/walker-walk", seed=seed, frame_stack=1, image_size=size, render_settings=FAST)
+    return env if perturbation is None else env.append_transform(perturbation)
+
+
+def snapshot(env) -> dict[str, np.ndarray]:
+    model = env.base_env.scene.model
+    return {name: getattr(model, name).copy() for name in MODEL_FIELDS}
+
+
+@pytest.mark.parametrize("name", PERTURBATIONS)
+class TestScenePerturbation:
+    def test_changes_the_first_frame(self, name):
+        clean = walker().reset()["pixels"].float()
+        perturbed = walker(PERTURBATIONS[name](seed=0)).reset()["pixels"].float()
+        assert (clean - perturbed).abs().mean() > 1.0
+
+    def test_same_seed_same_frames_different_seed_different(self, name):
+        def frames(seed):
+            env = walker(PERTURBATIONS[name](seed=seed))
+            return torch.stack([env.reset()["pixels"] for _ in range(2)])
+
+        assert torch.equal(frames(1), frames(1))
+        assert not torch.equal(frames(1), frames(2))
+
+    def test_no_drift_and_exact_restore(self, name):
+        env = walker()
+        original = snapshot(env)
+        perturbation = PERTURBATIONS[name](seed=0)
+        env = env.append_transform(perturbation)
+        scene = env.base_env.scene
+        expected = walker(None).base_env.scene  # a pristine model: each draw is applied to it once
+        expected_defaults = perturbation.read_defaults(expected)
+        for _ in range(20):
+            env.reset()
+            perturbation.apply(expected, expected_defaults, perturbation.params)
+            for field in MODEL_FIELDS:
+                assert np.array_equal(getattr(scene.model, field), getattr(expected.model, field)), field
+        perturbation.restore()
+        for field, value in snapshot(env).items():
+            assert np.array_equal(value, original[field]), f"{field} not restored"
+
+    def test_check_env_specs(self, name):
+        check_env_specs(walker(PERTURBATIONS[name](seed=0)))
+
+    def test_repr(self, name):
+        text = repr(PERTURBATIONS[name](seed=3))
+        assert text.endswith("seed=3)") and "(" in text
+
+
+def test_moving_light_moves_every_step_within_its_range():
+    lighting = RandomLighting(position_offset=None, diffuse_offset=None, moving_step=0.05, moving_range=0.12, seed=0)
+    env = walker(lighting)
+    model = env.base_env.scene.model
+    env.reset()
+    start = model.light_poscom0.copy()
+    positions = []
+    state = env.reset()
+    for _ in range(8):
+        state = env.step(state.set("action", torch.zeros(6)))["next"]
+        positions.append(model.light_poscom0.copy())
+    steps = np.diff(np.stack(positions), axis=0)
+    assert (np.abs(steps) > 0).all(), "the light moves at every step"
+    assert (np.abs(np.stack(positions) - start) <= 0.12 + 1e-9).all(), "and turns at its range"
+    assert (steps > 0).any() and (steps < 0).any()
+
+
+def test_inside_parallel_env_workers():
+    env = ParallelEnv(2, [partial(walker, RandomSceneColors(scale=0.2), seed=0), partial(walker, RandomCamera(0.1), seed=1)])
+    try:
+        check_env_specs(env)
+    finally:
+        env.close()
+
+
+def test_outside_a_single_env_is_an_error():
+    with pytest.raises(RuntimeError, match="inside a single vigen env"):
+        TransformedEnv(SerialEnv(1, walker), RandomSceneColors()).reset()
+    with pytest.raises(RuntimeError, match="works inside an env"):
+        RandomSceneColors()(TensorDict(pixels=torch.zeros(3, 8, 8)))
+
+
+@pytest.mark.skipif(not DMCGB.is_dir(), reason="the DMC-GB sample in ../shared/data/dmcgb is absent (a user's clone)")
+def test_dmcgb_palette_reproduces_its_colors():
+    palette = load_dmcgb_palette(DMCGB / "color_hard.pt")
+    assert len(palette) == 100 and np.allclose(palette[0]["grid_rgb2"], palette[0]["grid_rgb1"] + 0.1)
+    colors = RandomSceneColors(palette=palette[:1], seed=0)
+    env = walker(colors)
+    env.reset()
+    model = env.base_env.scene.model
+    entry = palette[0]
+    assert np.allclose(model.mat_rgba[colors._defaults["self_material"], :3], entry["self_rgb"], atol=1e-6)
+    grid = model.tex_data[model.tex_adr[1] : model.tex_adr[1] + 300 * 300 * 3].reshape(-1, 3)
+    found = {tuple(c) for c in np.unique(grid, axis=0)}
+    assert tuple(np.rint(entry["grid_rgb1"] * 255).astype(np.uint8)) in found
+    assert tuple(np.rint(entry["grid_rgb2"] * 255).astype(np.uint8)) in found
+
+
+def test_palette_loader_refuses_code(tmp_path):
+    import pickle
+
+    class Exploit:
+        def __reduce__(self):
+            return (print, ("this must not run",))
+
+    bad = tmp_path / "color_bad.pt"
+    bad.write_bytes(pickle.dumps([Exploit()]))
+    with pytest.raises(Exception, match="(?i)weights.only|unsupported|global"):
+        load_dmcgb_palette(bad)
+    with pytest.raises(FileNotFoundError, match="does not exist"):
+        load_dmcgb_palette(tmp_path / "missing.pt")

@@ -1,0 +1,120 @@
+"""RL-ViGen's lighting shifts: light position and colour offsets, and lights that move every step."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vigen.transforms.scene import Defaults, SceneHandle, SceneParams, ScenePerturbation
+
+# MuJoCo reads a light's position from a different field per mode (fixed, track, trackcom...).
+POSITION_FIELDS = ("light_pos", "light_pos0", "light_poscom0")
+
+
+class RandomLighting(ScenePerturbation):
+    """Shift every light's position and diffuse colour per episode, and optionally move it every step (RL-ViGen).
+
+    With RL-ViGen's DMC ranges (``wrappers``/``DMCVGB`` light settings):
+
+    ========  ======================  ====================  =============================
+    level     position offset          diffuse offset        moving light (step / range)
+    ========  ======================  ====================  =============================
+    easy      integer in {3, 4}        U(-0.2, 0.2)          0.01 / ±5
+    hard      integer in {9, 10}       U(-10, 10)            0.05 / ±10
+    ========  ======================  ====================  =============================
+
+    Offsets are drawn per light and per coordinate (RL-ViGen adds ``randint(3, 5)``, which is
+    always positive). A moving light adds ``step`` to every coordinate after each env step and
+    reverses when it leaves its episode start ± ``moving_range`` (RL-ViGen's check compares the
+    wrong booleans; this is the intended bounce). Diffuse colours are not clipped, as in RL-ViGen:
+    values above 1 over-expose, negative ones darken.
+
+    Paper: RL-ViGen, https://arxiv.org/abs/2307.10224.
+
+    Args:
+        position_offset: inclusive integer range of the position offset, or ``None``.
+        diffuse_offset: half-width of the uniform diffuse offset, or ``None``.
+        moving_step: per-step displacement of a moving light, or ``None`` for static lights.
+        moving_range: how far a moving light travels from its episode start before turning.
+        seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
+
+    Examples:
+        >>> from torchrl.envs import TransformedEnv
+        >>> from vigen.envs import make_env
+        >>> from vigen.transforms import RandomLighting
+        >>> env = TransformedEnv(make_env("dmc/walker-walk"), RandomLighting.rlvigen("easy", seed=0))
+        >>> env.rollout(3)["pixels"].shape
+        torch.Size([3, 9, 84, 84])
+    """
+
+    LEVELS = {
+        "easy": {"position_offset": (3, 4), "diffuse_offset": 0.2, "moving_step": 0.01, "moving_range": 5.0},
+        "hard": {"position_offset": (9, 10), "diffuse_offset": 10.0, "moving_step": 0.05, "moving_range": 10.0},
+    }
+
+    def __init__(
+        self,
+        position_offset: tuple[int, int] | None = (3, 4),
+        diffuse_offset: float | None = 0.2,
+        moving_step: float | None = None,
+        moving_range: float = 5.0,
+        seed: int | None = None,
+    ) -> None:
+        super().__init__(seed=seed)
+        self.position_offset = tuple(position_offset) if position_offset is not None else None
+        self.diffuse_offset = diffuse_offset
+        self.moving_step = moving_step
+        self.moving_range = moving_range
+
+    @classmethod
+    def rlvigen(cls, level: str, seed: int | None = None) -> RandomLighting:
+        """RL-ViGen's ``light_position`` + ``light_color`` + ``moving_light`` at ``"easy"`` or ``"hard"``."""
+        if level not in cls.LEVELS:
+            raise ValueError(f"Unknown RL-ViGen lighting level {level!r}; choose from {sorted(cls.LEVELS)}.")
+        return cls(**cls.LEVELS[level], seed=seed)
+
+    def read_defaults(self, scene: SceneHandle) -> Defaults:
+        model = scene.model
+        if model.nlight == 0:
+            raise ValueError("RandomLighting needs a scene with at least one light.")
+        defaults = {name: getattr(model, name).copy() for name in POSITION_FIELDS}
+        defaults["light_diffuse"] = model.light_diffuse.copy()
+        return defaults
+
+    def sample(self, rng: np.random.Generator, defaults: Defaults) -> SceneParams:
+        shape = defaults["light_pos"].shape
+        position = np.zeros(shape)
+        if self.position_offset is not None:
+            low, high = self.position_offset
+            position = rng.integers(low, high + 1, size=shape).astype(np.float64)
+        diffuse = np.zeros(shape)
+        if self.diffuse_offset is not None:
+            diffuse = rng.uniform(-self.diffuse_offset, self.diffuse_offset, size=shape)
+        return {"position": position, "diffuse": diffuse, "motion": np.zeros(shape), "direction": np.ones(shape)}
+
+    def identity_params(self, defaults: Defaults) -> SceneParams:
+        zeros = np.zeros_like(defaults["light_pos"])
+        return {"position": zeros, "diffuse": zeros, "motion": zeros, "direction": np.ones_like(zeros)}
+
+    def apply(self, scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
+        model = scene.model
+        offset = params["position"] + params["motion"]
+        for name in POSITION_FIELDS:
+            getattr(model, name)[:] = defaults[name] + offset
+        model.light_diffuse[:] = defaults["light_diffuse"] + params["diffuse"]
+
+    def advance(self, scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
+        if self.moving_step is None:
+            return
+        motion = params["motion"] + params["direction"] * self.moving_step
+        outside = np.abs(motion) > self.moving_range
+        params["direction"] = np.where(outside, -params["direction"], params["direction"])
+        params["motion"] = np.clip(motion, -self.moving_range, self.moving_range)
+        offset = params["position"] + params["motion"]
+        for name in POSITION_FIELDS:
+            getattr(scene.model, name)[:] = defaults[name] + offset
+
+    def extra_repr(self) -> str:
+        return (
+            f"position_offset={self.position_offset}, diffuse_offset={self.diffuse_offset}, "
+            f"moving_step={self.moving_step}, moving_range={self.moving_range}"
+        )
