@@ -23,6 +23,7 @@ from torchrl.testing.mocking_classes import ContinuousActionConvMockEnv
 from vigen.transforms import (
     CenterCrop,
     ImageBank,
+    PixelCorruption,
     RandomColorJitter,
     RandomConv,
     RandomCrop,
@@ -44,8 +45,13 @@ AUGMENTATIONS = {
     "crop": (RandomCrop, {"size": CROP}),
     "center_crop": (CenterCrop, {"size": CROP}),
     "color_jitter": (RandomColorJitter, {}),
+    "noise": (PixelCorruption, {"corruption": "gaussian_noise", "severity": 5}),
+    "blur": (PixelCorruption, {"corruption": "gaussian_blur", "severity": 5}),
+    "jpeg": (PixelCorruption, {"corruption": "jpeg_compression", "severity": 5}),
+    "contrast": (PixelCorruption, {"corruption": "contrast", "severity": 5}),
+    "brightness": (PixelCorruption, {"corruption": "brightness", "severity": 5}),
 }
-RANDOM = [name for name in AUGMENTATIONS if name != "center_crop"]
+RANDOM = [name for name in AUGMENTATIONS if name not in ("center_crop", "blur", "jpeg", "contrast", "brightness")]
 
 
 def build(name: str, **kwargs):

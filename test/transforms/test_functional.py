@@ -193,3 +193,26 @@ class TestColorJitter:
         x = frame.repeat(1, 3, 1, 1)
         out = functional.color_jitter(x, *[torch.tensor([v]) for v in (1.2, 0.7, 1.3, 0.2)], 1.0)
         assert torch.allclose(out[:, 0:3], out[:, 3:6]) and torch.allclose(out[:, 3:6], out[:, 6:9])
+
+
+class TestCorruptions:
+    def test_severity_orders_the_damage(self):
+        from vigen.transforms import PixelCorruption
+
+        x = uint8_images(4, h=32, w=32)
+        for corruption in ("gaussian_noise", "gaussian_blur", "jpeg_compression", "contrast", "brightness"):
+            damage = [
+                (PixelCorruption(corruption, severity, seed=0)(pixels=x).float() - x.float()).abs().mean().item()
+                for severity in (1, 3, 5)
+            ]
+            assert 0 < damage[0] < damage[1] < damage[2], corruption
+
+    def test_contrast_and_blur_definitions(self):
+        from vigen.transforms import PixelCorruption
+
+        x = torch.rand(2, 3, 16, 16)
+        out = PixelCorruption("contrast", 1)(pixels=x)
+        mean = x.mean(dim=(1, 2, 3), keepdim=True)
+        assert torch.allclose(out, mean + 0.4 * (x - mean), atol=1e-6)
+        flat = torch.full((1, 3, 16, 16), 0.3)
+        assert torch.allclose(PixelCorruption("gaussian_blur", 5)(pixels=flat), flat, atol=1e-6)

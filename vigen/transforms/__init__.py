@@ -26,6 +26,7 @@ from vigen.transforms.augmentation import ImageAugmentation
 from vigen.transforms.camera import RandomCamera
 from vigen.transforms.color_jitter import RandomColorJitter
 from vigen.transforms.conv import RandomConv
+from vigen.transforms.corruptions import PixelCorruption
 from vigen.transforms.crop import CenterCrop, RandomCrop
 from vigen.transforms.frequency import RandomFrequencyMask
 from vigen.transforms.image_bank import ImageBank
@@ -51,4 +52,5 @@ __all__ = [
     "SceneHandle",
     "ScenePerturbation",
     "load_dmcgb_palette",
+    "PixelCorruption",
 ]
