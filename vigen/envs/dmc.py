@@ -18,17 +18,21 @@ The chain, innermost first:
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import dm_env
 import mujoco
+import numpy as np
 import torch
 from dm_control import suite
 from dm_control.suite.wrappers import pixels
-from torchrl.envs import CatFrames, Compose, DoubleToFloat, ToTensorImage, TransformedEnv
+from torchrl.envs import CatFrames, Compose, DoubleToFloat, ToTensorImage, Transform, TransformedEnv
 from torchrl.envs.libs.dm_control import DMControlWrapper
 
+from vigen.envs.levels import make_perturbations
 from vigen.rendering import RenderSettings
+from vigen.transforms.scene import ScenePerturbation
 
 DOMAIN_ALIASES = {"cup": "ball_in_cup"}
 """Short domain names used by DrQ-v2's task names (``cup_catch``)."""
@@ -137,13 +141,16 @@ class DMCScene:
 
     Examples:
         >>> from vigen.envs.dmc import DMCPixelEnv
-        >>> scene = DMCPixelEnv("walker", "walk").scene
+        >>> scene = DMCPixelEnv("walker", "walk", image_size=64).scene
         >>> scene.model.ntex, scene.data.time
         (2, 0.0)
+        >>> scene.segmentation().shape
+        (64, 64, 2)
     """
 
-    def __init__(self, physics: Any) -> None:
+    def __init__(self, physics: Any, camera_id: int, height: int, width: int) -> None:
         self._physics = physics
+        self._render = {"camera_id": camera_id, "height": height, "width": width}
 
     @property
     def model(self) -> mujoco.MjModel:
@@ -152,6 +159,10 @@ class DMCScene:
     @property
     def data(self) -> mujoco.MjData:
         return self._physics.data.ptr
+
+    def segmentation(self) -> np.ndarray:
+        """``[H, W, 2]`` int32 (object id, object type) of the env's camera view; ``-1`` where nothing is hit."""
+        return self._physics.render(segmentation=True, **self._render)
 
     def upload_texture(self, texture_id: int) -> None:
         contexts = self._physics._contexts  # None until the first render, which uploads everything
@@ -231,7 +242,7 @@ class DMCPixelEnv(DMControlWrapper):
     @property
     def scene(self) -> DMCScene:
         """The handle that scene perturbations (``vigen.transforms``) edit."""
-        return DMCScene(self._env.physics)
+        return DMCScene(self._env.physics, self.camera_id, self.image_size, self.image_size)
 
     def __repr__(self) -> str:
         return (
@@ -240,7 +251,16 @@ class DMCPixelEnv(DMControlWrapper):
         )
 
 
-def make_dmc_env(domain: str, task: str, *, frame_stack: int = 3, **env_options: Any) -> TransformedEnv:
+def make_dmc_env(
+    domain: str,
+    task: str,
+    *,
+    frame_stack: int = 3,
+    generalization: str | Sequence[Transform] | None = None,
+    seed: int | None = None,
+    level_options: dict[str, Any] | None = None,
+    **env_options: Any,
+) -> TransformedEnv:
     """Build a dm_control suite task as a TorchRL pixel env (DrQ-v2's setup by default).
 
     Args:
@@ -249,10 +269,16 @@ def make_dmc_env(domain: str, task: str, *, frame_stack: int = 3, **env_options:
         frame_stack: frames stacked along channels (``"pixels"`` is ``[3·frame_stack, H, W]``).
             Use 1 to store single frames and stack at replay-buffer sampling time
             (``CatFrames.make_rb_transform_and_sampler``), which takes a third of the memory.
+        generalization: a level name (see :mod:`vigen.envs.levels`, e.g. ``"color_hard"``;
+            ``None`` or ``"train"`` is the clean scene) or a list of vigen transforms. Scene
+            perturbations act on the raw frames, pixel corruptions on each frame before stacking.
+        seed: seeds the task (initial poses and targets) and the level's transforms.
+        level_options: passed to the level's transforms that accept them, e.g.
+            ``{"videos": "/data/dmcgb/video_hard"}`` or ``{"palette": ".../color_hard.pt"}``.
         **env_options: options of :class:`DMCPixelEnv`: ``action_repeat`` (2), ``image_size``
             (84), ``camera_id`` (2 for quadruped, else 0), ``episode_length`` (1000 simulator
             steps), ``render_settings`` (dm_control's; :meth:`RenderSettings.fast` is ~3× faster
-            on CPU-only machines), ``seed`` and ``device``.
+            on CPU-only machines) and ``device``.
 
     Returns:
         A ``TransformedEnv`` with uint8 ``"pixels"``, float32 ``"action"`` in [-1, 1] (task
@@ -266,8 +292,11 @@ def make_dmc_env(domain: str, task: str, *, frame_stack: int = 3, **env_options:
     """
     if frame_stack < 1:
         raise ValueError(f"frame_stack must be at least 1, got {frame_stack}.")
-    env = DMCPixelEnv(domain, task, **env_options)
-    transforms = [ToTensorImage(in_keys=["pixels"], from_int=False, dtype=torch.uint8)]
+    perturbations = make_perturbations(generalization, seed, **(level_options or {}))
+    env = DMCPixelEnv(domain, task, seed=seed, **env_options)
+    transforms = [t for t in perturbations if isinstance(t, ScenePerturbation)]
+    transforms.append(ToTensorImage(in_keys=["pixels"], from_int=False, dtype=torch.uint8))
+    transforms += [t for t in perturbations if not isinstance(t, ScenePerturbation)]
     if frame_stack > 1:
         transforms.append(CatFrames(N=frame_stack, dim=-3, in_keys=["pixels"]))
     transforms.append(DoubleToFloat())

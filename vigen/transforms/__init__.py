@@ -1,7 +1,8 @@
 """Image augmentations (training time) and visual perturbations (evaluation time) as TorchRL Transforms.
 
-Scene perturbations (``RandomSceneColors``, ``RandomLighting``, ``RandomCamera``) edit the
-live MuJoCo model of the env they sit in, once per episode (see :mod:`vigen.transforms.scene`).
+Scene perturbations (``RandomSceneColors``, ``RandomFloorTexture``, ``RandomLighting``,
+``RandomCamera``, ``VideoBackground``) edit the live MuJoCo model of the env they sit in, once per
+episode (see :mod:`vigen.transforms.scene`); ``PixelCorruption`` corrupts the pixels of any env.
 
 Augmentations sample per-sample parameters (``make_params``) apart from applying them
 (``apply``, backed by the pure kernels of :mod:`vigen.transforms.functional`):
@@ -29,12 +30,15 @@ from vigen.transforms.conv import RandomConv
 from vigen.transforms.corruptions import PixelCorruption
 from vigen.transforms.crop import CenterCrop, RandomCrop
 from vigen.transforms.frequency import RandomFrequencyMask
+from vigen.transforms.floor_texture import RandomFloorTexture
 from vigen.transforms.image_bank import ImageBank
 from vigen.transforms.lighting import RandomLighting
 from vigen.transforms.overlay import RandomOverlay
 from vigen.transforms.scene import ScenePerturbation, SceneHandle
 from vigen.transforms.scene_colors import RandomSceneColors, load_dmcgb_palette
 from vigen.transforms.shift import RandomShift
+from vigen.transforms.video import VideoBackground
+from vigen.transforms.video_source import VideoSource
 
 __all__ = [
     "CenterCrop",
@@ -53,4 +57,7 @@ __all__ = [
     "ScenePerturbation",
     "load_dmcgb_palette",
     "PixelCorruption",
+    "RandomFloorTexture",
+    "VideoBackground",
+    "VideoSource",
 ]

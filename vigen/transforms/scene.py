@@ -27,13 +27,16 @@ class SceneHandle(Protocol):
     ``model`` and ``data`` are the raw ``mujoco.MjModel`` / ``mujoco.MjData`` the env renders
     from. ``upload_texture(texture_id)`` makes the renderer see edited texture pixels
     (``model.tex_data``); it is a no-op before the first render, since MuJoCo uploads every
-    texture when it creates its render context.
+    texture when it creates its render context. ``segmentation()`` renders the env's camera view
+    as ``[H, W, 2]`` (object id, ``mjtObj`` type), ``-1`` where no object is hit (the sky).
     """
 
     model: Any
     data: Any
 
     def upload_texture(self, texture_id: int) -> None: ...
+
+    def segmentation(self) -> np.ndarray: ...
 
 
 class ScenePerturbation(Transform):

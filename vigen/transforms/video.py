@@ -1,0 +1,109 @@
+"""DMC-GB's video backgrounds: a new video frame behind the agent at every step, keyed by segmentation."""
+
+from __future__ import annotations
+
+import os
+
+import mujoco
+import numpy as np
+import torch
+from tensordict import TensorDictBase
+from torch import Tensor
+
+from vigen.transforms.scene import Defaults, SceneHandle, SceneParams, ScenePerturbation
+from vigen.transforms.video_source import VideoSource
+
+
+class VideoBackground(ScenePerturbation):
+    """Replace the background of every frame with the current frame of a video (DMC-GB ``video_easy/hard``).
+
+    ``floor=False`` (``video_easy``) replaces the sky only; ``floor=True`` (``video_hard``) also
+    the floor, so only the agent (and task objects) remain. Background pixels are found with
+    the model's own segmentation of the same camera view (pixels that hit no object, plus
+    ground planes with ``floor=True``), never by colour: DMC-GB keys on a green sky and
+    RL-ViGen on pure black, which also replaces agent pixels of that colour. Videos are taken in
+    order, one per episode (DMC-GB), starting from a seeded index; the frame advances every step
+    and wraps.
+
+    The transform edits the env's raw HWC frames, so it must come before frame stacking:
+    ``make_env(..., generalization="video_hard")`` puts it there, or build the env with
+    ``frame_stack=1`` and append ``CatFrames`` after it.
+
+    Paper: DMC-GB / SODA, https://arxiv.org/abs/2011.13389.
+
+    Args:
+        videos: a :class:`VideoSource`, a folder of videos / frame folders, or ``None`` for
+            procedural videos (10, as DMC-GB's ``video_easy``).
+        floor: replace the floor too.
+        seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
+
+    Examples:
+        >>> from vigen.envs import make_env
+        >>> env = make_env("dmc/walker-walk", generalization="video_hard", seed=0)
+        >>> env.rollout(3)["pixels"].shape
+        torch.Size([3, 9, 84, 84])
+    """
+
+    def __init__(self, videos: VideoSource | str | os.PathLike | None = None, floor: bool = False, seed: int | None = None) -> None:
+        super().__init__(seed=seed)
+        self.in_keys = self.out_keys = ["pixels"]
+        self.videos = videos if isinstance(videos, VideoSource) else (
+            VideoSource.procedural() if videos is None else VideoSource.from_folder(videos)
+        )
+        self.floor = floor
+
+    def read_defaults(self, scene: SceneHandle) -> Defaults:
+        planes = np.flatnonzero(scene.model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE)
+        return {"planes": planes}
+
+    def sample(self, rng: np.random.Generator, defaults: Defaults) -> SceneParams:
+        previous = self.params["video"] if self.params is not None else int(rng.integers(len(self.videos))) - 1
+        return {"video": (previous + 1) % len(self.videos), "frame": 0}
+
+    def identity_params(self, defaults: Defaults) -> SceneParams:
+        return {"video": -1, "frame": 0}
+
+    def apply(self, scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
+        """Nothing to write into the model: the frames are composited after rendering."""
+
+    def background_mask(self, scene: SceneHandle) -> np.ndarray:
+        """``[H, W]`` True where the camera sees the sky (and, with ``floor``, a ground plane)."""
+        segmentation = scene.segmentation()
+        ids, types = segmentation[..., 0], segmentation[..., 1]
+        mask = ids < 0
+        if self.floor:
+            mask |= (types == mujoco.mjtObj.mjOBJ_GEOM) & np.isin(ids, self.defaults(scene)["planes"])
+        return mask
+
+    def _composite(self, tensordict: TensorDictBase) -> TensorDictBase:
+        if self.params is None or self.params["video"] < 0:
+            return tensordict
+        pixels: Tensor = tensordict.get("pixels")
+        if pixels.shape[-1] != 3:
+            raise ValueError(
+                f"VideoBackground composites raw HWC RGB frames, got pixels of shape {tuple(pixels.shape)}. Put it "
+                "before ToTensorImage/CatFrames (make_env(..., generalization=...) does), or use frame_stack=1."
+            )
+        scene = self.scene
+        height, width = pixels.shape[-3:-1]
+        video = self.videos.frames(self.params["video"], height, width)
+        frame = video[self.params["frame"] % len(video)].to(pixels.device)
+        mask = torch.from_numpy(self.background_mask(scene)).to(pixels.device)[..., None]
+        tensordict.set("pixels", torch.where(mask, frame, pixels))
+        self.params["frame"] += 1
+        return tensordict
+
+    def _reset(self, tensordict: TensorDictBase, tensordict_reset: TensorDictBase) -> TensorDictBase:
+        return self._composite(tensordict_reset)
+
+    def _step(self, tensordict: TensorDictBase, next_tensordict: TensorDictBase) -> TensorDictBase:
+        return self._composite(next_tensordict)
+
+    def transform_observation_spec(self, observation_spec):
+        return observation_spec
+
+    def restore(self) -> None:
+        self.params = None
+
+    def extra_repr(self) -> str:
+        return f"videos={self.videos}, floor={self.floor}"

@@ -1,0 +1,128 @@
+"""Background videos: procedural ones (no download) or a user folder of videos or image sequences."""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+from vigen.transforms.image_bank import IMAGE_SUFFIXES, _procedural_image
+
+VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".webm", ".mkv")
+
+
+class VideoSource:
+    """An ordered set of background videos, decoded one at a time at the size the env renders.
+
+    :meth:`procedural` (the default of :class:`~vigen.transforms.VideoBackground`) generates
+    videos from a seed: a procedural texture (fractal noise, Voronoi cells, plaid or colour
+    blobs) seen through a window that drifts and turns, so every frame differs. :meth:`from_folder`
+    reads the papers' videos from a user folder: video files (DMC-GB's ``video_easy`` /
+    ``video_hard`` ``video*.mp4``, RealEstate10K clips) and/or sub-folders of frames (DAVIS
+    ``JPEGImages/480p/<video>/*.jpg``), decoded with OpenCV and resized bilinearly.
+
+    Args:
+        paths: video files or frame folders (for :meth:`from_folder`); ``None`` for procedural.
+        count: number of procedural videos.
+        max_frames: frames read per video (DMC-GB samples 500 of video_hard's).
+        seed: seed of the procedural videos.
+
+    Examples:
+        >>> from vigen.transforms import VideoSource
+        >>> videos = VideoSource.procedural(count=3, max_frames=20)
+        >>> len(videos), videos.frames(0, 84, 84).shape
+        (3, torch.Size([20, 84, 84, 3]))
+    """
+
+    def __init__(
+        self, paths: list[Path] | None = None, count: int = 10, max_frames: int = 500, seed: int = 0, name: str = ""
+    ) -> None:
+        self.paths, self.count, self.max_frames, self.seed = paths, count, max_frames, seed
+        self.name = name or ("procedural" if paths is None else "custom")
+        self._cache: tuple[tuple[int, int, int], torch.Tensor] | None = None
+
+    @classmethod
+    def procedural(cls, count: int = 10, max_frames: int = 100, seed: int = 0) -> VideoSource:
+        """``count`` generated videos of ``max_frames`` frames."""
+        return cls(None, count=count, max_frames=max_frames, seed=seed, name=f"procedural({count})")
+
+    @classmethod
+    def from_folder(cls, root: str | os.PathLike, max_frames: int = 500) -> VideoSource:
+        """Every video file and every folder of frames under ``root`` (recursively), in sorted order."""
+        root = Path(root).expanduser()
+        if not root.is_dir():
+            raise FileNotFoundError(
+                f"Video folder {root} does not exist. Pass a folder of videos (e.g. DMC-GB's "
+                "src/env/data/video_hard) or of frame folders (e.g. DAVIS/JPEGImages/480p)."
+            )
+        videos = [p for p in root.rglob("*") if p.suffix.lower() in VIDEO_SUFFIXES]
+        frame_dirs = {p.parent for p in root.rglob("*") if p.suffix.lower() in IMAGE_SUFFIXES}
+        paths = sorted(videos + list(frame_dirs))
+        if not paths:
+            raise FileNotFoundError(f"No videos ({', '.join(VIDEO_SUFFIXES)}) or frame folders found under {root}.")
+        return cls(paths, count=len(paths), max_frames=max_frames, name=str(root))
+
+    def __len__(self) -> int:
+        return self.count
+
+    def frames(self, index: int, height: int, width: int) -> torch.Tensor:
+        """Video ``index`` as uint8 ``[T, height, width, 3]`` RGB; the last one asked for is cached."""
+        key = (index, height, width)
+        if self._cache is None or self._cache[0] != key:
+            if self.paths is None:
+                frames = _procedural_video(self.seed * 100_003 + index, self.max_frames, height, width)
+            else:
+                frames = _decode(self.paths[index], self.max_frames, height, width)
+            self._cache = (key, frames)
+        return self._cache[1]
+
+    def __getstate__(self) -> dict:
+        return {**self.__dict__, "_cache": None}
+
+    def __repr__(self) -> str:
+        return f"VideoSource({self.name})"
+
+
+def _procedural_video(seed: int, length: int, height: int, width: int) -> torch.Tensor:
+    generator = torch.Generator().manual_seed(seed)
+    side = 2 * max(height, width)
+    texture = _procedural_image(kind=seed % 4, size=side, generator=generator).float()[None]
+    angle0, turn, radius = (torch.rand(3, generator=generator) * torch.tensor([2 * math.pi, 0.02, 0.25])).tolist()
+    time = torch.arange(length, dtype=torch.float32)
+    cx = 0.5 * side + radius * side * torch.cos(angle0 + 2 * math.pi * time / length)
+    cy = 0.5 * side + radius * side * torch.sin(angle0 + 2 * math.pi * time / length)
+    angle = angle0 + turn * time
+    ys, xs = torch.meshgrid(torch.linspace(-0.5, 0.5, height), torch.linspace(-0.5, 0.5, width), indexing="ij")
+    span = 0.45 * side
+    cos, sin = torch.cos(angle)[:, None, None], torch.sin(angle)[:, None, None]
+    px = cx[:, None, None] + span * (cos * xs - sin * ys)
+    py = cy[:, None, None] + span * (sin * xs + cos * ys)
+    grid = torch.stack((px / (side - 1) * 2 - 1, py / (side - 1) * 2 - 1), dim=-1)
+    frames = F.grid_sample(texture.expand(length, -1, -1, -1), grid, mode="bilinear", padding_mode="reflection", align_corners=True)
+    return frames.round_().clamp_(0, 255).to(torch.uint8).permute(0, 2, 3, 1).contiguous()
+
+
+def _decode(path: Path, max_frames: int, height: int, width: int) -> torch.Tensor:
+    import cv2
+
+    frames = []
+    if path.is_dir():
+        for image_path in sorted(p for p in path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)[:max_frames]:
+            image = cv2.imread(str(image_path), cv2.IMREAD_COLOR)
+            if image is not None:
+                frames.append(cv2.resize(image, (width, height), interpolation=cv2.INTER_LINEAR))
+    else:
+        capture = cv2.VideoCapture(str(path))
+        while len(frames) < max_frames:
+            ok, image = capture.read()
+            if not ok:
+                break
+            frames.append(cv2.resize(image, (width, height), interpolation=cv2.INTER_LINEAR))
+        capture.release()
+    if not frames:
+        raise OSError(f"OpenCV could not decode any frame of {path}.")
+    return torch.from_numpy(np.stack(frames)[..., ::-1].copy())
