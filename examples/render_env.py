@@ -18,18 +18,10 @@ import cv2
 import numpy as np
 import torch
 from vigen.envs import make_env
+from vigen.io import unused_path
 from vigen.rendering import RenderSettings
 
 TASKS = ["dmc/walker-walk", "dmc/cheetah-run", "dmc/cartpole-swingup", "dmc/quadruped-walk", "dmc/finger-spin"]
-
-
-def unused_path(path: Path) -> Path:
-    """``path`` if it is free, else ``stem-1.suffix``, ``stem-2.suffix``, ...: never overwrite a saved result."""
-    candidate, index = path, 0
-    while candidate.exists():
-        index += 1
-        candidate = path.with_name(f"{path.stem}-{index}{path.suffix}")
-    return candidate
 
 
 def newest_frames(name: str, steps: list[int], seed: int, fast: bool) -> np.ndarray:
