@@ -48,7 +48,7 @@ def main() -> None:
 
     settings = RenderSettings.fast() if args.fast else None
     print(f"{args.task}, {'fast' if args.fast else 'default'} rendering, median of {args.repeats} blocks of {args.steps} steps")
-    print("| level | train (ms/step) | level (ms/step) | overhead | reset (ms) |")
+    print("| level | train (ms/step) | level (ms/step) | overhead | first reset (ms) |")
     print("|---|---|---|---|---|")
     for level in args.levels:
         envs = {name: make_env(args.task, generalization=name, seed=0, render_settings=settings) for name in ("train", level)}

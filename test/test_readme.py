@@ -24,7 +24,7 @@ def run_example(code: str, tmp_path: Path) -> str:
 
 
 def test_every_example_is_checked():
-    assert len(EXAMPLES) == 2
+    assert len(EXAMPLES) == 3
 
 
 @pytest.mark.slow
@@ -36,3 +36,9 @@ def test_pipeline_example_runs(tmp_path):
 
 def test_replay_buffer_example_runs(tmp_path):
     assert "torch.Size([256, 9, 84, 84]) torch.uint8" in run_example(EXAMPLES[1], tmp_path)
+
+
+@pytest.mark.render
+def test_levels_example_runs(tmp_path):
+    out = run_example(EXAMPLES[2], tmp_path)
+    assert "video_hard torch.Size([10, 9, 84, 84])" in out and out.count("torch.Size") == 5

@@ -26,6 +26,7 @@ import mujoco
 import numpy as np
 import torch
 from dm_control import suite
+from dm_control.mujoco.engine import Camera
 from dm_control.suite.wrappers import pixels
 from torchrl.envs import CatFrames, Compose, DoubleToFloat, ToTensorImage, Transform, TransformedEnv
 from torchrl.envs.libs.dm_control import DMControlWrapper
@@ -148,9 +149,9 @@ class DMCScene:
         (64, 64, 2)
     """
 
-    def __init__(self, physics: Any, camera_id: int, height: int, width: int) -> None:
+    def __init__(self, physics: Any, segmentation_camera: Any) -> None:
         self._physics = physics
-        self._render = {"camera_id": camera_id, "height": height, "width": width}
+        self._segmentation_camera = segmentation_camera
 
     @property
     def model(self) -> mujoco.MjModel:
@@ -162,7 +163,7 @@ class DMCScene:
 
     def segmentation(self) -> np.ndarray:
         """``[H, W, 2]`` int32 (object id, object type) of the env's camera view; ``-1`` where nothing is hit."""
-        return self._physics.render(segmentation=True, **self._render)
+        return self._segmentation_camera().render(segmentation=True)
 
     def upload_texture(self, texture_id: int) -> None:
         contexts = self._physics._contexts  # None until the first render, which uploads everything
@@ -242,7 +243,16 @@ class DMCPixelEnv(DMControlWrapper):
     @property
     def scene(self) -> DMCScene:
         """The handle that scene perturbations (``vigen.transforms``) edit."""
-        return DMCScene(self._env.physics, self.camera_id, self.image_size, self.image_size)
+        return DMCScene(self._env.physics, self._segmentation_camera)
+
+    def _segmentation_camera(self) -> Camera:
+        """A camera kept for segmentation renders, without the shadow, reflection and sky passes they do not need."""
+        if getattr(self, "_segmentation_camera_cache", None) is None:
+            camera = Camera(self.physics, self.image_size, self.image_size, self.camera_id)
+            for flag in (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION, mujoco.mjtRndFlag.mjRND_SKYBOX):
+                camera.scene.flags[flag] = 0
+            self._segmentation_camera_cache = camera
+        return self._segmentation_camera_cache
 
     def __repr__(self) -> str:
         return (

@@ -53,8 +53,7 @@ class VideoBackground(ScenePerturbation):
         self.floor = floor
 
     def read_defaults(self, scene: SceneHandle) -> Defaults:
-        planes = np.flatnonzero(scene.model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE)
-        return {"planes": planes}
+        return {"is_plane": scene.model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE}
 
     def sample(self, rng: np.random.Generator, defaults: Defaults) -> SceneParams:
         previous = self.params["video"] if self.params is not None else int(rng.integers(len(self.videos))) - 1
@@ -72,7 +71,7 @@ class VideoBackground(ScenePerturbation):
         ids, types = segmentation[..., 0], segmentation[..., 1]
         mask = ids < 0
         if self.floor:
-            mask |= (types == mujoco.mjtObj.mjOBJ_GEOM) & np.isin(ids, self.defaults(scene)["planes"])
+            mask |= (types == int(mujoco.mjtObj.mjOBJ_GEOM)) & self.defaults(scene)["is_plane"][np.maximum(ids, 0)]
         return mask
 
     def _composite(self, tensordict: TensorDictBase) -> TensorDictBase:
