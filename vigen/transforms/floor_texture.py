@@ -43,8 +43,7 @@ class RandomFloorTexture(ScenePerturbation):
 
     @property
     def bank(self) -> ImageBank:
-        if not isinstance(self._images, ImageBank):
-            self._images = ImageBank.builtin() if self._images is None else ImageBank.from_folder(self._images)
+        self._images = ImageBank.load(self._images)
         return self._images
 
     def read_defaults(self, scene: SceneHandle) -> Defaults:

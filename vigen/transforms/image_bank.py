@@ -76,6 +76,13 @@ class ImageBank:
             paths = [paths[i] for i in sorted(keep.tolist())]
         return cls(torch.stack(_load_images(paths, size)), name=str(root))
 
+    @classmethod
+    def load(cls, images: ImageBank | str | os.PathLike | None) -> ImageBank:
+        """``images`` itself if it is a bank, the built-in bank for ``None``, else the folder's images."""
+        if isinstance(images, ImageBank):
+            return images
+        return cls.builtin() if images is None else cls.from_folder(images)
+
     def __len__(self) -> int:
         return len(self.images)
 

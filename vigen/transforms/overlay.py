@@ -59,8 +59,7 @@ class RandomOverlay(ImageAugmentation):
     @property
     def bank(self) -> ImageBank:
         """The image bank, loaded on first access."""
-        if not isinstance(self._images, ImageBank):
-            self._images = ImageBank.builtin() if self._images is None else ImageBank.from_folder(self._images)
+        self._images = ImageBank.load(self._images)
         return self._images
 
     def make_params(self, images: Tensor) -> Params:
