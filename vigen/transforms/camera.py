@@ -35,10 +35,9 @@ class RandomCamera(ScenePerturbation):
         seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
 
     Examples:
-        >>> from torchrl.envs import TransformedEnv
         >>> from vigen.envs import make_env
         >>> from vigen.transforms import RandomCamera
-        >>> env = TransformedEnv(make_env("dmc/walker-walk"), RandomCamera(position=0.08, rotation_deg=9, seed=0))
+        >>> env = make_env("dmc/walker-walk").append_transform(RandomCamera(position=0.08, rotation_deg=9, seed=0))
         >>> env.reset()["pixels"].shape
         torch.Size([9, 84, 84])
     """

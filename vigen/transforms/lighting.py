@@ -38,10 +38,9 @@ class RandomLighting(ScenePerturbation):
         seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
 
     Examples:
-        >>> from torchrl.envs import TransformedEnv
         >>> from vigen.envs import make_env
         >>> from vigen.transforms import RandomLighting
-        >>> env = TransformedEnv(make_env("dmc/walker-walk"), RandomLighting.rlvigen("easy", seed=0))
+        >>> env = make_env("dmc/walker-walk").append_transform(RandomLighting.rlvigen("easy", seed=0))
         >>> env.rollout(3)["pixels"].shape
         torch.Size([3, 9, 84, 84])
     """

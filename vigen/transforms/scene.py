@@ -93,7 +93,7 @@ class ScenePerturbation(Transform):
             where = "no env" if parent is None else type(base).__name__
             raise RuntimeError(
                 f"{type(self).__name__} edits the MuJoCo scene of the env it sits in, but found {where}. "
-                "Put it inside a single vigen env (e.g. TransformedEnv(make_env('dmc/...'), t)); for "
+                "Put it inside a single vigen env (make_env('dmc/...').append_transform(t), or generalization=[t]); for "
                 "ParallelEnv, build it inside the factory each worker calls."
             )
         return base.scene

@@ -70,10 +70,9 @@ class RandomSceneColors(ScenePerturbation):
         seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
 
     Examples:
-        >>> from torchrl.envs import TransformedEnv
         >>> from vigen.envs import make_env
         >>> from vigen.transforms import RandomSceneColors
-        >>> env = TransformedEnv(make_env("dmc/walker-walk"), RandomSceneColors(scale=0.2, seed=0))
+        >>> env = make_env("dmc/walker-walk").append_transform(RandomSceneColors(scale=0.2, seed=0))
         >>> env.reset()["pixels"].shape
         torch.Size([9, 84, 84])
     """
