@@ -1,0 +1,66 @@
+"""Networks: the papers' shapes, DrQ-v2's initialisation, and the heads' definitions."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+import torch
+from torch import nn
+
+from vigen.models import AttributionDecoder, Actor, Critic, CURLHead, DrQv2Encoder, ProjectedEncoder, SharedCNN
+
+
+@pytest.mark.parametrize(
+    "encoder, size, features",
+    [(DrQv2Encoder(9), 84, 32 * 35 * 35), (SharedCNN(9), 84, 32 * 21 * 21), (ProjectedEncoder(9, 84), 84, 512)],
+)
+def test_encoder_shapes(encoder, size, features):
+    out = encoder(torch.randint(0, 256, (3, 9, size, size), dtype=torch.uint8))
+    assert out.shape == (3, features) and encoder.output_dim(9, size, size) == features
+    assert encoder(torch.zeros(2, 5, 9, size, size)).shape == (2, 5, features), "any leading batch dims"
+
+
+def test_layer_counts():
+    assert sum(isinstance(m, nn.Conv2d) for m in DrQv2Encoder().modules()) == 4
+    shared = [m for m in SharedCNN().convnet]
+    assert sum(isinstance(m, nn.Conv2d) for m in shared) == 11
+    assert isinstance(shared[-1], nn.Conv2d), "no ReLU after the last conv"
+    assert shared[0].stride == (2, 2) and all(m.stride == (1, 1) for m in shared[1:] if isinstance(m, nn.Conv2d))
+
+
+def test_pixels_are_scaled_like_drqv2():
+    encoder = DrQv2Encoder(3)
+    x = torch.randint(0, 256, (2, 3, 20, 20), dtype=torch.uint8)
+    expected = encoder.convnet(x.float() / 255.0 - 0.5).flatten(1)
+    assert torch.allclose(encoder(x), expected) and torch.allclose(encoder(x.float()), expected)
+
+
+def test_orthogonal_initialisation():
+    actor = Actor(64, 6, feature_dim=50, hidden_dim=128)
+    weight = actor.trunk[0].weight  # 50 x 64: orthonormal rows
+    assert torch.allclose(weight @ weight.T, torch.eye(50), atol=1e-5)
+    assert all((m.bias == 0).all() for m in actor.modules() if isinstance(m, nn.Linear))
+    conv = DrQv2Encoder(9).convnet[2].weight.flatten(1)  # 32 x 288, gain sqrt(2)
+    assert torch.allclose(conv @ conv.T, 2 * torch.eye(32), atol=1e-4)
+
+
+def test_actor_and_critic_heads():
+    actor, critic = Actor(64, 6, hidden_dim=128), Critic(64, 6, hidden_dim=128)
+    hidden = torch.randn(5, 64) * 10
+    action = actor(hidden)
+    assert action.shape == (5, 6) and action.abs().max() < 1
+    assert isinstance(actor.trunk[1], nn.LayerNorm) and isinstance(actor.trunk[2], nn.Tanh)
+    q1, q2 = critic(hidden, action)
+    assert q1.shape == q2.shape == (5, 1) and not torch.allclose(q1, q2), "two independent heads"
+
+
+def test_attribution_decoder_shape_and_curl_logits():
+    assert AttributionDecoder(6)(torch.randn(2, 512), torch.randn(2, 6)).shape == (2, 9, 84, 84)
+    head = CURLHead(8)
+    assert (head.W >= 0).all() and (head.W < 1).all()
+    anchor, positive = torch.randn(4, 8), torch.randn(4, 8)
+    logits = head.logits(anchor, positive)
+    raw = anchor @ head.W @ positive.T
+    assert torch.allclose(logits, raw - raw.max(dim=1, keepdim=True).values)
+    assert torch.allclose(logits.max(dim=1).values, torch.zeros(4)) and math.isfinite(logits.sum().item())

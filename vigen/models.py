@@ -1,0 +1,217 @@
+"""Networks with the papers' shapes: DrQ-v2's encoder, actor and twin critic, SVEA's 11-layer CNN,
+the CURL/SGQN projection encoder, SGQN's attribution decoder and CURL's bilinear head.
+
+All take frame stacks ``[..., 3·k, H, W]`` (uint8, or float on the 0–255 scale) and scale them
+to ``x / 255 − 0.5`` inside the encoder, as DrQ-v2 does. Weights are initialised as in DrQ-v2's
+``utils.weight_init``: orthogonal, gain 1 for linear layers and the ReLU gain for convolutions,
+zero biases.
+"""
+
+from __future__ import annotations
+
+import torch
+import torch.nn.functional as F
+from torch import Tensor, nn
+
+
+def weight_init(module: nn.Module) -> None:
+    """DrQ-v2's initialisation, for ``module.apply(weight_init)``."""
+    if isinstance(module, nn.Linear):
+        nn.init.orthogonal_(module.weight.data)
+        if module.bias is not None:
+            module.bias.data.fill_(0.0)
+    elif isinstance(module, (nn.Conv2d, nn.ConvTranspose2d)):
+        nn.init.orthogonal_(module.weight.data, nn.init.calculate_gain("relu"))
+        if module.bias is not None:
+            module.bias.data.fill_(0.0)
+
+
+class _PixelEncoder(nn.Module):
+    """Scale pixels, run ``self.convnet``, flatten; any leading batch dims."""
+
+    convnet: nn.Module
+
+    def forward(self, pixels: Tensor) -> Tensor:
+        batch, image = pixels.shape[:-3], pixels.shape[-3:]
+        x = pixels.reshape(-1, *image).float() / 255.0 - 0.5
+        return self.convnet(x).flatten(1).reshape(*batch, -1)
+
+    def output_dim(self, channels: int, height: int, width: int) -> int:
+        """Size of the flat representation for ``[channels, height, width]`` inputs."""
+        with torch.no_grad():
+            return self(torch.zeros(1, channels, height, width)).shape[-1]
+
+
+class DrQv2Encoder(_PixelEncoder):
+    """DrQ-v2's encoder: four 3×3 convs with 32 channels (stride 2, then 1), ReLU after each.
+
+    An 84×84 input gives 32×35×35 = 39,200 features.
+
+    Paper: DrQ-v2, https://arxiv.org/abs/2107.09645.
+
+    Examples:
+        >>> import torch
+        >>> DrQv2Encoder(9)(torch.zeros(2, 9, 84, 84, dtype=torch.uint8)).shape
+        torch.Size([2, 39200])
+    """
+
+    def __init__(self, in_channels: int = 9, channels: int = 32) -> None:
+        super().__init__()
+        layers: list[nn.Module] = [nn.Conv2d(in_channels, channels, 3, stride=2), nn.ReLU()]
+        for _ in range(3):
+            layers += [nn.Conv2d(channels, channels, 3, stride=1), nn.ReLU()]
+        self.convnet = nn.Sequential(*layers)
+        self.apply(weight_init)
+
+
+class SharedCNN(_PixelEncoder):
+    """SVEA's (DMC-GB's) 11-layer shared CNN: 3×3 convs with 32 channels, the first with stride 2,
+    ReLU between layers and none after the last. An 84×84 input gives 32×21×21 = 14,112 features.
+
+    Paper: SVEA, https://arxiv.org/abs/2107.00644.
+
+    Examples:
+        >>> import torch
+        >>> SharedCNN(9)(torch.zeros(2, 9, 84, 84)).shape
+        torch.Size([2, 14112])
+    """
+
+    def __init__(self, in_channels: int = 9, num_layers: int = 11, channels: int = 32) -> None:
+        super().__init__()
+        layers: list[nn.Module] = [nn.Conv2d(in_channels, channels, 3, stride=2)]
+        for _ in range(num_layers - 1):
+            layers += [nn.ReLU(), nn.Conv2d(channels, channels, 3, stride=1)]
+        self.convnet = nn.Sequential(*layers)
+        self.apply(weight_init)
+
+
+class ProjectedEncoder(_PixelEncoder):
+    """CURL's and SGQN's encoder in RL-ViGen: DrQ-v2's four convs, then Linear to ``out_dim`` (512),
+    with no normalisation or activation after it.
+
+    Paper: CURL, https://arxiv.org/abs/2004.04136; SGQN, https://arxiv.org/abs/2209.09203.
+
+    Examples:
+        >>> import torch
+        >>> ProjectedEncoder(9, image_size=84)(torch.zeros(2, 9, 84, 84)).shape
+        torch.Size([2, 512])
+    """
+
+    def __init__(self, in_channels: int = 9, image_size: int = 84, out_dim: int = 512) -> None:
+        super().__init__()
+        base = DrQv2Encoder(in_channels)
+        flat = base.output_dim(in_channels, image_size, image_size)
+        self.convnet = nn.Sequential(base.convnet, nn.Flatten(), nn.Linear(flat, out_dim))
+        self.apply(weight_init)
+
+
+def _trunk(repr_dim: int, feature_dim: int) -> nn.Sequential:
+    return nn.Sequential(nn.Linear(repr_dim, feature_dim), nn.LayerNorm(feature_dim), nn.Tanh())
+
+
+def _mlp(in_dim: int, hidden_dim: int, out_dim: int) -> nn.Sequential:
+    return nn.Sequential(
+        nn.Linear(in_dim, hidden_dim), nn.ReLU(inplace=True),
+        nn.Linear(hidden_dim, hidden_dim), nn.ReLU(inplace=True),
+        nn.Linear(hidden_dim, out_dim),
+    )
+
+
+class Actor(nn.Module):
+    """DrQ-v2's deterministic actor head: trunk Linear → LayerNorm → Tanh, then an MLP and ``tanh``.
+
+    Returns the action mean μ in [-1, 1]; the exploration noise (a clipped normal with scheduled
+    std) is added by the loss or the exploration module.
+
+    Paper: DrQ-v2, https://arxiv.org/abs/2107.09645.
+
+    Examples:
+        >>> import torch
+        >>> Actor(39200, action_dim=6)(torch.zeros(2, 39200)).shape
+        torch.Size([2, 6])
+    """
+
+    def __init__(self, repr_dim: int, action_dim: int, feature_dim: int = 50, hidden_dim: int = 1024) -> None:
+        super().__init__()
+        self.trunk = _trunk(repr_dim, feature_dim)
+        self.policy = _mlp(feature_dim, hidden_dim, action_dim)
+        self.apply(weight_init)
+
+    def forward(self, hidden: Tensor) -> Tensor:
+        return torch.tanh(self.policy(self.trunk(hidden)))
+
+
+class Critic(nn.Module):
+    """DrQ-v2's twin critic: one trunk (Linear → LayerNorm → Tanh), then two Q heads on [features, action].
+
+    Paper: DrQ-v2, https://arxiv.org/abs/2107.09645.
+
+    Examples:
+        >>> import torch
+        >>> q1, q2 = Critic(39200, action_dim=6)(torch.zeros(2, 39200), torch.zeros(2, 6))
+        >>> q1.shape, q2.shape
+        (torch.Size([2, 1]), torch.Size([2, 1]))
+    """
+
+    def __init__(self, repr_dim: int, action_dim: int, feature_dim: int = 50, hidden_dim: int = 1024) -> None:
+        super().__init__()
+        self.trunk = _trunk(repr_dim, feature_dim)
+        self.q1 = _mlp(feature_dim + action_dim, hidden_dim, 1)
+        self.q2 = _mlp(feature_dim + action_dim, hidden_dim, 1)
+        self.apply(weight_init)
+
+    def forward(self, hidden: Tensor, action: Tensor) -> tuple[Tensor, Tensor]:
+        features = torch.cat([self.trunk(hidden), action], dim=-1)
+        return self.q1(features), self.q2(features)
+
+
+class AttributionDecoder(nn.Module):
+    """SGQN's attribution predictor head: predicts per-pixel saliency logits from [embedding, action].
+
+    Linear → 32×21×21 (ReLU), then three 3×3 convs 32→128→64→``out_channels`` with two nearest ×2
+    upsamplings (21 → 42 → 84) and ReLUs between: logits ``[B, out_channels, 84, 84]``.
+
+    Paper: SGQN, https://arxiv.org/abs/2209.09203.
+
+    Examples:
+        >>> import torch
+        >>> AttributionDecoder(action_dim=6)(torch.zeros(2, 512), torch.zeros(2, 6)).shape
+        torch.Size([2, 9, 84, 84])
+    """
+
+    def __init__(self, action_dim: int, embedding_dim: int = 512, out_channels: int = 9) -> None:
+        super().__init__()
+        self.proj = nn.Linear(embedding_dim + action_dim, 32 * 21 * 21)
+        self.conv1 = nn.Conv2d(32, 128, 3, padding=1)
+        self.conv2 = nn.Conv2d(128, 64, 3, padding=1)
+        self.conv3 = nn.Conv2d(64, out_channels, 3, padding=1)
+        self.apply(weight_init)
+
+    def forward(self, embedding: Tensor, action: Tensor) -> Tensor:
+        x = F.relu(self.proj(torch.cat([embedding, action], dim=-1))).reshape(-1, 32, 21, 21)
+        x = F.relu(F.interpolate(self.conv1(x), scale_factor=2, mode="nearest"))
+        x = F.relu(F.interpolate(self.conv2(x), scale_factor=2, mode="nearest"))
+        return self.conv3(x)
+
+
+class CURLHead(nn.Module):
+    """CURL's bilinear similarity ``z_a · W · z_posᵀ`` over a batch, with W initialised U[0, 1).
+
+    :meth:`logits` returns the ``[B, B]`` scores minus each row's maximum (for a stable
+    cross-entropy whose labels are ``arange(B)``: the diagonal holds the positives).
+
+    Paper: CURL, https://arxiv.org/abs/2004.04136.
+
+    Examples:
+        >>> import torch
+        >>> CURLHead(512).logits(torch.randn(4, 512), torch.randn(4, 512)).shape
+        torch.Size([4, 4])
+    """
+
+    def __init__(self, dim: int = 512) -> None:
+        super().__init__()
+        self.W = nn.Parameter(torch.rand(dim, dim))
+
+    def logits(self, anchor: Tensor, positive: Tensor) -> Tensor:
+        scores = anchor @ self.W @ positive.T
+        return scores - scores.max(dim=1, keepdim=True).values
