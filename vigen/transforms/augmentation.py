@@ -46,6 +46,17 @@ class ImageAugmentation(Transform):
         seed: seed of the transform's own ``torch.Generator`` (one per device), so its draws
             are reproducible and independent of the global RNG. ``None`` draws from torch's
             global RNG, which ``ParallelEnv.set_seed`` seeds differently in each worker.
+
+    Examples:
+        >>> import torch
+        >>> class RandomInvert(ImageAugmentation):
+        ...     def make_params(self, images):
+        ...         return {"flip": self.rand(images.shape[0], like=images) < 0.5}
+        ...     def apply(self, images, params):
+        ...         white = self.white(images)
+        ...         return torch.where(params["flip"][:, None, None, None], white - images, images)
+        >>> RandomInvert(seed=0)(pixels=torch.zeros(4, 3, 8, 8)).amax(dim=(1, 2, 3))
+        tensor([1., 0., 1., 1.])
     """
 
     def __init__(

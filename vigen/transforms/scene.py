@@ -52,6 +52,22 @@ class ScenePerturbation(Transform):
     Args:
         seed: seed of the transform's own NumPy generator. ``None`` draws the seed from torch's
             global RNG at the first reset, so ``ParallelEnv.set_seed`` gives every worker its own.
+
+    Examples:
+        >>> class RandomGravity(ScenePerturbation):
+        ...     def read_defaults(self, scene):
+        ...         return {"gravity": scene.model.opt.gravity.copy()}
+        ...     def sample(self, rng, defaults):
+        ...         return {"scale": rng.uniform(0.5, 1.5)}
+        ...     def identity_params(self, defaults):
+        ...         return {"scale": 1.0}
+        ...     def apply(self, scene, defaults, params):
+        ...         scene.model.opt.gravity[:] = defaults["gravity"] * params["scale"]
+        >>> from vigen.envs import make_env
+        >>> env = make_env("dmc/walker-walk", generalization=[RandomGravity(seed=0)], image_size=32)
+        >>> _ = env.reset()
+        >>> float(env.base_env.scene.model.opt.gravity[2]) != -9.81
+        True
     """
 
     def __init__(self, seed: int | None = None) -> None:
