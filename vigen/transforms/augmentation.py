@@ -169,10 +169,7 @@ class ImageAugmentation(Transform):
     def clone(self) -> ImageAugmentation:
         """A copy whose generators continue from this one's state but advance on their own."""
         copy = super().clone()
-        copy._generators = {}
-        for device, generator in self._generators.items():
-            copy._generators[device] = torch.Generator(device=device)
-            copy._generators[device].set_state(generator.get_state())
+        copy._generators = _generators_from_states({d: g.get_state() for d, g in self._generators.items()})
         return copy
 
     def __getstate__(self) -> dict[str, Any]:
@@ -181,11 +178,7 @@ class ImageAugmentation(Transform):
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        generators = {}
-        for device, generator_state in state["_generators"].items():
-            generators[device] = torch.Generator(device=device)
-            generators[device].set_state(generator_state)
-        state["_generators"] = generators
+        state["_generators"] = _generators_from_states(state["_generators"])
         super().__setstate__(state)
 
     def __repr__(self) -> str:
@@ -193,3 +186,12 @@ class ImageAugmentation(Transform):
         extra = self.extra_repr()
         seed = "" if self.seed is None else f", seed={self.seed}"
         return f"{type(self).__name__}({extra + ', ' if extra else ''}{keys}{seed})"
+
+
+def _generators_from_states(states: dict[torch.device, Tensor]) -> dict[torch.device, torch.Generator]:
+    """New generators, one per device, continuing from the saved states."""
+    generators = {}
+    for device, state in states.items():
+        generators[device] = torch.Generator(device=device)
+        generators[device].set_state(state)
+    return generators

@@ -95,11 +95,8 @@ class RandomLighting(ScenePerturbation):
         return {"position": zeros, "diffuse": zeros, "motion": zeros, "direction": np.ones_like(zeros)}
 
     def apply(self, scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
-        model = scene.model
-        offset = params["position"] + params["motion"]
-        for name in POSITION_FIELDS:
-            getattr(model, name)[:] = defaults[name] + offset
-        model.light_diffuse[:] = defaults["light_diffuse"] + params["diffuse"]
+        _place_lights(scene, defaults, params)
+        scene.model.light_diffuse[:] = defaults["light_diffuse"] + params["diffuse"]
 
     def advance(self, scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
         if self.moving_step is None:
@@ -108,12 +105,17 @@ class RandomLighting(ScenePerturbation):
         outside = np.abs(motion) > self.moving_range
         params["direction"] = np.where(outside, -params["direction"], params["direction"])
         params["motion"] = np.clip(motion, -self.moving_range, self.moving_range)
-        offset = params["position"] + params["motion"]
-        for name in POSITION_FIELDS:
-            getattr(scene.model, name)[:] = defaults[name] + offset
+        _place_lights(scene, defaults, params)
 
     def extra_repr(self) -> str:
         return (
             f"position_offset={self.position_offset}, diffuse_offset={self.diffuse_offset}, "
             f"moving_step={self.moving_step}, moving_range={self.moving_range}"
         )
+
+
+def _place_lights(scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
+    """Write default position + episode offset + motion into every field MuJoCo may read a light's position from."""
+    offset = params["position"] + params["motion"]
+    for name in POSITION_FIELDS:
+        getattr(scene.model, name)[:] = defaults[name] + offset
