@@ -141,6 +141,44 @@ class Actor(nn.Module):
         return torch.tanh(self.policy(self.trunk(hidden)))
 
 
+class GaussianActor(nn.Module):
+    """RL-ViGen's DrQ (SAC) actor: an MLP straight on the encoder features (no LayerNorm trunk).
+
+    Returns the mean μ and log σ of a tanh-squashed Gaussian; log σ is ``tanh`` rescaled into
+    ``log_std_bounds`` as in DrQ. ``hidden_depth`` hidden layers of ``hidden_dim`` units.
+
+    Paper: DrQ, https://arxiv.org/abs/2004.13649.
+
+    Examples:
+        >>> import torch
+        >>> mean, log_std = GaussianActor(64, action_dim=6)(torch.zeros(2, 64))
+        >>> mean.shape, bool(log_std.min() >= -10)
+        (torch.Size([2, 6]), True)
+    """
+
+    def __init__(
+        self,
+        repr_dim: int,
+        action_dim: int,
+        hidden_dim: int = 1024,
+        hidden_depth: int = 2,
+        log_std_bounds: tuple[float, float] = (-10.0, 2.0),
+    ) -> None:
+        super().__init__()
+        layers: list[nn.Module] = []
+        for index in range(hidden_depth):
+            layers += [nn.Linear(repr_dim if index == 0 else hidden_dim, hidden_dim), nn.ReLU(inplace=True)]
+        layers.append(nn.Linear(hidden_dim if hidden_depth else repr_dim, 2 * action_dim))
+        self.policy = nn.Sequential(*layers)
+        self.log_std_bounds = log_std_bounds
+        self.apply(weight_init)
+
+    def forward(self, hidden: Tensor) -> tuple[Tensor, Tensor]:
+        mean, log_std = self.policy(hidden).chunk(2, dim=-1)
+        low, high = self.log_std_bounds
+        return mean, low + 0.5 * (high - low) * (torch.tanh(log_std) + 1)
+
+
 class Critic(nn.Module):
     """DrQ-v2's twin critic: one trunk (Linear → LayerNorm → Tanh), then two Q heads on [features, action].
 
@@ -211,6 +249,9 @@ class CURLHead(nn.Module):
     def __init__(self, dim: int = 512) -> None:
         super().__init__()
         self.W = nn.Parameter(torch.rand(dim, dim))
+
+    def reset_parameters(self) -> None:
+        nn.init.uniform_(self.W)
 
     def logits(self, anchor: Tensor, positive: Tensor) -> Tensor:
         scores = anchor @ self.W @ positive.T

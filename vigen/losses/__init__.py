@@ -1,3 +1,41 @@
-"""Augmentation-based actor-critic algorithms (DrQ-v2, SVEA, SRM, SGQN, CURL, DrQ) as TorchRL LossModules."""
+"""Augmentation-based actor-critic algorithms as TorchRL LossModules.
 
-__all__: list[str] = []
+====================  ==========================================================  ===========
+loss                  what it adds to DrQ-v2's update                             paper
+====================  ==========================================================  ===========
+``DrQv2Loss``         (the base) DDPG, clipped double-Q, n-step, random shift       DrQ-v2
+``SVEALoss``          TD loss on a strongly augmented view too (overlay)          SVEA
+``SRMLoss``           SVEA with a frequency-masked overlay view                   SRM
+``SGQNLoss``          saliency consistency term and an attribution head           SGQN
+``CURLLoss``          InfoNCE over the batch with a bilinear head                 CURL
+``DrQLoss``           (SAC instead) clean + shifted views, learned temperature     DrQ
+====================  ==========================================================  ===========
+
+Each takes plain ``nn.Module`` networks (see :mod:`vigen.models`) and a TensorDict batch from a
+TorchRL replay buffer, returns ``loss_*`` entries and detached metrics, and has target critic
+parameters for ``torchrl.objectives.SoftUpdate``.
+"""
+
+from vigen.losses.curl import CURLLoss
+from vigen.losses.drq import DrQLoss
+from vigen.losses.drqv2 import DrQv2Loss
+from vigen.losses.sampling import clipped_normal_sample, squashed_normal_sample
+from vigen.losses.saliency import GuidedBackprop, attribution_mask
+from vigen.losses.schedule import LinearSchedule
+from vigen.losses.sgqn import SGQNLoss
+from vigen.losses.srm import SRMLoss
+from vigen.losses.svea import SVEALoss
+
+__all__ = [
+    "CURLLoss",
+    "DrQLoss",
+    "DrQv2Loss",
+    "GuidedBackprop",
+    "LinearSchedule",
+    "SGQNLoss",
+    "SRMLoss",
+    "SVEALoss",
+    "attribution_mask",
+    "clipped_normal_sample",
+    "squashed_normal_sample",
+]

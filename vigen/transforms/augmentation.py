@@ -82,6 +82,17 @@ class ImageAugmentation(Transform):
         """Apply ``params`` to ``images`` ``[N, C, H, W]`` deterministically."""
         raise NotImplementedError
 
+    def augment(self, images: Tensor) -> Tensor:
+        """Draw parameters and apply them to a tensor ``[..., 3·k, H, W]`` (what losses call).
+
+        Examples:
+            >>> import torch
+            >>> from vigen.transforms import RandomShift
+            >>> RandomShift(seed=0).augment(torch.zeros(2, 9, 84, 84, dtype=torch.uint8)).shape
+            torch.Size([2, 9, 84, 84])
+        """
+        return self._apply_transform(images)
+
     def extra_repr(self) -> str:
         """Hyper-parameters shown in ``repr`` (besides the keys)."""
         return ""

@@ -1,0 +1,104 @@
+"""CURL: a contrastive auxiliary loss on the encoder, on DrQ-v2's update."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import torch
+import torch.nn.functional as F
+from torch import Tensor, nn
+
+from vigen.losses.drqv2 import Augmentations, DrQv2Loss, _module_list
+from vigen.models import CURLHead
+from vigen.transforms import RandomShift
+
+
+class CURLLoss(DrQv2Loss):
+    """CURL on DrQ-v2 (RL-ViGen's variant): InfoNCE with a bilinear similarity over the batch.
+
+    Two more views of each observation are drawn with ``contrastive_augmentation``: the anchor
+    ``z_a = encoder(aug₁(obs))`` (with gradient) and the positive ``z_p = encoder(aug₂(obs))``
+    (without). With the logits ``z_a·W·z_pᵀ`` (``[B, B]``, minus each row's maximum),
+
+        ``loss_curl = CrossEntropy(logits, labels=arange(B))``:
+
+    each anchor must pick its own positive among the batch. The critic gets its own shifted view
+    (encoded in the same pass as the anchors). ``curl_accuracy`` is the fraction of anchors
+    whose highest logit is their positive.
+
+    RL-ViGen encodes the positives with the online encoder (``key_encoder=False``, the default).
+    The original CURL uses a momentum key encoder: ``key_encoder=True`` keeps one in
+    ``target_encoder_params``, moved by the same ``SoftUpdate`` as the target critic (one τ for
+    both; the original uses 0.05 for the key encoder and 0.01 for the critic). The original's
+    views are random 84×84 crops of 100×100 renders: pass ``contrastive_augmentation=RandomCrop(84)``
+    and ``augmentation=RandomCrop(84)`` on such a buffer. The encoder in both is
+    :class:`~vigen.models.ProjectedEncoder` (512-d).
+
+    Paper: CURL, https://arxiv.org/abs/2004.04136.
+
+    Args:
+        encoder, actor, critic: as in :class:`DrQv2Loss`.
+        head: the bilinear head (:class:`~vigen.models.CURLHead`) of the encoder's output size.
+        contrastive_augmentation: draws the anchor and positive views; default ``RandomShift(4)``.
+        key_encoder: encode positives with a momentum copy of the encoder.
+        **kwargs: the options of :class:`DrQv2Loss`.
+
+    Examples:
+        >>> import torch
+        >>> from tensordict import TensorDict
+        >>> from vigen.models import Actor, CURLHead, Critic, ProjectedEncoder
+        >>> encoder = ProjectedEncoder(9, image_size=84)
+        >>> loss = CURLLoss(encoder, Actor(512, 2, hidden_dim=32), Critic(512, 2, hidden_dim=32), CURLHead(512))
+        >>> pixels = torch.randint(0, 256, (4, 9, 84, 84), dtype=torch.uint8)
+        >>> batch = TensorDict({
+        ...     "pixels": pixels, "action": torch.zeros(4, 2),
+        ...     "next": {"pixels": pixels, "reward": torch.ones(4, 1),
+        ...              "done": torch.zeros(4, 1, dtype=torch.bool),
+        ...              "terminated": torch.zeros(4, 1, dtype=torch.bool)},
+        ... }, batch_size=[4])
+        >>> sorted(key for key in loss(batch).keys() if key.startswith("loss_"))
+        ['loss_actor', 'loss_critic', 'loss_curl']
+    """
+
+    out_keys = DrQv2Loss.out_keys + ["loss_curl", "curl_accuracy"]
+
+    def __init__(
+        self,
+        encoder: nn.Module,
+        actor: nn.Module,
+        critic: nn.Module,
+        head: CURLHead,
+        *,
+        contrastive_augmentation: Augmentations = None,
+        key_encoder: bool = False,
+        **kwargs: Any,
+    ) -> None:
+        super().__init__(encoder, actor, critic, **kwargs)
+        self.head = head
+        if contrastive_augmentation is None:
+            contrastive_augmentation = RandomShift(pad=4)
+        self.contrastive_augmentation = _module_list(contrastive_augmentation)
+        self.key_encoder = key_encoder
+        if key_encoder:
+            self.convert_to_functional(encoder, "encoder", create_target_params=True)
+
+    def _critic_terms(self, pixels: Tensor, action: Tensor, target: Tensor) -> dict[str, Tensor]:
+        obs = self._augment(self.augmentation, pixels)
+        anchor = self._augment(self.contrastive_augmentation, pixels)
+        batch = obs.shape[0]
+        if obs.shape == anchor.shape and obs.dtype == anchor.dtype:
+            hidden, anchor_z = self._encode(torch.cat([obs, anchor])).split(batch)
+        else:
+            hidden, anchor_z = self._encode(obs), self._encode(anchor)
+        q1, q2 = self._q(hidden, action)
+        with torch.no_grad():
+            keys = self.target_encoder_params if self.key_encoder else None
+            positive_z = self._encode(self._augment(self.contrastive_augmentation, pixels), params=keys)
+        logits = self.head.logits(anchor_z, positive_z)
+        labels = torch.arange(batch, device=logits.device)
+        return {
+            "critic": ((q1 - target).pow(2) + (q2 - target).pow(2)).squeeze(-1),
+            "hidden": hidden, "q1": q1, "q2": q2,
+            "loss_curl": F.cross_entropy(logits, labels, reduction="none"),
+            "curl_accuracy": (logits.argmax(dim=1) == labels).float().mean(),
+        }

@@ -1,0 +1,33 @@
+"""DrQ-v2's linear schedule for the exploration and target-policy noise std."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class LinearSchedule:
+    """``init`` → ``final`` linearly over ``duration`` steps, then ``final`` (DrQ-v2's ``linear(a, b, n)``).
+
+    DrQ-v2 evaluates it at the *agent* step (frames / action repeat); RL-ViGen's presets are
+    ``linear(1.0, 0.1, 100000)`` (easy), ``500000`` (medium) and ``2000000`` (hard).
+
+    Paper: DrQ-v2, https://arxiv.org/abs/2107.09645.
+
+    Examples:
+        >>> schedule = LinearSchedule(1.0, 0.1, 100_000)
+        >>> schedule(0), schedule(50_000), schedule(10**6)
+        (1.0, 0.55, 0.1)
+    """
+
+    init: float = 1.0
+    final: float = 0.1
+    duration: int = 100_000
+
+    def __post_init__(self) -> None:
+        if self.duration <= 0:
+            raise ValueError(f"LinearSchedule duration must be positive, got {self.duration}.")
+
+    def __call__(self, step: int | float) -> float:
+        mix = min(max(float(step) / self.duration, 0.0), 1.0)
+        return (1.0 - mix) * self.init + mix * self.final
