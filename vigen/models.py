@@ -16,12 +16,10 @@ from torch import Tensor, nn
 
 def weight_init(module: nn.Module) -> None:
     """DrQ-v2's initialisation, for ``module.apply(weight_init)``."""
-    if isinstance(module, nn.Linear):
-        nn.init.orthogonal_(module.weight.data)
-        if module.bias is not None:
-            module.bias.data.fill_(0.0)
-    elif isinstance(module, (nn.Conv2d, nn.ConvTranspose2d)):
-        nn.init.orthogonal_(module.weight.data, nn.init.calculate_gain("relu"))
+    if isinstance(module, (nn.Linear, nn.Conv2d, nn.ConvTranspose2d)):
+        gain = 1.0 if isinstance(module, nn.Linear) else nn.init.calculate_gain("relu")
+        weight = torch.empty(module.weight.shape, dtype=module.weight.dtype, device=module.weight.device)
+        module.weight.data.copy_(nn.init.orthogonal_(weight, gain))  # copy_ keeps a channels-last layout
         if module.bias is not None:
             module.bias.data.fill_(0.0)
 
@@ -206,8 +204,9 @@ class Critic(nn.Module):
 class AttributionDecoder(nn.Module):
     """SGQN's attribution predictor head: predicts per-pixel saliency logits from [embedding, action].
 
-    Linear → 32×21×21 (ReLU), then three 3×3 convs 32→128→64→``out_channels`` with two nearest ×2
-    upsamplings (21 → 42 → 84) and ReLUs between: logits ``[B, out_channels, 84, 84]``.
+    Linear → 32×(S/4)×(S/4) (ReLU), then three 3×3 convs 32→128→64→``out_channels`` with two
+    nearest ×2 upsamplings (21 → 42 → 84 for ``image_size`` S = 84) and ReLUs between: logits
+    ``[B, out_channels, S, S]``.
 
     Paper: SGQN, https://arxiv.org/abs/2209.09203.
 
@@ -217,16 +216,20 @@ class AttributionDecoder(nn.Module):
         torch.Size([2, 9, 84, 84])
     """
 
-    def __init__(self, action_dim: int, embedding_dim: int = 512, out_channels: int = 9) -> None:
+    def __init__(self, action_dim: int, embedding_dim: int = 512, out_channels: int = 9, image_size: int = 84) -> None:
         super().__init__()
-        self.proj = nn.Linear(embedding_dim + action_dim, 32 * 21 * 21)
+        if image_size % 4:
+            raise ValueError(f"AttributionDecoder upsamples twice by 2: image_size must be a multiple of 4, got {image_size}.")
+        self.base_size = image_size // 4
+        self.proj = nn.Linear(embedding_dim + action_dim, 32 * self.base_size**2)
         self.conv1 = nn.Conv2d(32, 128, 3, padding=1)
         self.conv2 = nn.Conv2d(128, 64, 3, padding=1)
         self.conv3 = nn.Conv2d(64, out_channels, 3, padding=1)
         self.apply(weight_init)
 
     def forward(self, embedding: Tensor, action: Tensor) -> Tensor:
-        x = F.relu(self.proj(torch.cat([embedding, action], dim=-1))).reshape(-1, 32, 21, 21)
+        x = F.relu(self.proj(torch.cat([embedding, action], dim=-1)))
+        x = x.reshape(-1, 32, self.base_size, self.base_size)
         x = F.relu(F.interpolate(self.conv1(x), scale_factor=2, mode="nearest"))
         x = F.relu(F.interpolate(self.conv2(x), scale_factor=2, mode="nearest"))
         return self.conv3(x)

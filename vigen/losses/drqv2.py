@@ -301,9 +301,8 @@ class DrQv2Loss(LossModule):
 def _module_list(augmentations: Augmentations) -> nn.ModuleList:
     if augmentations is None:
         return nn.ModuleList()
-    if isinstance(augmentations, ImageAugmentation):
+    if not isinstance(augmentations, Sequence):
         augmentations = [augmentations]
-    augmentations = list(augmentations)
     for augmentation in augmentations:
         if not isinstance(augmentation, ImageAugmentation):
             raise TypeError(

@@ -1,0 +1,61 @@
+"""Tiny networks and batches for the loss tests (16×16 frame stacks, two action dims)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import torch
+from tensordict import TensorDict
+
+from vigen.losses import CURLLoss, DrQLoss, DrQv2Loss, SGQNLoss, SRMLoss, SVEALoss
+from vigen.models import Actor, AttributionDecoder, Critic, CURLHead, DrQv2Encoder, GaussianActor, ProjectedEncoder
+from vigen.transforms import RandomShift
+
+SIZE, ACTIONS, EMBEDDING = 16, 2, 16
+LOSSES = ["drqv2", "svea", "srm", "sgqn", "curl", "drq"]
+
+
+def make_loss(name: str, **kwargs: Any) -> DrQv2Loss:
+    """A loss of each kind on networks small enough for unit tests."""
+    kwargs.setdefault("augmentation", RandomShift(pad=1))
+    if name in ("sgqn", "curl"):
+        encoder = ProjectedEncoder(9, image_size=SIZE, out_dim=EMBEDDING)
+    else:
+        encoder = DrQv2Encoder(9)
+    features = encoder.output_dim(9, SIZE, SIZE)
+    critic = Critic(features, ACTIONS, feature_dim=8, hidden_dim=16)
+    actor = Actor(features, ACTIONS, feature_dim=8, hidden_dim=16)
+    if name == "drqv2":
+        loss = DrQv2Loss(encoder, actor, critic, **kwargs)
+    elif name == "svea":
+        loss = SVEALoss(encoder, actor, critic, **kwargs)
+    elif name == "srm":
+        loss = SRMLoss(encoder, actor, critic, **kwargs)
+    elif name == "sgqn":
+        decoder = AttributionDecoder(ACTIONS, embedding_dim=EMBEDDING, image_size=SIZE)
+        loss = SGQNLoss(encoder, actor, critic, decoder, **kwargs)
+    elif name == "curl":
+        loss = CURLLoss(encoder, actor, critic, CURLHead(EMBEDDING), **kwargs)
+    elif name == "drq":
+        loss = DrQLoss(encoder, GaussianActor(features, ACTIONS, hidden_dim=16), critic, **kwargs)
+    else:
+        raise ValueError(name)
+    loss.make_value_estimator(gamma=0.9)
+    return loss
+
+
+def make_batch(batch: int = 6, seed: int = 0, **next_entries: torch.Tensor) -> TensorDict:
+    """A replay-buffer-like batch: uint8 pixels, actions in [-1, 1], rewards and flags."""
+    generator = torch.Generator().manual_seed(seed)
+    pixels = torch.randint(0, 256, (batch, 9, SIZE, SIZE), dtype=torch.uint8, generator=generator)
+    next_pixels = torch.randint(0, 256, (batch, 9, SIZE, SIZE), dtype=torch.uint8, generator=generator)
+    nxt = {
+        "pixels": next_pixels,
+        "reward": torch.rand(batch, 1, generator=generator),
+        "done": torch.zeros(batch, 1, dtype=torch.bool),
+        "terminated": torch.zeros(batch, 1, dtype=torch.bool),
+    }
+    nxt.update(next_entries)
+    action = torch.rand(batch, ACTIONS, generator=generator) * 2 - 1
+    return TensorDict({"pixels": pixels, "action": action, "next": nxt}, batch_size=[batch])
+

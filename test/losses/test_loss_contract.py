@@ -1,0 +1,195 @@
+"""What every vigen loss owes TorchRL: keys, outputs, gradient routing, targets, copies and state."""
+
+from __future__ import annotations
+
+import copy
+import pickle
+
+import pytest
+import torch
+from torchrl.objectives import SoftUpdate
+
+from loss_helpers import LOSSES, make_batch, make_loss
+
+pytestmark = pytest.mark.filterwarnings("ignore:No target network updater")
+AUX_LOSSES = {"sgqn": "loss_attribution", "curl": "loss_curl"}
+
+
+def _grads(loss, name: str) -> dict[str, torch.Tensor | None]:
+    return {key: value.grad for key, value in getattr(loss, f"{name}_params").items(True, True)}
+
+
+def _has_grad(grads: dict[str, torch.Tensor | None]) -> bool:
+    return any(g is not None and g.abs().sum() > 0 for g in grads.values())
+
+
+def _output(loss, seed: int = 0):
+    torch.manual_seed(seed)
+    return loss(make_batch())
+
+
+@pytest.mark.parametrize("name", LOSSES)
+def test_outputs_are_losses_and_detached_metrics(name):
+    loss = make_loss(name)
+    SoftUpdate(loss, tau=0.01)
+    out = loss(make_batch())
+    assert out.batch_size == torch.Size([])
+    assert set(out.keys()) <= set(loss.out_keys), "every output is declared in out_keys"
+    for key, value in out.items():
+        assert value.shape == torch.Size([]) and torch.isfinite(value), key
+        assert value.requires_grad == key.startswith("loss_"), f"{key}: only loss_* entries carry gradients"
+    assert {"loss_critic", "loss_actor"} <= set(out.keys())
+    if name in AUX_LOSSES:
+        assert AUX_LOSSES[name] in out.keys()
+
+
+@pytest.mark.parametrize("name", LOSSES)
+def test_gradient_routing(name):
+    """Encoder: from the critic and auxiliary losses only. Actor: from its own loss only."""
+    loss = make_loss(name)
+    SoftUpdate(loss, tau=0.01)
+    out = loss(make_batch())
+    entries = ["loss_critic", "loss_actor", *([AUX_LOSSES[name]] if name in AUX_LOSSES else [])]
+    for entry in entries:
+        loss.zero_grad(set_to_none=True)
+        out[entry].backward(retain_graph=True)
+        encoder, actor, critic = (_grads(loss, part) for part in ("encoder", "actor", "critic"))
+        if entry == "loss_actor":
+            assert _has_grad(actor) and not _has_grad(encoder) and not _has_grad(critic)
+        elif entry == "loss_critic":
+            assert _has_grad(encoder) and _has_grad(critic) and not _has_grad(actor)
+        else:
+            assert _has_grad(encoder) and not _has_grad(actor) and not _has_grad(critic)
+        assert all(p.grad is None for p in loss.target_critic_params.values(True, True))
+
+
+@pytest.mark.parametrize("name", LOSSES)
+def test_target_critic_moves_only_through_soft_update(name):
+    loss = make_loss(name)
+    updater = SoftUpdate(loss, tau=0.25)
+    optimizer = torch.optim.Adam(loss.parameters(), lr=1e-2)
+    target_before = loss.target_critic_params.clone()
+    out = loss(make_batch())
+    sum(value for key, value in out.items() if key.startswith("loss_")).backward()
+    optimizer.step()
+    assert (loss.target_critic_params == target_before).all(), "an optimizer step leaves the target alone"
+    online = loss.critic_params.detach().clone()
+    assert not (online == target_before).all()
+    updater.step()
+    expected = target_before.apply(lambda t, o: 0.75 * t + 0.25 * o, online)
+    assert all(
+        torch.allclose(a, b, atol=1e-6)
+        for a, b in zip(loss.target_critic_params.values(True, True), expected.values(True, True))
+    )
+
+
+@pytest.mark.parametrize("name", LOSSES)
+def test_set_keys(name):
+    loss = make_loss(name)
+    with pytest.raises(ValueError):
+        loss.set_keys(not_a_key="x")
+    batch = make_batch()
+    renamed = batch.rename_key_("pixels", "obs").rename_key_(("next", "pixels"), ("next", "obs"))
+    loss.set_keys(pixels="obs", priority="my_error")
+    assert "obs" in loss.in_keys and ("next", "obs") in loss.in_keys
+    loss(renamed)
+    assert renamed["my_error"].shape == (6,), "the TD error is written where the priority key says"
+    loss.set_keys(pixels=None)
+    assert loss.tensor_keys.pixels == "pixels"
+
+
+@pytest.mark.parametrize("name", ["drqv2", "drq"])
+def test_missing_key_names_the_fix(name):
+    loss = make_loss(name)
+    batch = make_batch().exclude(("next", "pixels"))
+    with pytest.raises(KeyError, match="set_keys"):
+        loss(batch)
+
+
+@pytest.mark.parametrize("name", LOSSES)
+def test_state_dict_round_trip(name):
+    loss, other = make_loss(name), make_loss(name)
+    SoftUpdate(loss, tau=0.01), SoftUpdate(other, tau=0.01)
+    loss.set_step(5000)
+    with torch.no_grad():
+        for value in loss.target_critic_params.values(True, True):
+            value.add_(0.01)
+    other.load_state_dict(loss.state_dict())
+    assert other.stddev == loss.stddev and int(other.schedule_step) == 5000
+    assert (other.target_critic_params == loss.target_critic_params).all()
+    a, b = _output(loss), _output(other)
+    assert all(torch.allclose(a[key], b[key]) for key in a.keys())
+
+
+@pytest.mark.parametrize("name", LOSSES)
+def test_deepcopy_and_pickle(name):
+    loss = make_loss(name)
+    SoftUpdate(loss, tau=0.01)
+    reference = _output(loss)
+    for clone in (copy.deepcopy(loss), pickle.loads(pickle.dumps(loss))):
+        out = _output(clone)
+        assert all(torch.allclose(reference[key], out[key]) for key in reference.keys())
+        assert clone.critic_params["q1", "0", "weight"].data_ptr() != loss.critic_params["q1", "0", "weight"].data_ptr()
+
+
+@pytest.mark.parametrize("name", LOSSES)
+def test_reduction_none_gives_per_sample_losses(name):
+    loss = make_loss(name, reduction="none")
+    SoftUpdate(loss, tau=0.01)
+    out = loss(make_batch(batch=5))
+    for key in out.keys():
+        if key.startswith("loss_"):
+            assert out[key].shape == (5,), key
+    mean = make_loss(name)
+    mean.load_state_dict(loss.state_dict())
+    SoftUpdate(mean, tau=0.01)
+    torch.manual_seed(1)
+    per_sample = loss(make_batch(batch=5))
+    torch.manual_seed(1)
+    averaged = mean(make_batch(batch=5))
+    assert torch.allclose(per_sample["loss_critic"].mean(), averaged["loss_critic"], rtol=1e-5)
+
+
+@pytest.mark.parametrize("name", LOSSES)
+def test_reset_parameters_recursive(name):
+    loss = make_loss(name)
+    before = loss.critic_params.clone()
+    loss.reset_parameters_recursive()
+    assert not (loss.critic_params == before).all()
+    assert (loss.target_critic_params == loss.critic_params.data).all()
+
+
+def test_priority_weights_weight_the_critic_loss():
+    """TorchRL's weighted mean: sum(w · loss) / sum(w)."""
+    loss = make_loss("drqv2", augmentation=None, std=0.0)
+    per_sample = make_loss("drqv2", augmentation=None, std=0.0, reduction="none")
+    per_sample.load_state_dict(loss.state_dict())
+    batch = make_batch(batch=4)
+    losses = per_sample(batch.clone())["loss_critic"]
+    weights = torch.tensor([3.0, 1.0, 0.0, 0.0])
+    weighted = batch.clone().set("priority_weight", weights)
+    expected = (weights * losses).sum() / weights.sum()
+    assert torch.allclose(loss(weighted)["loss_critic"], expected)
+    assert not torch.allclose(expected, losses.mean())
+
+
+def test_works_on_a_torchrl_replay_buffer_sample():
+    from torchrl.data import LazyTensorStorage, TensorDictReplayBuffer
+
+    buffer = TensorDictReplayBuffer(storage=LazyTensorStorage(32), batch_size=8)
+    buffer.extend(make_batch(batch=20))
+    loss = make_loss("svea")
+    SoftUpdate(loss, tau=0.01)
+    out = loss(buffer.sample())
+    assert torch.isfinite(out["loss_critic"])
+
+
+def test_bad_arguments_are_explained():
+    with pytest.raises(ValueError, match="reduction"):
+        make_loss("drqv2", reduction="average")
+    with pytest.raises(TypeError, match="ImageAugmentation"):
+        make_loss("drqv2", augmentation=torch.nn.Identity())
+    with pytest.raises(TypeError, match="std"):
+        make_loss("drq", std=0.2)
+    with pytest.raises(ValueError, match="quantile"):
+        make_loss("sgqn", quantile=1.5)
