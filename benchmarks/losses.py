@@ -1,0 +1,340 @@
+"""Time per update of vigen's losses against straightforward implementations of the same math.
+
+Each algorithm's update (loss, backward, optimizer steps, target update) on uint8 batches
+``[B, 9, 84, 84]`` with 6-dim actions, at the papers' network sizes (hidden 1024, feature 50), is
+timed against a reference written the way RL-ViGen's agents (``algos/*.py``) do it: DrQ-v2's
+``grid_sample`` shift, one encoder call per view in NCHW layout, the float overlay and 3-D FFT
+mask, separate critic / actor / auxiliary steps with their own backward passes, and for SGQN a
+captum-style guided backprop (a fresh forward pass with gradient hooks on the ReLUs, run twice:
+before the critic step and again before the attribution step).
+
+vigen's update is ``loss(batch)``, one backward of the summed ``loss_*`` entries, one Adam step,
+``SoftUpdate.step()``. What it does differently at equal math: views of one update share an
+encoder pass, the convolutions run channels-last in chunks of 64 samples, the shift is a gather,
+the overlay and frequency mask run on uint8, the actor's backward pass does not compute critic
+weight gradients, and SGQN's saliency reuses the critic's forward pass (one input-only backward)
+and serves both the consistency and the attribution term (RL-ViGen recomputes it after the critic
+step, which is why the reference also does more FLOPs for SGQN).
+
+Also printed: FLOPs per update (matmuls and convolutions, counted with
+``torch.utils.flop_counter``), and the FLOP/s achieved as a fraction of this CPU's peak, measured
+in the same run (the best of a 2048² fp32 matmul and the encoder's 32→32 3×3 convolution).
+
+Each figure is the median of ``--repeats`` updates, vigen and reference timed in alternation.
+
+Reproduce (about 15 minutes on 2 CPU cores at both batch sizes; run nothing else meanwhile):
+
+    python benchmarks/losses.py                      # batch 64 and 256
+    python benchmarks/losses.py --batch 64 --algos drqv2 sgqn --repeats 5
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import random
+from collections.abc import Callable
+
+import torch
+import torch.nn.functional as F
+from tensordict import TensorDict
+from torch import Tensor, nn
+from torch.utils.flop_counter import FlopCounterMode
+from torchrl.objectives import SoftUpdate
+
+from augmentations import drqv2_shift, float_overlay, rlvigen_random_mask_freq_v2, seconds
+from vigen.losses import CURLLoss, DrQLoss, DrQv2Loss, SGQNLoss, SRMLoss, SVEALoss, attribution_mask
+from vigen.models import (
+    Actor,
+    AttributionDecoder,
+    Critic,
+    CURLHead,
+    DrQv2Encoder,
+    GaussianActor,
+    ProjectedEncoder,
+    SharedCNN,
+)
+from vigen.transforms import ImageBank, RandomOverlay
+
+ACTIONS, GAMMA, STD, CLIP, TAU, LR = 6, 0.99, 0.2, 0.3, 0.01, 1e-4
+ALGOS = ["drqv2", "svea", "srm", "sgqn", "curl", "drq"]
+RLVIGEN_MS_AT_64 = {"drqv2": 280, "svea": 640, "srm": 1050, "curl": 760, "sgqn": 2540}  # the issue's figures
+
+
+# -- networks ----------------------------------------------------------------------------------
+def networks(algo: str) -> dict[str, nn.Module]:
+    if algo in ("svea", "srm"):
+        encoder: nn.Module = SharedCNN(9)
+    elif algo in ("sgqn", "curl"):
+        encoder = ProjectedEncoder(9, image_size=84)
+    else:
+        encoder = DrQv2Encoder(9)
+    features = encoder.output_dim(9, 84, 84)
+    actor = GaussianActor(features, ACTIONS) if algo == "drq" else Actor(features, ACTIONS)
+    nets = {"encoder": encoder, "actor": actor, "critic": Critic(features, ACTIONS)}
+    if algo == "sgqn":
+        nets["decoder"] = AttributionDecoder(ACTIONS)
+    if algo == "curl":
+        nets["head"] = CURLHead(512)
+    return nets
+
+
+# -- the reference: RL-ViGen's agents, written plainly ------------------------------------------
+def noisy(mu: Tensor) -> Tensor:
+    action = mu + (torch.randn_like(mu) * STD).clamp(-CLIP, CLIP)
+    clamped = action.clamp(-1 + 1e-6, 1 - 1e-6)
+    return action - action.detach() + clamped.detach()
+
+
+def squashed(mean: Tensor, log_std: Tensor) -> tuple[Tensor, Tensor]:
+    dist = torch.distributions.TransformedDistribution(
+        torch.distributions.Normal(mean, log_std.exp()), [torch.distributions.TanhTransform(cache_size=1)]
+    )
+    action = dist.rsample()
+    return action, dist.log_prob(action).sum(-1, keepdim=True)
+
+
+def guided_backprop(encoder: nn.Module, critic: nn.Module, obs: Tensor, action: Tensor) -> Tensor:
+    """captum's GuidedBackprop of Q1: a new forward pass whose ReLU outputs clamp negative gradients."""
+    relus = [m for net in (encoder, critic) for m in net.modules() if isinstance(m, nn.ReLU)]
+    hooks = [r.register_forward_hook(lambda m, i, o: o.register_hook(lambda g: g.clamp(min=0))) for r in relus]
+    obs = obs.detach().requires_grad_()
+    q1 = critic(encoder(obs), action)[0]
+    (grad,) = torch.autograd.grad(q1.sum(), obs)
+    for hook in hooks:
+        hook.remove()
+    return grad
+
+
+class Reference:
+    """One RL-ViGen-style agent: three Adam optimizers, sequential critic → actor → aux steps."""
+
+    def __init__(self, algo: str, nets: dict[str, nn.Module], overlay_images: Tensor) -> None:
+        self.algo = algo
+        self.encoder, self.actor, self.critic = nets["encoder"], nets["actor"], nets["critic"]
+        self.critic_target = copy.deepcopy(self.critic)
+        self.images = overlay_images
+        self.encoder_opt = torch.optim.Adam(self.encoder.parameters(), lr=LR)
+        self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=LR)
+        self.critic_opt = torch.optim.Adam(self.critic.parameters(), lr=LR)
+        if algo == "drq":
+            self.log_alpha = torch.tensor(0.1).log().requires_grad_()
+            self.alpha_opt = torch.optim.Adam([self.log_alpha], lr=LR)
+        if algo == "sgqn":
+            self.decoder = nets["decoder"]
+            aux = list(self.encoder.parameters()) + list(self.decoder.parameters())
+            self.aux_opt = torch.optim.Adam(aux, lr=LR, betas=(0.99, 0.999))
+        if algo == "curl":
+            self.W = nets["head"].W
+            self.curl_opt = torch.optim.Adam([self.W], lr=LR, betas=(0.99, 0.999))
+
+    def overlay(self, x: Tensor) -> Tensor:
+        return float_overlay(x, self.images)
+
+    def update(self, batch: TensorDict) -> None:
+        obs, action = batch["pixels"], batch["action"]
+        next_obs, reward = batch["next", "pixels"], batch["next", "reward"]
+        if self.algo == "drq":
+            return self.update_drq(obs, action, reward, next_obs)
+        if self.algo == "curl":
+            anchor, positive = drqv2_shift(obs), drqv2_shift(obs)
+        obs, next_obs = drqv2_shift(obs), drqv2_shift(next_obs)
+        with torch.no_grad():
+            next_h = self.encoder(next_obs)
+            next_action = noisy(self.actor(next_h))
+            target = reward + GAMMA * torch.min(*self.critic_target(next_h, next_action))
+
+        if self.algo == "sgqn":
+            mask = attribution_mask(guided_backprop(self.encoder, self.critic, obs, action), 0.93)
+            masked = obs * mask
+            masked[~mask] = random.uniform(obs.min().item(), obs.max().item())
+        h = self.encoder(obs)
+        q1, q2 = self.critic(h, action)
+        critic_loss = F.mse_loss(q1, target) + F.mse_loss(q2, target)
+        if self.algo in ("svea", "srm"):
+            strong = self.overlay(obs)
+            if self.algo == "srm" and random.random() < 0.5:
+                strong = rlvigen_random_mask_freq_v2(strong)
+            sq1, sq2 = self.critic(self.encoder(strong), action)
+            critic_loss = 0.5 * critic_loss + 0.5 * (F.mse_loss(sq1, target) + F.mse_loss(sq2, target))
+        if self.algo == "sgqn":
+            mq1, mq2 = self.critic(self.encoder(masked), action)
+            critic_loss = critic_loss + 0.9 * (F.mse_loss(q1, mq1) + F.mse_loss(q2, mq2))
+        self.encoder_opt.zero_grad(set_to_none=True)
+        self.critic_opt.zero_grad(set_to_none=True)
+        critic_loss.backward()
+        self.critic_opt.step()
+        self.encoder_opt.step()
+
+        h = h.detach()
+        actor_q = torch.min(*self.critic(h, noisy(self.actor(h))))
+        self.actor_opt.zero_grad(set_to_none=True)
+        (-actor_q.mean()).backward()
+        self.actor_opt.step()
+
+        if self.algo == "curl":
+            z_anchor = self.encoder(anchor)
+            with torch.no_grad():
+                z_positive = self.encoder(positive)
+            logits = z_anchor @ self.W @ z_positive.T
+            logits = logits - logits.max(1, keepdim=True).values
+            curl_loss = F.cross_entropy(logits, torch.arange(len(logits)))
+            self.encoder_opt.zero_grad(set_to_none=True)
+            self.curl_opt.zero_grad(set_to_none=True)
+            curl_loss.backward()
+            self.encoder_opt.step()
+            self.curl_opt.step()
+        self.soft_update()
+        if self.algo == "sgqn":
+            mask = attribution_mask(guided_backprop(self.encoder, self.critic, obs, action), 0.93)
+            logits = self.decoder(self.encoder(self.overlay(obs).detach()), action)
+            aux_loss = F.binary_cross_entropy_with_logits(logits, mask.float())
+            self.aux_opt.zero_grad(set_to_none=True)
+            aux_loss.backward()
+            self.aux_opt.step()
+
+    def update_drq(self, obs: Tensor, action: Tensor, reward: Tensor, next_obs: Tensor) -> None:
+        obs, obs_aug = obs.float(), drqv2_shift(obs)
+        next_obs, next_aug = next_obs.float(), drqv2_shift(next_obs)
+        alpha = self.log_alpha.exp()
+        with torch.no_grad():
+            targets = []
+            for view in (next_obs, next_aug):
+                h = self.encoder(view)
+                next_action, log_prob = squashed(*self.actor(h))
+                value = torch.min(*self.critic_target(h, next_action)) - alpha.detach() * log_prob
+                targets.append(reward + GAMMA * value)
+            target = (targets[0] + targets[1]) / 2
+        h = self.encoder(obs)
+        q1, q2 = self.critic(h, action)
+        aq1, aq2 = self.critic(self.encoder(obs_aug), action)
+        critic_loss = sum(F.mse_loss(q, target) for q in (q1, q2, aq1, aq2))
+        self.encoder_opt.zero_grad(set_to_none=True)
+        self.critic_opt.zero_grad(set_to_none=True)
+        critic_loss.backward()
+        self.critic_opt.step()
+        self.encoder_opt.step()
+
+        h = h.detach()
+        new_action, log_prob = squashed(*self.actor(h))
+        actor_loss = (alpha.detach() * log_prob - torch.min(*self.critic(h, new_action))).mean()
+        self.actor_opt.zero_grad(set_to_none=True)
+        actor_loss.backward()
+        self.actor_opt.step()
+        alpha_loss = (alpha * (-log_prob - -ACTIONS).detach()).mean()
+        self.alpha_opt.zero_grad(set_to_none=True)
+        alpha_loss.backward()
+        self.alpha_opt.step()
+        self.soft_update()
+
+    def soft_update(self) -> None:
+        with torch.no_grad():
+            for p, tp in zip(self.critic.parameters(), self.critic_target.parameters()):
+                tp.lerp_(p, TAU)
+
+
+# -- vigen ---------------------------------------------------------------------------------------
+class Vigen:
+    """The same algorithm from vigen.losses: one loss call, one backward, one optimizer, SoftUpdate."""
+
+    def __init__(self, algo: str, nets: dict[str, nn.Module], bank: ImageBank) -> None:
+        common = {"std": STD}
+        encoder, actor, critic = nets["encoder"], nets["actor"], nets["critic"]
+        if algo == "drqv2":
+            self.loss: DrQv2Loss = DrQv2Loss(encoder, actor, critic, **common)
+        elif algo == "svea":
+            self.loss = SVEALoss(encoder, actor, critic, strong_augmentation=RandomOverlay(images=bank), **common)
+        elif algo == "srm":
+            from vigen.transforms import RandomFrequencyMask
+
+            strong = [RandomOverlay(images=bank), RandomFrequencyMask()]
+            self.loss = SRMLoss(encoder, actor, critic, strong_augmentation=strong, **common)
+        elif algo == "sgqn":
+            self.loss = SGQNLoss(encoder, actor, critic, nets["decoder"], attribution_augmentation=RandomOverlay(images=bank), **common)
+        elif algo == "curl":
+            self.loss = CURLLoss(encoder, actor, critic, nets["head"], **common)
+        else:
+            self.loss = DrQLoss(encoder, actor, critic)
+        self.loss.make_value_estimator(gamma=GAMMA)
+        self.optimizer = torch.optim.Adam(self.loss.parameters(), lr=LR)
+        self.updater = SoftUpdate(self.loss, tau=TAU)
+
+    def update(self, batch: TensorDict) -> None:
+        out = self.loss(batch)
+        self.optimizer.zero_grad(set_to_none=True)
+        sum(value for key, value in out.items() if key.startswith("loss_")).backward()
+        self.optimizer.step()
+        self.updater.step()
+
+
+# -- measuring -----------------------------------------------------------------------------------
+def make_batch(batch: int) -> TensorDict:
+    pixels = lambda: torch.randint(0, 256, (batch, 9, 84, 84), dtype=torch.uint8)  # noqa: E731
+    return TensorDict(
+        {
+            "pixels": pixels(),
+            "action": torch.rand(batch, ACTIONS) * 2 - 1,
+            "next": {
+                "pixels": pixels(),
+                "reward": torch.rand(batch, 1),
+                "done": torch.zeros(batch, 1, dtype=torch.bool),
+                "terminated": torch.zeros(batch, 1, dtype=torch.bool),
+            },
+        },
+        batch_size=[batch],
+    )
+
+
+def flops(update: Callable[[], None]) -> int:
+    counter = FlopCounterMode(display=False)
+    with counter:
+        update()
+    return counter.get_total_flops()
+
+
+def peak_flops(repeats: int = 5) -> float:
+    """The best FLOP/s of a large fp32 matmul and of the encoder's 3×3 convolution (channels-last)."""
+    a, b = torch.randn(2048, 2048), torch.randn(2048, 2048)
+    matmul = 2 * 2048**3 / seconds(lambda: a @ b, repeats=repeats)[0]
+    conv = nn.Conv2d(32, 32, 3).to(memory_format=torch.channels_last)
+    x = torch.randn(64, 32, 37, 37).contiguous(memory_format=torch.channels_last)
+    with torch.no_grad():
+        conv_time = seconds(lambda: conv(x), repeats=repeats)[0]
+    conv_flops = 2 * 64 * 32 * 35 * 35 * 32 * 9
+    return max(matmul, conv_flops / conv_time)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--batch", type=int, nargs="+", default=[64, 256])
+    parser.add_argument("--algos", nargs="+", default=ALGOS, choices=ALGOS)
+    parser.add_argument("--repeats", type=int, default=5)
+    args = parser.parse_args()
+    torch.manual_seed(0)
+    random.seed(0)
+    bank = ImageBank.builtin()
+    images = bank.resized(84, 84)
+    peak = peak_flops()
+    print(f"torch {torch.__version__}, {torch.get_num_threads()} threads; peak {peak / 1e9:.0f} GFLOP/s (fp32)")
+    print("| algo | batch | reference ms | vigen ms | speed-up | ref GFLOP | vigen GFLOP | vigen % of peak | RL-ViGen ms @64 |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for batch_size in args.batch:
+        batch = make_batch(batch_size)
+        for algo in args.algos:
+            torch.manual_seed(0)
+            reference_nets = networks(algo)
+            vigen_nets = copy.deepcopy(reference_nets)
+            reference, vigen = Reference(algo, reference_nets, images), Vigen(algo, vigen_nets, bank)
+            ref_update, vigen_update = (lambda: reference.update(batch.clone())), (lambda: vigen.update(batch.clone()))
+            ref_flops, vigen_flops = flops(ref_update), flops(vigen_update)
+            ref_s, vigen_s = seconds(ref_update, vigen_update, repeats=args.repeats)
+            anchor = RLVIGEN_MS_AT_64.get(algo, "—") if batch_size == 64 else "—"
+            print(
+                f"| {algo} | {batch_size} | {ref_s * 1e3:.0f} | {vigen_s * 1e3:.0f} | {ref_s / vigen_s:.2f}× "
+                f"| {ref_flops / 1e9:.1f} | {vigen_flops / 1e9:.1f} | {100 * vigen_flops / vigen_s / peak:.0f} % | {anchor} |",
+                flush=True,
+            )
+
+
+if __name__ == "__main__":
+    main()
