@@ -10,7 +10,8 @@ before the critic step and again before the attribution step).
 
 vigen's update is ``loss(batch)``, one backward of the summed ``loss_*`` entries, one Adam step,
 ``SoftUpdate.step()``. What it does differently at equal math: views of one update share an
-encoder pass, the convolutions run channels-last in chunks of 64 samples, the shift is a gather,
+encoder pass, the convolutions run channels-last in chunks of 64 samples (vigen's encoders do
+this; the reference's encoders are the same models with ``chunk_size=None``), the shift is a gather,
 the overlay and frequency mask run on uint8, the actor's backward pass does not compute critic
 weight gradients, and SGQN's saliency reuses the critic's forward pass (one input-only backward)
 and serves both the consistency and the attribution term (RL-ViGen recomputes it after the critic
@@ -96,8 +97,11 @@ def squashed(mean: Tensor, log_std: Tensor) -> tuple[Tensor, Tensor]:
 
 def guided_backprop(encoder: nn.Module, critic: nn.Module, obs: Tensor, action: Tensor) -> Tensor:
     """captum's GuidedBackprop of Q1: a new forward pass whose ReLU outputs clamp negative gradients."""
+    def clamp_gradient(module: nn.Module, inputs: tuple[Tensor, ...], output: Tensor) -> None:
+        output.register_hook(lambda grad: grad.clamp(min=0))
+
     relus = [m for net in (encoder, critic) for m in net.modules() if isinstance(m, nn.ReLU)]
-    hooks = [r.register_forward_hook(lambda m, i, o: o.register_hook(lambda g: g.clamp(min=0))) for r in relus]
+    hooks = [relu.register_forward_hook(clamp_gradient) for relu in relus]
     obs = obs.detach().requires_grad_()
     q1 = critic(encoder(obs), action)[0]
     (grad,) = torch.autograd.grad(q1.sum(), obs)
@@ -285,8 +289,21 @@ def make_batch(batch: int) -> TensorDict:
     )
 
 
+class _NoModuleTracking:
+    """Stands in for FlopCounterMode's module tracker, which cannot hash TensorDictParams."""
+
+    parents = {"Global"}
+
+    def __enter__(self) -> None:
+        return None
+
+    def __exit__(self, *args: object) -> None:
+        return None
+
+
 def flops(update: Callable[[], None]) -> int:
     counter = FlopCounterMode(display=False)
+    counter.mod_tracker = _NoModuleTracking()
     with counter:
         update()
     return counter.get_total_flops()
@@ -322,8 +339,9 @@ def main() -> None:
         batch = make_batch(batch_size)
         for algo in args.algos:
             torch.manual_seed(0)
-            reference_nets = networks(algo)
-            vigen_nets = copy.deepcopy(reference_nets)
+            vigen_nets = networks(algo)
+            reference_nets = copy.deepcopy(vigen_nets)
+            reference_nets["encoder"].chunk_size = None
             reference, vigen = Reference(algo, reference_nets, images), Vigen(algo, vigen_nets, bank)
             ref_update, vigen_update = (lambda: reference.update(batch.clone())), (lambda: vigen.update(batch.clone()))
             ref_flops, vigen_flops = flops(ref_update), flops(vigen_update)

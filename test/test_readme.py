@@ -24,7 +24,7 @@ def run_example(code: str, tmp_path: Path) -> str:
 
 
 def test_every_example_is_checked():
-    assert len(EXAMPLES) == 3
+    assert len(EXAMPLES) == 4
 
 
 @pytest.mark.slow
@@ -40,5 +40,10 @@ def test_replay_buffer_example_runs(tmp_path):
 
 @pytest.mark.render
 def test_levels_example_runs(tmp_path):
-    out = run_example(EXAMPLES[2], tmp_path)
+    out = run_example(EXAMPLES[3], tmp_path)
     assert "video_hard torch.Size([10, 9, 84, 84])" in out and out.count("torch.Size") == 5
+
+
+def test_loss_example_runs(tmp_path):
+    out = run_example(EXAMPLES[2], tmp_path)
+    assert "'loss_actor', 'loss_critic'" in out and "q_strong_mean" in out

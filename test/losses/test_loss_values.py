@@ -12,7 +12,7 @@ from torchrl.data import LazyTensorStorage, ReplayBuffer
 from torchrl.envs.transforms import MultiStepTransform
 from torchrl.objectives import SoftUpdate
 
-from loss_helpers import make_batch, make_loss
+from loss_helpers import SIZE, make_batch, make_loss
 from vigen.losses import (
     DrQv2Loss,
     GuidedBackprop,
@@ -221,7 +221,6 @@ def test_sgqn_consistency_term_and_saliency():
         td = _mse_pair(*loss.critic(loss.encoder(batch["pixels"]), batch["action"]), target)
     assert out["consistency"] > 0
     assert torch.allclose(out["loss_critic"], td + 0.5 * out["consistency"], atol=1e-5)
-    assert abs(out["mask_fraction"].item() - 0.1) < 0.02
 
     pixels = batch["pixels"].float().requires_grad_()
     guided = GuidedBackprop(loss.encoder, loss.critic)
@@ -229,6 +228,11 @@ def test_sgqn_consistency_term_and_saliency():
         q1, _ = loss.critic(loss.encoder(pixels), batch["action"])
     mask = attribution_mask(guided.saliency(q1, pixels), 0.9)
     assert mask.float().mean() == out["mask_fraction"], "the loss masks with the guided saliency of Q1"
+    # Each frame keeps at least its top 10 %; more only where saliency ties at the threshold
+    # (a randomly initialised tiny net can have dead units that zero a whole frame's saliency).
+    per_frame = mask[:, ::3].float().mean(dim=(-2, -1))
+    assert (per_frame >= 0.1).all()
+    assert per_frame.median() < 0.1 + 2 / SIZE**2
 
 
 def test_sgqn_critic_gradients_are_the_plain_ones():

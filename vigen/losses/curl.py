@@ -46,9 +46,11 @@ class CURLLoss(DrQv2Loss):
     Examples:
         >>> import torch
         >>> from tensordict import TensorDict
+        >>> from torchrl.objectives import SoftUpdate
         >>> from vigen.models import Actor, CURLHead, Critic, ProjectedEncoder
         >>> encoder = ProjectedEncoder(9, image_size=84)
         >>> loss = CURLLoss(encoder, Actor(512, 2, hidden_dim=32), Critic(512, 2, hidden_dim=32), CURLHead(512))
+        >>> updater = SoftUpdate(loss, tau=0.01)
         >>> pixels = torch.randint(0, 256, (4, 9, 84, 84), dtype=torch.uint8)
         >>> batch = TensorDict({
         ...     "pixels": pixels, "action": torch.zeros(4, 2),

@@ -40,16 +40,18 @@ class DrQLoss(DrQv2Loss):
         actor: features → (mean, log σ).
         init_temperature: initial α.
         target_entropy: ``"auto"`` for ``−action_dim``, or a number.
-        **kwargs: ``augmentation``, ``encoder_chunk_size``, ``channels_last``, ``reduction``
+        **kwargs: ``augmentation``, ``channels_last``, ``reduction``
             (see :class:`DrQv2Loss`).
 
     Examples:
         >>> import torch
         >>> from tensordict import TensorDict
+        >>> from torchrl.objectives import SoftUpdate
         >>> from vigen.models import Critic, DrQv2Encoder, GaussianActor
         >>> encoder = DrQv2Encoder(9)
         >>> repr_dim = encoder.output_dim(9, 84, 84)
         >>> loss = DrQLoss(encoder, GaussianActor(repr_dim, 2, hidden_dim=32), Critic(repr_dim, 2, hidden_dim=32))
+        >>> updater = SoftUpdate(loss, tau=0.01)
         >>> pixels = torch.randint(0, 256, (4, 9, 84, 84), dtype=torch.uint8)
         >>> batch = TensorDict({
         ...     "pixels": pixels, "action": torch.zeros(4, 2),

@@ -42,8 +42,8 @@ class DrQv2Loss(LossModule):
     optimizer equals DrQ-v2's separate updates, except that the actor sees the critic before
     (not after) this step's update, as in TorchRL's DDPG/TD3.
 
-    Views are encoded in chunks of ``encoder_chunk_size`` samples in channels-last layout, which
-    is the same math and about twice as fast on CPUs at batch 256. The std of both noises
+    Views that go through the encoder with gradient share one encoder pass, in channels-last
+    layout (vigen's encoders also convolve large batches in cache-sized chunks). The std of both noises
     follows ``std`` evaluated at the step given to :meth:`set_step` (DrQ-v2: agent steps).
 
     Subclasses change :meth:`_critic_terms` (the views and the extra loss terms), and may add
@@ -59,7 +59,6 @@ class DrQv2Loss(LossModule):
             default ``RandomShift(pad=4)``. ``None`` if the replay buffer already augments.
         std: the noise std, a float or a :class:`LinearSchedule` (default ``linear(1.0, 0.1, 100000)``).
         std_clip: clip of the noise (0.3).
-        encoder_chunk_size: samples per encoder call (``None``: the whole batch at once).
         channels_last: run the convolutions in channels-last memory layout.
         reduction: ``"mean"`` (DrQ-v2), ``"sum"`` or ``"none"`` (per-sample losses).
 
@@ -136,19 +135,15 @@ class DrQv2Loss(LossModule):
         augmentation: Augmentations = RandomShift(pad=4),
         std: float | LinearSchedule = LinearSchedule(1.0, 0.1, 100_000),
         std_clip: float | None = 0.3,
-        encoder_chunk_size: int | None = 64,
         channels_last: bool = True,
         reduction: str = "mean",
     ) -> None:
         super().__init__()
         if reduction not in ("mean", "sum", "none"):
             raise ValueError(f"reduction must be 'mean', 'sum' or 'none', got {reduction!r}.")
-        if encoder_chunk_size is not None and encoder_chunk_size <= 0:
-            raise ValueError(f"encoder_chunk_size must be positive or None, got {encoder_chunk_size}.")
         self._in_keys = None
         self.reduction = reduction
         self.channels_last = channels_last
-        self.encoder_chunk_size = encoder_chunk_size
         if channels_last:
             encoder.to(memory_format=torch.channels_last)
         self.convert_to_functional(encoder, "encoder")
@@ -277,11 +272,8 @@ class DrQv2Loss(LossModule):
         """Encoder features of ``[B, 3·k, H, W]`` pixels (with ``params``, default the online ones)."""
         if self.channels_last and pixels.ndim == 4:
             pixels = pixels.contiguous(memory_format=torch.channels_last)
-        chunk = self.encoder_chunk_size
         with (self.encoder_params if params is None else params).to_module(self.encoder):
-            if chunk is None or pixels.shape[0] <= chunk:
-                return self.encoder(pixels)
-            return torch.cat([self.encoder(part) for part in pixels.split(chunk)])
+            return self.encoder(pixels)
 
     def _policy(self, hidden: Tensor) -> Tensor:
         with self.actor_params.to_module(self.actor):

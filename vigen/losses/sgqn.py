@@ -50,10 +50,12 @@ class SGQNLoss(DrQv2Loss):
     Examples:
         >>> import torch
         >>> from tensordict import TensorDict
+        >>> from torchrl.objectives import SoftUpdate
         >>> from vigen.models import Actor, AttributionDecoder, Critic, ProjectedEncoder
         >>> encoder = ProjectedEncoder(9, image_size=84)
         >>> loss = SGQNLoss(encoder, Actor(512, 2, hidden_dim=32), Critic(512, 2, hidden_dim=32),
         ...                 AttributionDecoder(action_dim=2))
+        >>> updater = SoftUpdate(loss, tau=0.01)
         >>> pixels = torch.randint(0, 256, (4, 9, 84, 84), dtype=torch.uint8)
         >>> batch = TensorDict({
         ...     "pixels": pixels, "action": torch.zeros(4, 2),
@@ -84,6 +86,8 @@ class SGQNLoss(DrQv2Loss):
             raise ValueError(f"quantile must be in [0, 1], got {quantile}.")
         super().__init__(encoder, actor, critic, **kwargs)
         GuidedBackprop(encoder, critic)  # fails early, with advice, when there is no nn.ReLU to guide
+        if self.channels_last:
+            decoder.to(memory_format=torch.channels_last)
         self.decoder = decoder
         self.quantile = quantile
         self.register_coeff_buffer("consistency_weight", consistency_weight)

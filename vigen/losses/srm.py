@@ -27,10 +27,12 @@ class SRMLoss(SVEALoss):
     Examples:
         >>> import torch
         >>> from tensordict import TensorDict
+        >>> from torchrl.objectives import SoftUpdate
         >>> from vigen.models import Actor, Critic, SharedCNN
         >>> encoder = SharedCNN(9)
         >>> repr_dim = encoder.output_dim(9, 84, 84)
         >>> loss = SRMLoss(encoder, Actor(repr_dim, 2, hidden_dim=32), Critic(repr_dim, 2, hidden_dim=32))
+        >>> updater = SoftUpdate(loss, tau=0.01)
         >>> [type(t).__name__ for t in loss.strong_augmentation]
         ['RandomOverlay', 'RandomFrequencyMask']
         >>> pixels = torch.randint(0, 256, (4, 9, 84, 84), dtype=torch.uint8)

@@ -40,10 +40,12 @@ class SVEALoss(DrQv2Loss):
     Examples:
         >>> import torch
         >>> from tensordict import TensorDict
+        >>> from torchrl.objectives import SoftUpdate
         >>> from vigen.models import Actor, Critic, SharedCNN
         >>> encoder = SharedCNN(9)
         >>> repr_dim = encoder.output_dim(9, 84, 84)
         >>> loss = SVEALoss(encoder, Actor(repr_dim, 2, hidden_dim=32), Critic(repr_dim, 2, hidden_dim=32))
+        >>> updater = SoftUpdate(loss, tau=0.01)
         >>> pixels = torch.randint(0, 256, (4, 9, 84, 84), dtype=torch.uint8)
         >>> batch = TensorDict({
         ...     "pixels": pixels, "action": torch.zeros(4, 2),
