@@ -59,7 +59,7 @@ from vigen.transforms import ImageBank, RandomOverlay
 
 ACTIONS, GAMMA, STD, CLIP, TAU, LR = 6, 0.99, 0.2, 0.3, 0.01, 1e-4
 ALGOS = ["drqv2", "svea", "srm", "sgqn", "curl", "drq"]
-RLVIGEN_MS_AT_64 = {"drqv2": 280, "svea": 640, "srm": 1050, "curl": 760, "sgqn": 2540}  # the issue's figures
+RLVIGEN_MS_AT_64 = {"drqv2": 280, "svea": 640, "srm": 1050, "curl": 760, "sgqn": 2540}  # RL-ViGen's own agents at batch 64, timed on a machine like this one (issue 5)
 
 
 # -- networks ----------------------------------------------------------------------------------
