@@ -32,6 +32,9 @@ install_requires = [
     "gymnasium>=1.0,<1.5",
     "numpy>=1.24,<2",
     f"opencv-python-headless{OPENCV_RANGE}",
+    "scipy>=1.10",
+    "matplotlib>=3.7,<4",
+    "tqdm>=4.60",
 ]
 
 extras_require = {

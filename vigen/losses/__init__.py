@@ -13,12 +13,14 @@ loss                  what it adds to DrQ-v2's update                           
 
 Each takes plain ``nn.Module`` networks (see :mod:`vigen.models`) and a TensorDict batch from a
 TorchRL replay buffer, returns ``loss_*`` entries and detached metrics, and has target critic
-parameters for ``torchrl.objectives.SoftUpdate``.
+parameters for ``torchrl.objectives.SoftUpdate``. :func:`make_loss` builds one by name with its
+paper's networks.
 """
 
 from vigen.losses.curl import CURLLoss
 from vigen.losses.drq import DrQLoss
 from vigen.losses.drqv2 import DrQv2Loss
+from vigen.losses.registry import ALGOS, make_loss
 from vigen.losses.sampling import clipped_normal_sample, squashed_normal_sample
 from vigen.losses.saliency import GuidedBackprop, attribution_mask
 from vigen.losses.schedule import LinearSchedule
@@ -27,6 +29,7 @@ from vigen.losses.srm import SRMLoss
 from vigen.losses.svea import SVEALoss
 
 __all__ = [
+    "ALGOS",
     "CURLLoss",
     "DrQLoss",
     "DrQv2Loss",
@@ -37,5 +40,6 @@ __all__ = [
     "SVEALoss",
     "attribution_mask",
     "clipped_normal_sample",
+    "make_loss",
     "squashed_normal_sample",
 ]

@@ -1,0 +1,33 @@
+"""Zero-shot generalization evaluation: run policies on unseen levels, aggregate, report.
+
+* :func:`evaluate`: one row per episode for each level and seed;
+* :func:`summarize`, :func:`score_matrix` and the statistics :func:`mean`, :func:`iqm`,
+  :func:`stratified_bootstrap_ci` (rliable's conventions) and :func:`rlvigen_mean_std`;
+* :func:`write_csv`, :func:`markdown_table`, :func:`plot_levels`: the report files.
+
+Examples:
+    >>> from vigen.evaluation import evaluate, summarize, markdown_table
+    >>> rows = evaluate(None, "dmc/cartpole-balance", ["train", "color_hard"], episodes=1, seeds=[0, 1], max_steps=5,
+    ...                 tags={"method": "random"})
+    >>> print(markdown_table(summarize(rows, reps=100)).splitlines()[0])
+    | level | random |
+"""
+
+from vigen.evaluation.aggregate import MeanStd, iqm, mean, rlvigen_mean_std, stratified_bootstrap_ci
+from vigen.evaluation.report import markdown_table, plot_levels, write_csv
+from vigen.evaluation.rollout import evaluate
+from vigen.evaluation.summary import score_matrix, summarize
+
+__all__ = [
+    "MeanStd",
+    "evaluate",
+    "iqm",
+    "markdown_table",
+    "mean",
+    "plot_levels",
+    "rlvigen_mean_std",
+    "score_matrix",
+    "stratified_bootstrap_ci",
+    "summarize",
+    "write_csv",
+]

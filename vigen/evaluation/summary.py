@@ -1,0 +1,86 @@
+"""From per-episode rows to one summary line per method and level."""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from vigen.evaluation.aggregate import iqm, rlvigen_mean_std, stratified_bootstrap_ci
+
+
+def score_matrix(rows: Iterable[Mapping[str, Any]], *, run: str = "run", task: str = "env", value: str = "return") -> np.ndarray:
+    """The ``[runs, tasks]`` matrix of mean ``value`` per run and task (the mean over its episodes).
+
+    Every run must have been evaluated on every task; a gap raises, since averaging over
+    different task sets would compare unlike things.
+
+    Examples:
+        >>> from vigen.evaluation import score_matrix
+        >>> rows = [{"run": r, "env": t, "return": float(r + 10 * t + e)} for r in (0, 1) for t in (0, 1) for e in (0, 1)]
+        >>> score_matrix(rows)
+        array([[ 0.5, 10.5],
+               [ 1.5, 11.5]])
+    """
+    cells: dict[tuple[Any, Any], list[float]] = defaultdict(list)
+    for row in rows:
+        for key in (run, task, value):
+            if key not in row:
+                raise KeyError(f"row {dict(row)} has no {key!r} column; pass run=, task= or value= to name the columns.")
+        cells[row[run], row[task]].append(float(row[value]))
+    runs = sorted({r for r, _ in cells}, key=str)
+    tasks = sorted({t for _, t in cells}, key=str)
+    missing = [(r, t) for r in runs for t in tasks if (r, t) not in cells]
+    if missing:
+        raise ValueError(f"runs and tasks do not form a full grid; missing (run, task) pairs: {missing[:5]}.")
+    return np.array([[np.mean(cells[r, t]) for t in tasks] for r in runs])
+
+
+def summarize(
+    rows: Sequence[Mapping[str, Any]],
+    by: Sequence[str] = ("method", "level"),
+    *,
+    value: str = "return",
+    run: str | None = None,
+    task: str = "env",
+    reps: int = 2000,
+) -> list[dict[str, Any]]:
+    """One line per group (default: method × level) with every convention the papers use.
+
+    Columns: the ``by`` keys; ``runs``, ``tasks``, ``episodes``; ``mean`` and ``iqm`` of the
+    ``[runs, tasks]`` score matrix with rliable's 95 % stratified-bootstrap interval of the IQM
+    (``iqm_low``, ``iqm_high``) and of the mean (``mean_low``, ``mean_high``); RL-ViGen's
+    per-seed ``rlvigen_mean`` ± ``rlvigen_std``. ``run`` names the column that identifies a run:
+    ``"run"`` when rows have it (one trained agent each), else ``"seed"``. ``by`` keys missing
+    from the rows are skipped.
+
+    Examples:
+        >>> from vigen.evaluation import summarize
+        >>> rows = [{"level": "train", "seed": s, "env": "dmc/a", "return": r} for s, r in enumerate([10.0, 20.0, 30.0])]
+        >>> line = summarize(rows, reps=200)[0]
+        >>> line["level"], line["runs"], line["mean"], line["rlvigen_std"]
+        ('train', 3, 20.0, 10.0)
+    """
+    if not rows:
+        raise ValueError("no rows to summarize; did the evaluation run any episode?")
+    keys = [key for key in by if key in rows[0]]
+    run = run or ("run" if "run" in rows[0] else "seed")
+    groups: dict[tuple, list[Mapping[str, Any]]] = defaultdict(list)
+    for row in rows:
+        groups[tuple(row[key] for key in keys)].append(row)
+    lines = []
+    for group, members in groups.items():
+        scores = score_matrix(members, run=run, task=task, value=value)
+        rlvigen = rlvigen_mean_std(scores)
+        iqm_low, iqm_high = stratified_bootstrap_ci(scores, iqm, reps=reps)
+        mean_low, mean_high = stratified_bootstrap_ci(scores, np.mean, reps=reps)
+        lines.append({
+            **dict(zip(keys, group)),
+            "runs": scores.shape[0], "tasks": scores.shape[1], "episodes": len(members),
+            "mean": float(scores.mean()), "mean_low": mean_low, "mean_high": mean_high,
+            "iqm": iqm(scores), "iqm_low": iqm_low, "iqm_high": iqm_high,
+            "rlvigen_mean": rlvigen.mean, "rlvigen_std": rlvigen.std,
+        })
+    return lines

@@ -1,0 +1,90 @@
+"""Build any of vigen's losses with the networks its paper uses, by name."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from torch import nn
+
+from vigen.losses.curl import CURLLoss
+from vigen.losses.drq import DrQLoss
+from vigen.losses.drqv2 import DrQv2Loss
+from vigen.losses.sgqn import SGQNLoss
+from vigen.losses.srm import SRMLoss
+from vigen.losses.svea import SVEALoss
+from vigen.models import (
+    Actor,
+    AttributionDecoder,
+    Critic,
+    CURLHead,
+    DrQv2Encoder,
+    GaussianActor,
+    ProjectedEncoder,
+    SharedCNN,
+)
+
+ALGOS: dict[str, type[DrQv2Loss]] = {
+    "drqv2": DrQv2Loss,
+    "svea": SVEALoss,
+    "srm": SRMLoss,
+    "sgqn": SGQNLoss,
+    "curl": CURLLoss,
+    "drq": DrQLoss,
+}
+"""Algorithm name -> loss class."""
+
+
+def make_loss(
+    algo: str,
+    observation_shape: tuple[int, int, int],
+    action_dim: int,
+    *,
+    feature_dim: int = 50,
+    hidden_dim: int = 1024,
+    **loss_options: Any,
+) -> DrQv2Loss:
+    """The loss of ``algo`` on fresh networks shaped as in RL-ViGen.
+
+    Encoders: DrQ-v2's 4-layer CNN for ``drqv2`` and ``drq``; SVEA's 11-layer shared CNN for
+    ``svea`` and ``srm``; the 4-layer CNN with a linear projection to 512 (an embedding for the
+    attribution decoder and the contrastive head) for ``sgqn`` and ``curl``. Heads: the actor and
+    twin critic with a ``feature_dim`` trunk and ``hidden_dim`` MLPs (DrQ's SAC actor has no
+    trunk); SGQN's attribution decoder; CURL's bilinear head.
+
+    Args:
+        algo: one of :data:`ALGOS`.
+        observation_shape: ``(3·frames, height, width)`` of the pixels.
+        action_dim: size of the action.
+        feature_dim: the trunk's output size (50).
+        hidden_dim: the MLPs' width (1024).
+        **loss_options: keyword arguments of the loss class (e.g. ``std``, ``strong_augmentation``).
+
+    Examples:
+        >>> from vigen.losses import make_loss
+        >>> loss = make_loss("svea", (9, 84, 84), action_dim=6, hidden_dim=64)
+        >>> type(loss).__name__, type(loss.encoder).__name__
+        ('SVEALoss', 'SharedCNN')
+    """
+    if algo not in ALGOS:
+        raise ValueError(f"Unknown algorithm {algo!r}; choose one of {', '.join(ALGOS)}.")
+    channels, height, width = observation_shape
+    if height != width:
+        raise ValueError(f"vigen's encoders take square images, got {height}×{width}; render at a square size.")
+    encoder: nn.Module
+    if algo in ("svea", "srm"):
+        encoder = SharedCNN(channels)
+    elif algo in ("sgqn", "curl"):
+        encoder = ProjectedEncoder(channels, image_size=height)
+    else:
+        encoder = DrQv2Encoder(channels)
+    features = encoder.output_dim(channels, height, width)
+    critic = Critic(features, action_dim, feature_dim=feature_dim, hidden_dim=hidden_dim)
+    if algo == "drq":
+        return DrQLoss(encoder, GaussianActor(features, action_dim, hidden_dim=hidden_dim), critic, **loss_options)
+    actor = Actor(features, action_dim, feature_dim=feature_dim, hidden_dim=hidden_dim)
+    if algo == "sgqn":
+        decoder = AttributionDecoder(action_dim, embedding_dim=features, out_channels=channels, image_size=height)
+        return SGQNLoss(encoder, actor, critic, decoder, **loss_options)
+    if algo == "curl":
+        return CURLLoss(encoder, actor, critic, CURLHead(features), **loss_options)
+    return ALGOS[algo](encoder, actor, critic, **loss_options)
