@@ -24,7 +24,7 @@ def run_example(code: str, tmp_path: Path) -> str:
 
 
 def test_every_example_is_checked():
-    assert len(EXAMPLES) == 4
+    assert len(EXAMPLES) == 5
 
 
 @pytest.mark.slow
@@ -47,3 +47,9 @@ def test_levels_example_runs(tmp_path):
 def test_loss_example_runs(tmp_path):
     out = run_example(EXAMPLES[2], tmp_path)
     assert "'loss_actor', 'loss_critic'" in out and "q_strong_mean" in out
+
+
+@pytest.mark.render
+def test_evaluation_example_runs(tmp_path):
+    out = run_example(EXAMPLES[4], tmp_path)
+    assert "'level': 'train'" in out and "| level | random |" in out and "| color_hard |" in out

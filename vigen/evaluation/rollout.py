@@ -43,7 +43,7 @@ def evaluate(
             the env's observation keys and writes ``"action"``.
         env: a vigen env name such as ``"dmc/walker-walk"``, or a factory ``(level, seed) -> env``.
         levels: level or group names (:func:`vigen.envs.levels.resolve_levels`), e.g.
-            ``["train", "dmcgb"]``.
+            ``["train", "dmcgb"]``; with a factory, any labels the factory understands.
         episodes: episodes per level and seed.
         seeds: the env and level seeds.
         max_steps: a cap on agent steps per episode (the env's own time limit usually ends it first).
@@ -68,7 +68,10 @@ def evaluate(
         raise ValueError("seeds is empty: give at least one seed, e.g. seeds=[0].")
     rows: list[dict[str, Any]] = []
     name = env if isinstance(env, str) else getattr(env, "__name__", "env")
-    for level in resolve_levels(list(levels) if not isinstance(levels, str) else levels):
+    level_names = [levels] if isinstance(levels, str) else list(levels)
+    if isinstance(env, str):
+        level_names = resolve_levels(level_names)
+    for level in level_names:
         for seed in seeds:
             if isinstance(env, str):
                 instance = make_env(env, generalization=level, seed=seed, **dict(env_options or {}))

@@ -1,0 +1,92 @@
+"""Evaluate trained agents zero-shot on generalization levels and write the report.
+
+    python examples/evaluate.py runs/drqv2-cartpole-balance-s0 runs/svea-cartpole-balance-s0 \\
+        --levels train dmcgb --episodes 10 --out reports/cartpole
+
+Each argument is a run folder of ``examples/train.py`` (its latest checkpoint is used) or one
+checkpoint file. Runs of the same algorithm with different seeds are aggregated as runs of one
+method. The report folder (never overwritten: a new name is picked if it exists) holds
+``episodes.csv`` (one row per episode), ``summary.csv``, ``report.md`` (levels × methods:
+IQM with its 95 % stratified-bootstrap CI, and RL-ViGen's mean ± std over runs) and
+``levels.png`` (bars with 95 % CIs).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import torch
+from tensordict.nn import TensorDictModuleBase
+from torchrl.data import Bounded
+
+from vigen.envs.levels import GROUPS, LEVELS
+from vigen.evaluation import evaluate, markdown_table, plot_levels, summarize, write_csv
+from vigen.io import unused_path
+from vigen.losses import make_loss
+from vigen.policies import make_policy
+from vigen.rendering import RenderSettings
+
+
+def parse_args() -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("runs", nargs="+", type=Path, help="run folders or checkpoint files of examples/train.py")
+    parser.add_argument("--levels", nargs="+", default=["train", "dmcgb"], help=f"levels or groups ({', '.join(GROUPS)})")
+    parser.add_argument("--episodes", type=int, default=10, help="episodes per level and seed")
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0], help="env and level seeds")
+    parser.add_argument("--random", action="store_true", help="also evaluate a random policy as a baseline")
+    parser.add_argument("--videos", default=None, help="a folder of videos for the video levels (default: procedural)")
+    parser.add_argument("--episode-length", type=int, default=None, help="simulator steps per episode (default: the run's)")
+    parser.add_argument("--out", type=Path, default=Path("reports/evaluation"))
+    return parser.parse_args()
+
+
+def load_agent(path: Path) -> tuple[dict, TensorDictModuleBase]:
+    """The run's config and its acting policy, with the weights of ``path`` (or the run's latest checkpoint)."""
+    checkpoint_path = path if path.is_file() else max((path / "checkpoints").glob("frames_*.pt"), default=None)
+    if checkpoint_path is None:
+        raise SystemExit(f"{path} has no checkpoints/frames_*.pt; is it a run folder of examples/train.py?")
+    config = json.loads((checkpoint_path.parent.parent / "config.json").read_text())
+    loss = make_loss(config["algo"], tuple(config["observation_shape"]), config["action_dim"],
+                     feature_dim=config["feature_dim"], hidden_dim=config["hidden_dim"])
+    loss.make_value_estimator(gamma=config["gamma"])  # its gamma is part of the saved state
+    checkpoint = torch.load(checkpoint_path, weights_only=False)
+    loss.load_state_dict(checkpoint["loss"])
+    policy = make_policy(loss, Bounded(-1.0, 1.0, shape=(config["action_dim"],)))  # dm_control's action bounds
+    return dict(config, frames=checkpoint["frames"]), policy
+
+
+def main() -> None:
+    args = parse_args()
+    unknown = [name for name in args.levels if name not in LEVELS and name not in GROUPS]
+    if unknown:
+        raise SystemExit(f"Unknown levels {unknown}. Levels: {', '.join(LEVELS)}. Groups: {', '.join(GROUPS)}.")
+    level_options = {"videos": args.videos} if args.videos else None
+    rows = []
+    for path in args.runs:
+        config, policy = load_agent(path)
+        env_options = {"render_settings": RenderSettings.fast(), "level_options": level_options,
+                       "episode_length": args.episode_length or config.get("episode_length", 1000)}
+        rows += evaluate(policy, config["env"], args.levels, episodes=args.episodes, seeds=args.seeds,
+                         env_options=env_options,
+                         tags={"method": config["algo"], "run": config["seed"], "frames": config["frames"]})
+    if args.random:
+        for env in dict.fromkeys(row["env"] for row in rows):
+            rows += evaluate(None, env, args.levels, episodes=args.episodes, seeds=args.seeds,
+                             env_options=env_options, tags={"method": "random", "run": 0})
+
+    out = unused_path(args.out)
+    out.mkdir(parents=True)
+    lines = summarize(rows)
+    write_csv(rows, out / "episodes.csv")
+    write_csv(lines, out / "summary.csv")
+    task = ", ".join(dict.fromkeys(row["env"] for row in rows))
+    (out / "report.md").write_text(f"# Zero-shot evaluation: {task}\n\n{markdown_table(lines)}\n")
+    plot_levels(lines, out / "levels.png", title=f"{task}: zero-shot IQM per level (95 % CI)")
+    print(markdown_table(lines))
+    print(f"\nwrote {out}/: episodes.csv, summary.csv, report.md, levels.png")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,104 @@
+"""Smoke runs of the training, evaluation and composition examples with tiny budgets, and resuming."""
+
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+
+ROOT = Path(__file__).resolve().parents[2]
+TINY = ["--env", "dmc/cartpole-balance", "--seed-frames", "200", "--eval-every", "400", "--eval-episodes", "1",
+        "--batch-size", "8", "--hidden-dim", "32", "--buffer-size", "2000", "--episode-length", "100"]
+
+
+def run(script: str, *args: str | Path) -> subprocess.CompletedProcess:
+    cmd = [sys.executable, str(ROOT / "examples" / script), *map(str, args)]
+    result = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    assert result.returncode == 0, result.stderr[-3000:]
+    return result
+
+
+def _eval_log(run_dir: Path) -> list[list[str]]:
+    return list(csv.reader((run_dir / "logs" / "scalars" / "eval" / "train_return.csv").open()))
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory) -> Path:
+    run_dir = tmp_path_factory.mktemp("runs") / "drqv2"
+    run("train.py", "--algo", "drqv2", "--frames", "400", "--out", run_dir, *TINY)
+    return run_dir
+
+
+@pytest.mark.render
+def test_train_writes_config_logs_and_checkpoints(trained):
+    config = json.loads((trained / "config.json").read_text())
+    assert config["algo"] == "drqv2" and config["batch_size"] == 8 and config["observation_shape"] == [9, 84, 84]
+    checkpoint = torch.load(trained / "checkpoints" / "frames_00000400.pt", weights_only=False)
+    # 400 frames = 200 agent steps; updates every 2 steps after the 100 seed steps
+    assert (checkpoint["steps"], checkpoint["updates"]) == (200, 50)
+    assert int(checkpoint["loss"]["schedule_step"]) == 200
+    assert [row[0] for row in _eval_log(trained)] == ["400"]
+    assert (trained / "logs" / "scalars" / "train" / "loss_critic.csv").exists()
+
+
+@pytest.mark.render
+def test_resume_continues_the_counters_and_keeps_earlier_files(trained, tmp_path):
+    run_dir = tmp_path / "resumed"
+    subprocess.run(["cp", "-r", str(trained), str(run_dir)], check=True)
+    first = (run_dir / "checkpoints" / "frames_00000400.pt").read_bytes()
+    run("train.py", "--resume", run_dir, "--frames", "800")
+    checkpoint = torch.load(run_dir / "checkpoints" / "frames_00000800.pt", weights_only=False)
+    assert (checkpoint["steps"], checkpoint["updates"]) == (400, 150), "counters continue from the saved ones"
+    assert checkpoint["optimizer"]["state"], "the optimizer state came back"
+    assert (run_dir / "checkpoints" / "frames_00000400.pt").read_bytes() == first
+    assert [row[0] for row in _eval_log(run_dir)] == ["400", "800"], "logs are appended, not rewritten"
+    metadata = json.loads((run_dir / "replay_buffer" / "storage" / "storage_metadata.json").read_text())
+    assert metadata["len"] >= 390, "the replay buffer holds the transitions of both parts"
+
+
+@pytest.mark.render
+def test_new_runs_never_reuse_a_folder(trained):
+    config = (trained / "config.json").read_text()
+    run("train.py", "--frames", "200", "--out", trained, *TINY)
+    assert (trained.parent / "drqv2-1" / "config.json").exists()
+    assert (trained / "config.json").read_text() == config
+
+
+@pytest.mark.render
+def test_evaluate_writes_the_report(trained, tmp_path):
+    out = tmp_path / "report"
+    result = run("evaluate.py", trained, "--levels", "train", "color_hard", "--episodes", "1", "--random", "--out", out)
+    assert "| level | drqv2 | random |" in result.stdout
+    assert {p.name for p in out.iterdir()} == {"episodes.csv", "summary.csv", "report.md", "levels.png"}
+    rows = list(csv.DictReader((out / "episodes.csv").open()))
+    assert [(r["method"], r["level"]) for r in rows] == [
+        ("drqv2", "train"), ("drqv2", "color_hard"), ("random", "train"), ("random", "color_hard")]
+    assert all(int(r["length"]) == 50 for r in rows), "--episode-length 100 simulator steps = 50 agent steps"
+    run("evaluate.py", trained, "--levels", "train", "--episodes", "1", "--out", out)
+    assert (tmp_path / "report-1" / "report.md").exists() and len((out / "episodes.csv").read_text().splitlines()) == 5
+
+
+@pytest.mark.render
+def test_evaluate_names_a_missing_checkpoint(tmp_path):
+    result = subprocess.run([sys.executable, str(ROOT / "examples/evaluate.py"), str(tmp_path)],
+                            capture_output=True, text=True)
+    assert result.returncode != 0 and "has no checkpoints" in result.stderr
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("algo", ["svea", "srm", "sgqn", "curl", "drq"])
+def test_train_every_algorithm(algo, tmp_path):
+    run("train.py", "--algo", algo, "--frames", "400", "--out", tmp_path / algo, *TINY)
+    assert (tmp_path / algo / "checkpoints" / "frames_00000400.pt").exists()
+
+
+@pytest.mark.render
+def test_compose_example_trains_and_tests(tmp_path):
+    result = run("compose_torchrl.py", "--frames", "300", "--batch-size", "8", "--eval-steps", "30")
+    assert "loss_critic" in result.stdout
+    assert "| level | svea |" in result.stdout and "| gaussian_noise |" in result.stdout
