@@ -102,3 +102,14 @@ def test_compose_example_trains_and_tests(tmp_path):
     result = run("compose_torchrl.py", "--frames", "300", "--batch-size", "8", "--eval-steps", "30")
     assert "loss_critic" in result.stdout
     assert "| level | svea |" in result.stdout and "| gaussian_noise |" in result.stdout
+
+
+@pytest.mark.slow
+@pytest.mark.render
+def test_train_with_worker_processes(tmp_path):
+    """--workers 2: a MultiSyncCollector; n-step returns per worker, every transition stored once."""
+    run("train.py", "--workers", "2", "--frames", "800", "--out", tmp_path / "run", *TINY)
+    checkpoint = torch.load(tmp_path / "run" / "checkpoints" / "frames_00000800.pt", weights_only=False)
+    assert (checkpoint["steps"], checkpoint["updates"]) == (400, 150)
+    metadata = json.loads((tmp_path / "run" / "replay_buffer" / "storage" / "storage_metadata.json").read_text())
+    assert metadata["len"] == 400 - 2 * 3, "each worker's last 3 steps wait for their n-step window"
