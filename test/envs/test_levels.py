@@ -15,7 +15,7 @@ from torchrl.envs.utils import check_env_specs
 from vigen.envs import make_env
 from vigen.envs.levels import GROUPS, LEVELS, level_transforms, levels_markdown, resolve_levels
 from vigen.rendering import RenderSettings
-from vigen.transforms import ImageBank, PixelCorruption, RandomFloorTexture, VideoBackground, VideoSource
+from vigen.transforms import ImageBank, PixelCorruption, RandomTextures, VideoBackground, VideoSource
 
 ROOT = Path(__file__).resolve().parents[2]
 DMCGB = ROOT.parent / "shared" / "data" / "dmcgb"
@@ -88,9 +88,9 @@ def test_levels_are_seeded(level):
 
 @pytest.mark.render
 def test_user_transform_list():
-    env = walker([PixelCorruption("contrast", 5), RandomFloorTexture(seed=1)])
+    env = walker([PixelCorruption("contrast", 5), RandomTextures(seed=1)])
     names = [type(t).__name__ for t in env.transform]
-    assert names.index("RandomFloorTexture") < names.index("ToTensorImage") < names.index("PixelCorruption")
+    assert names.index("RandomTextures") < names.index("ToTensorImage") < names.index("PixelCorruption")
     check_env_specs(env)
 
 
@@ -181,9 +181,29 @@ def test_procedural_videos_move():
 
 
 @pytest.mark.render
+def test_textures_with_a_scene_id_draw_the_same_images_every_episode():
+    bank = ImageBank.procedural(6, size=16, seed=0)
+    textures = RandomTextures(("grid", "skybox"), images=bank, scene_id=4, seed=0)
+    env = walker([textures])
+    model = env.base_env.scene.model
+    original = model.tex_data.copy()
+    env.reset()
+    first = model.tex_data.copy()
+    assert (first[model.tex_adr[0]:] != original[model.tex_adr[0]:]).mean() > 0.5, "both textures replaced"
+    for _ in range(3):
+        env.reset()
+        assert np.array_equal(model.tex_data, first)
+    assert textures.params["images"].tolist() == np.random.default_rng(4).integers(6, size=2).tolist(), "drawn from the scene id"
+    textures.restore()
+    assert np.array_equal(model.tex_data, original)
+    with pytest.raises(ValueError, match="no texture named 'carpet'"):
+        walker([RandomTextures("carpet", images=bank)]).reset()
+
+
+@pytest.mark.render
 def test_floor_texture_writes_the_image_and_restores():
     bank = ImageBank(torch.full((1, 3, 8, 8), 200, dtype=torch.uint8).index_fill_(1, torch.tensor([1]), 10))
-    floor = RandomFloorTexture(images=bank, seed=0)
+    floor = RandomTextures(images=bank, seed=0)
     env = walker([floor])
     model = env.base_env.scene.model
     original = model.tex_data.copy()

@@ -14,7 +14,7 @@ from torchrl.envs.utils import check_env_specs
 
 from vigen.envs import make_env
 from vigen.rendering import RenderSettings
-from vigen.transforms import RandomCamera, RandomLighting, RandomSceneColors, load_dmcgb_palette
+from vigen.transforms import RandomCamera, RandomLighting, RandomMaterialColors, RandomSceneColors, load_dmcgb_palette
 
 pytestmark = pytest.mark.render
 
@@ -28,8 +28,9 @@ PERTURBATIONS = {
     "light_easy": partial(RandomLighting.rlvigen, "easy"),
     "light_hard": partial(RandomLighting.rlvigen, "hard"),
     "camera": partial(RandomCamera, position=0.15, rotation_deg=9, fov_deg=(-10, 10)),
+    "material_colors": partial(RandomMaterialColors, mix=0.5),
 }
-MODEL_FIELDS = ["mat_rgba", "tex_data", "light_pos", "light_pos0", "light_poscom0", "light_diffuse", "cam_pos",
+MODEL_FIELDS = ["mat_rgba", "geom_rgba", "tex_data", "light_pos", "light_pos0", "light_poscom0", "light_diffuse", "cam_pos",
                 "cam_pos0", "cam_poscom0", "cam_quat", "cam_mat0", "cam_fovy"]
 
 
@@ -98,6 +99,43 @@ def test_moving_light_moves_every_step_within_its_range():
     assert (np.abs(steps) > 0).all(), "the light moves at every step"
     assert (np.abs(np.stack(positions) - start) <= 0.12 + 1e-9).all(), "and turns at its range"
     assert (steps > 0).any() and (steps < 0).any()
+
+
+def test_material_colors_mix_the_default_with_a_uniform_draw():
+    colors = RandomMaterialColors(mix=0.3, include=("self", "torso"), exclude=("self_default",), seed=0)
+    env = walker(colors)
+    model = env.base_env.scene.model
+    defaults = colors.read_defaults(env.base_env.scene)
+    names = [model.material(int(i)).name for i in defaults["materials"]] + [model.geom(int(i)).name for i in defaults["geoms"]]
+    assert "self" in names and "self_default" not in names and all(n.startswith(("self", "torso")) for n in names)
+    env.reset()
+    u = colors.params["colors"]
+    assert ((u >= 0) & (u <= 1)).all() and len(np.unique(u, axis=0)) == len(u), "one draw per part"
+    expected = 0.7 * np.concatenate([defaults["material_rgb"], defaults["geom_rgb"]]) + 0.3 * u
+    actual = np.concatenate([model.mat_rgba[defaults["materials"], :3], model.geom_rgba[defaults["geoms"], :3]])
+    np.testing.assert_allclose(actual, expected, rtol=0, atol=1e-6)
+
+    shared = RandomMaterialColors(mix=1.0, include=("self",), shared=True, seed=0)
+    env = walker(shared)
+    env.reset()
+    draws = shared.params["colors"]
+    assert (draws == draws[0]).all()
+    assert np.allclose(env.base_env.scene.model.mat_rgba[shared.defaults(env.base_env.scene)["materials"], :3], draws[0])
+    with pytest.raises(ValueError, match="selects no material or geom"):
+        walker(RandomMaterialColors(include=("no_such_part",))).reset()
+    with pytest.raises(ValueError, match="between 0 and 1"):
+        RandomMaterialColors(mix=1.5)
+
+
+def test_light_height_sets_every_light_then_restores():
+    lighting = RandomLighting(position_offset=None, diffuse_offset=None, height=4.0, seed=0)
+    env = walker(lighting)
+    model = env.base_env.scene.model
+    before = model.light_pos.copy()
+    env.reset()
+    assert np.allclose(model.light_pos[:, 2], 4.0) and np.array_equal(model.light_pos[:, :2], before[:, :2])
+    lighting.restore()
+    assert np.array_equal(model.light_pos, before)
 
 
 def test_inside_parallel_env_workers():

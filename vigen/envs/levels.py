@@ -43,7 +43,7 @@ LEVELS: dict[str, tuple[str, str, list[tuple[str, dict[str, Any]]]]] = {
     "floor_texture": (
         "floor grid replaced by a texture image",
         "RL-ViGen table_texture (labmaze and procedural textures)",
-        [("RandomFloorTexture", {})],
+        [("RandomTextures", {})],
     ),
     "video_easy": (
         "sky replaced by a video, new frame every step",
@@ -97,24 +97,43 @@ GROUPS: dict[str, list[str]] = {
 }
 
 
-def resolve_levels(names: str | list[str]) -> list[str]:
-    """Expand group names (``dmcgb``, ``rlvigen``, ``corruptions``, ``all``) into level names, in order.
+def suite_levels(suite: str = "dmc") -> tuple[dict[str, Any], dict[str, list[str]]]:
+    """The level and group tables of a suite: this module's for ``dmc``, the suite module's ``LEVELS``/``GROUPS`` otherwise.
+
+    Examples:
+        >>> from vigen.envs.levels import suite_levels
+        >>> levels, groups = suite_levels("robosuite")
+        >>> groups["rlvigen"]
+        ['easy', 'medium', 'hard']
+    """
+    if suite == "dmc":
+        return LEVELS, GROUPS
+    from vigen.envs.registry import suite_module
+
+    module = suite_module(suite)
+    return module.LEVELS, module.GROUPS
+
+
+def resolve_levels(names: str | list[str], suite: str = "dmc") -> list[str]:
+    """Expand group names (``dmcgb``, ``rlvigen``, ``corruptions``, ``all`` for ``dmc``) into level names, in order.
 
     Examples:
         >>> from vigen.envs.levels import resolve_levels
         >>> resolve_levels(["train", "dmcgb"])
         ['train', 'color_easy', 'color_hard', 'video_easy', 'video_hard']
     """
+    levels, groups = suite_levels(suite)
     names = [names] if isinstance(names, str) else list(names)
     resolved: list[str] = []
     for name in names:
-        if name in GROUPS:
-            resolved += GROUPS[name]
-        elif name in LEVELS:
+        if name in groups:
+            resolved += groups[name]
+        elif name in levels:
             resolved.append(name)
         else:
             raise ValueError(
-                f"Unknown generalization level {name!r}. Levels: {', '.join(LEVELS)}. Groups: {', '.join(GROUPS)}."
+                f"Unknown generalization level {name!r} for {suite}/ envs. Levels: {', '.join(levels)}. "
+                f"Groups: {', '.join(groups)}."
             )
     return list(dict.fromkeys(resolved))
 

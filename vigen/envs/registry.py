@@ -16,6 +16,7 @@ from torchrl.envs import EnvBase
 
 SUITES: dict[str, tuple[str, str]] = {
     "dmc": ("vigen.envs.dmc", "dm_control suite tasks, dmc/<domain>-<task> (e.g. dmc/walker-walk)"),
+    "robosuite": ("vigen.envs.robosuite", "robosuite manipulation, robosuite/<task> (e.g. robosuite/door); extra [robosuite]"),
 }
 """Suite prefix -> (module, description)."""
 
@@ -29,7 +30,7 @@ def available_envs(suite: str | None = None) -> list[str]:
         True
     """
     prefixes = list(SUITES) if suite is None else [suite]
-    return [name for prefix in prefixes for name in _suite_module(prefix).env_names()]
+    return [name for prefix in prefixes for name in suite_module(prefix).env_names()]
 
 
 def make_env(name: str, **kwargs: Any) -> EnvBase:
@@ -38,7 +39,8 @@ def make_env(name: str, **kwargs: Any) -> EnvBase:
     Args:
         name: ``"<suite>/<env>"``, e.g. ``"dmc/walker-walk"``; :func:`available_envs` lists them.
         **kwargs: forwarded to the suite's builder (for ``dmc/``: :func:`vigen.envs.dmc.make_dmc_env`,
-            e.g. ``seed``, ``frame_stack``, ``action_repeat``, ``camera_id``, ``render_settings``).
+            e.g. ``seed``, ``frame_stack``, ``action_repeat``, ``camera_id``, ``render_settings``; for
+            ``robosuite/``: :func:`vigen.envs.robosuite.make_robosuite_env`).
 
     ``make_env`` is a module-level function, so ``functools.partial(make_env, name, ...)`` pickles
     and can be handed to ``ParallelEnv`` and TorchRL's multiprocess collectors.
@@ -54,7 +56,7 @@ def make_env(name: str, **kwargs: Any) -> EnvBase:
             f"Env names look like '<suite>/<env>' (e.g. 'dmc/walker-walk'), got {name!r}. {_suites_hint()}"
         )
     suite, env = name.split("/", 1)
-    module = _suite_module(suite)
+    module = suite_module(suite)
     valid = module.env_names()
     if name not in valid:
         close = difflib.get_close_matches(name, valid, n=3, cutoff=0.6)
@@ -63,7 +65,8 @@ def make_env(name: str, **kwargs: Any) -> EnvBase:
     return module.make_named(env, **kwargs)
 
 
-def _suite_module(suite: str) -> ModuleType:
+def suite_module(suite: str) -> ModuleType:
+    """The module that builds a suite's envs (and holds its ``LEVELS`` unless it is ``dmc``)."""
     if suite not in SUITES:
         raise ValueError(f"Unknown suite {suite!r}. {_suites_hint()}")
     return importlib.import_module(SUITES[suite][0])

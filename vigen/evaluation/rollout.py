@@ -70,7 +70,7 @@ def evaluate(
     name = env if isinstance(env, str) else getattr(env, "__name__", "env")
     level_names = [levels] if isinstance(levels, str) else list(levels)
     if isinstance(env, str):
-        level_names = resolve_levels(level_names)
+        level_names = resolve_levels(level_names, suite=env.split("/")[0])
     for level in level_names:
         for seed in seeds:
             if isinstance(env, str):

@@ -1,8 +1,9 @@
 """Image augmentations (training time) and visual perturbations (evaluation time) as TorchRL Transforms.
 
-Scene perturbations (``RandomSceneColors``, ``RandomFloorTexture``, ``RandomLighting``,
-``RandomCamera``, ``VideoBackground``) edit the live MuJoCo model of the env they sit in, once per
-episode (see :mod:`vigen.transforms.scene`); ``PixelCorruption`` corrupts the pixels of any env.
+Scene perturbations (``RandomSceneColors``, ``RandomMaterialColors``, ``RandomTextures``,
+``RandomLighting``, ``RandomCamera``, ``VideoBackground``) edit the live MuJoCo model of the env
+they sit in, once per episode (see :mod:`vigen.transforms.scene`); ``PixelCorruption`` corrupts
+the pixels of any env.
 
 Augmentations sample per-sample parameters (``make_params``) apart from applying them
 (``apply``, backed by the pure kernels of :mod:`vigen.transforms.functional`):
@@ -30,13 +31,14 @@ from vigen.transforms.conv import RandomConv
 from vigen.transforms.corruptions import PixelCorruption
 from vigen.transforms.crop import CenterCrop, RandomCrop
 from vigen.transforms.frequency import RandomFrequencyMask
-from vigen.transforms.floor_texture import RandomFloorTexture
 from vigen.transforms.image_bank import ImageBank
 from vigen.transforms.lighting import RandomLighting
+from vigen.transforms.material_colors import RandomMaterialColors
 from vigen.transforms.overlay import RandomOverlay
 from vigen.transforms.scene import ScenePerturbation, SceneHandle
 from vigen.transforms.scene_colors import RandomSceneColors, load_dmcgb_palette
 from vigen.transforms.shift import RandomShift
+from vigen.transforms.textures import RandomTextures
 from vigen.transforms.video import VideoBackground
 from vigen.transforms.video_source import VideoSource
 
@@ -52,12 +54,13 @@ __all__ = [
     "RandomShift",
     "RandomCamera",
     "RandomLighting",
+    "RandomMaterialColors",
     "RandomSceneColors",
     "SceneHandle",
     "ScenePerturbation",
     "load_dmcgb_palette",
     "PixelCorruption",
-    "RandomFloorTexture",
+    "RandomTextures",
     "VideoBackground",
     "VideoSource",
 ]

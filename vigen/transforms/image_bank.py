@@ -55,6 +55,27 @@ class ImageBank:
         return cls(images, name=f"builtin({len(textures)} labmaze textures + {procedural} procedural)")
 
     @classmethod
+    def procedural(cls, count: int, size: int = 128, seed: int = 0) -> ImageBank:
+        """``count`` generated images (fractal noise, Voronoi cells, plaids, colour blobs, in turn), the same for a seed."""
+        generator = torch.Generator().manual_seed(seed)
+        images = torch.stack([_procedural_image(kind=i % 4, size=size, generator=generator) for i in range(count)])
+        return cls(images, name=f"procedural({count}, seed={seed})")
+
+    @classmethod
+    def from_files(cls, paths: list[str | os.PathLike], size: int = 128) -> ImageBank:
+        """The images at ``paths``, in order, center-cropped to a square and resized to ``size``."""
+        missing = [str(p) for p in paths if not Path(p).is_file()]
+        if missing:
+            raise FileNotFoundError(f"Image files not found: {', '.join(missing)}.")
+        return cls(torch.stack(_load_images([Path(p) for p in paths], size)), name=f"{len(paths)} files")
+
+    def __add__(self, other: ImageBank) -> ImageBank:
+        """Both banks' images, at the smaller of the two sizes."""
+        side = min(self.images.shape[-1], other.images.shape[-1])
+        images = torch.cat([self.resized(side, side), other.resized(side, side)])
+        return ImageBank(images, name=f"{self.name} + {other.name}")
+
+    @classmethod
     def from_folder(
         cls, root: str | os.PathLike, size: int = 128, max_images: int | None = 2000, seed: int = 0
     ) -> ImageBank:

@@ -35,6 +35,8 @@ class RandomLighting(ScenePerturbation):
         diffuse_offset: half-width of the uniform diffuse offset, or ``None``.
         moving_step: per-step displacement of a moving light, or ``None`` for static lights.
         moving_range: how far a moving light travels from its episode start before turning.
+        height: a height to put every light at before the offsets (RL-ViGen's robosuite moving
+            light starts at z = 4), or ``None`` to keep the model's.
         seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
 
     Examples:
@@ -56,6 +58,7 @@ class RandomLighting(ScenePerturbation):
         diffuse_offset: float | None = 0.2,
         moving_step: float | None = None,
         moving_range: float = 5.0,
+        height: float | None = None,
         seed: int | None = None,
     ) -> None:
         super().__init__(seed=seed)
@@ -63,6 +66,7 @@ class RandomLighting(ScenePerturbation):
         self.diffuse_offset = diffuse_offset
         self.moving_step = moving_step
         self.moving_range = moving_range
+        self.height = height
 
     @classmethod
     def rlvigen(cls, level: str, seed: int | None = None) -> RandomLighting:
@@ -76,6 +80,7 @@ class RandomLighting(ScenePerturbation):
         if model.nlight == 0:
             raise ValueError("RandomLighting needs a scene with at least one light.")
         defaults = {name: getattr(model, name).copy() for name in POSITION_FIELDS}
+        defaults["height"] = np.array(np.nan if self.height is None else self.height)
         defaults["light_diffuse"] = model.light_diffuse.copy()
         return defaults
 
@@ -88,7 +93,7 @@ class RandomLighting(ScenePerturbation):
         diffuse = np.zeros(shape)
         if self.diffuse_offset is not None:
             diffuse = rng.uniform(-self.diffuse_offset, self.diffuse_offset, size=shape)
-        return {"position": position, "diffuse": diffuse, "motion": np.zeros(shape), "direction": np.ones(shape)}
+        return {"position": position, "diffuse": diffuse, "motion": np.zeros(shape), "direction": np.ones(shape), "height": True}
 
     def identity_params(self, defaults: Defaults) -> SceneParams:
         zeros = np.zeros_like(defaults["light_pos"])
@@ -111,6 +116,7 @@ class RandomLighting(ScenePerturbation):
         return (
             f"position_offset={self.position_offset}, diffuse_offset={self.diffuse_offset}, "
             f"moving_step={self.moving_step}, moving_range={self.moving_range}"
+            + ("" if self.height is None else f", height={self.height}")
         )
 
 
@@ -118,4 +124,7 @@ def _place_lights(scene: SceneHandle, defaults: Defaults, params: SceneParams) -
     """Write default position + episode offset + motion into every field MuJoCo may read a light's position from."""
     offset = params["position"] + params["motion"]
     for name in POSITION_FIELDS:
-        getattr(scene.model, name)[:] = defaults[name] + offset
+        start = defaults[name].copy()
+        if params.get("height") and not np.isnan(defaults["height"]):
+            start[:, 2] = defaults["height"]
+        getattr(scene.model, name)[:] = start + offset

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 
 import mujoco
 import numpy as np
@@ -18,7 +19,8 @@ class VideoBackground(ScenePerturbation):
     """Replace the background of every frame with the current frame of a video (DMC-GB ``video_easy/hard``).
 
     ``floor=False`` (``video_easy``) replaces the sky only; ``floor=True`` (``video_hard``) also
-    the floor, so only the agent (and task objects) remain. Background pixels are found with
+    the floor, so only the agent (and task objects) remain; ``background`` adds geoms by name
+    (robosuite's ``eval-hard``: the walls). Background pixels are found with
     the model's own segmentation of the same camera view (pixels that hit no object, plus
     ground planes with ``floor=True``), never by colour: DMC-GB keys on a green sky and
     RL-ViGen on pure black, which also replaces agent pixels of that colour. Videos are taken in
@@ -34,7 +36,8 @@ class VideoBackground(ScenePerturbation):
     Args:
         videos: a :class:`VideoSource`, a folder of videos / frame folders, or ``None`` for
             procedural videos (10, as DMC-GB's ``video_easy``).
-        floor: replace the floor too.
+        floor: replace the floor (every ground plane) too.
+        background: name prefixes of more geoms to replace, e.g. ``("wall",)``.
         seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
 
     Examples:
@@ -44,16 +47,30 @@ class VideoBackground(ScenePerturbation):
         torch.Size([3, 9, 84, 84])
     """
 
-    def __init__(self, videos: VideoSource | str | os.PathLike | None = None, floor: bool = False, seed: int | None = None) -> None:
+    def __init__(
+        self,
+        videos: VideoSource | str | os.PathLike | None = None,
+        floor: bool = False,
+        background: Sequence[str] = (),
+        seed: int | None = None,
+    ) -> None:
         super().__init__(seed=seed)
         self.in_keys = self.out_keys = ["pixels"]
         self.videos = videos if isinstance(videos, VideoSource) else (
             VideoSource.procedural() if videos is None else VideoSource.from_folder(videos)
         )
         self.floor = floor
+        self.background = tuple(background)
 
     def read_defaults(self, scene: SceneHandle) -> Defaults:
-        return {"is_plane": scene.model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE}
+        model = scene.model
+        is_background = np.zeros(model.ngeom, dtype=bool)
+        if self.floor:
+            is_background |= model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE
+        if self.background:
+            names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, i) or "" for i in range(model.ngeom)]
+            is_background |= np.array([name.startswith(self.background) for name in names])
+        return {"is_background": is_background}
 
     def sample(self, rng: np.random.Generator, defaults: Defaults) -> SceneParams:
         previous = self.params["video"] if self.params is not None else int(rng.integers(len(self.videos))) - 1
@@ -66,12 +83,13 @@ class VideoBackground(ScenePerturbation):
         """Nothing to write into the model: the frames are composited after rendering."""
 
     def background_mask(self, scene: SceneHandle) -> np.ndarray:
-        """``[H, W]`` True where the camera sees the sky (and, with ``floor``, a ground plane)."""
+        """``[H, W]`` True where the camera sees the sky (and, with ``floor``, a ground plane, or a ``background`` geom)."""
         segmentation = scene.segmentation()
         ids, types = segmentation[..., 0], segmentation[..., 1]
         mask = ids < 0
-        if self.floor:
-            mask |= (types == int(mujoco.mjtObj.mjOBJ_GEOM)) & self.defaults(scene)["is_plane"][np.maximum(ids, 0)]
+        is_background = self.defaults(scene)["is_background"]
+        if is_background.any():
+            mask |= (types == int(mujoco.mjtObj.mjOBJ_GEOM)) & is_background[np.maximum(ids, 0)]
         return mask
 
     def _composite(self, tensordict: TensorDictBase) -> TensorDictBase:
@@ -105,4 +123,5 @@ class VideoBackground(ScenePerturbation):
         self.params = None
 
     def extra_repr(self) -> str:
-        return f"videos={self.videos}, floor={self.floor}"
+        background = f", background={self.background}" if self.background else ""
+        return f"videos={self.videos}, floor={self.floor}{background}"

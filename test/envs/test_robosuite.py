@@ -1,0 +1,179 @@
+"""robosuite envs: TorchRL contract, seeding, horizon, RL-ViGen's levels through vigen's own scene transforms."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+from torchrl.envs.utils import check_env_specs
+
+import vigen.transforms
+from vigen.envs import make_env
+from vigen.envs.levels import level_transforms as dmc_level_transforms
+from vigen.envs.levels import resolve_levels
+from vigen.envs.levels import LEVELS as DMC_LEVELS
+from vigen.rendering import RenderSettings
+from vigen.transforms.scene import ScenePerturbation
+
+suite = pytest.importorskip("vigen.envs.robosuite")
+pytest.importorskip("robosuite", reason="the robosuite extra is not installed: pip install -e '.[robosuite]'")
+
+pytestmark = pytest.mark.render
+FAST = RenderSettings.fast()
+SIZE = 40
+PERTURBED_LEVELS = ["easy", "medium", "hard", "camera_easy", "camera_hard", "robot_iiwa"]
+MODEL_FIELDS = ["mat_rgba", "geom_rgba", "tex_data", "light_pos", "cam_pos", "cam_quat", "cam_fovy"]
+
+
+def lift(level=None, seed: int = 0, **kwargs):
+    return make_env("robosuite/lift", generalization=level, seed=seed, image_size=SIZE, render_settings=FAST, **kwargs)
+
+
+def first_frame(env) -> torch.Tensor:
+    return env.reset()["pixels"][-3:].float()
+
+
+@pytest.mark.parametrize("task", ["door", "lift", "two-arm-peg-in-hole"])
+def test_check_env_specs(task):
+    env = make_env(f"robosuite/{task}", seed=0, image_size=SIZE, render_settings=FAST)
+    check_env_specs(env)
+    state = env.reset()
+    assert state["pixels"].shape == (9, SIZE, SIZE) and state["pixels"].dtype == torch.uint8
+    assert env.action_spec.shape == ((12,) if task.startswith("two-arm") else (7,))
+    assert state["pixels"].float().std() > 10, "a rendered scene, not a blank frame"
+
+
+def test_frames_and_segmentation_are_upright():
+    """robosuite's OpenGL frames run bottom-up; the env flips them, and its segmentation the same way."""
+    env = make_env("robosuite/lift", seed=0, image_size=SIZE, render_settings=FAST, frame_stack=1)
+    pixels = env.reset()["pixels"].permute(1, 2, 0).numpy()
+    sim = env.base_env._env.sim
+    sim._render_context_offscreen.gl_ctx.make_current()
+    assert np.array_equal(pixels, sim.render(width=SIZE, height=SIZE, camera_name="agentview")[::-1])
+    segmentation = env.base_env.scene.segmentation()
+    model = env.base_env.scene.model
+
+    def mean_row(geom: str) -> float:
+        return np.nonzero(segmentation[..., 0] == model.geom(geom).id)[0].mean()
+
+    assert mean_row("wall_rear_visual") < mean_row("table_visual"), "the wall is above the table"
+
+
+def test_same_seed_same_episode_other_seed_other_start():
+    actions = torch.rand(6, 7, generator=torch.Generator().manual_seed(0)) * 2 - 1
+
+    def play(seed):
+        env = lift(seed=seed)
+        state = env.reset()
+        frames = [state["pixels"]]
+        for action in actions:
+            state = env.step(state.set("action", action))["next"]
+            frames.append(state["pixels"])
+        return torch.stack(frames)
+
+    assert torch.equal(play(3), play(3))
+    assert not torch.equal(play(3)[0], play(4)[0]), "the cube starts elsewhere"
+
+
+def test_truncated_at_the_horizon_never_terminated():
+    env = lift(episode_length=4)
+    rollout = env.rollout(10, break_when_any_done=True)
+    assert rollout.shape == (4,)
+    assert rollout["next", "truncated"].squeeze(-1).tolist() == [False, False, False, True]
+    assert not rollout["next", "terminated"].any()
+    assert rollout["next", "success"].dtype == torch.bool
+
+
+@pytest.mark.parametrize("level", PERTURBED_LEVELS)
+def test_each_level_changes_the_first_frame(level):
+    assert (first_frame(lift(level)) - first_frame(lift("train"))).abs().mean() > 2.0
+
+
+def test_train_is_the_untouched_scene():
+    assert torch.equal(first_frame(lift("train")), first_frame(lift(None)))
+    assert suite.level_transforms("lift", "train") == []
+
+
+def test_scene_ids_reproduce_their_scene():
+    def textures(scene_id, seed):
+        env = lift("easy", seed=seed, scene_id=scene_id)
+        env.reset()
+        return env.base_env.scene.model.tex_data.copy()
+
+    assert np.array_equal(textures(3, seed=0), textures(3, seed=5)), "the scene's textures do not depend on the seed"
+    assert not np.array_equal(textures(3, seed=0), textures(4, seed=0))
+    env = lift("easy", seed=7)
+    assert env.transform[0].scene_id == suite.SCENES * 0 + 7, "scene_id defaults to seed % 10"
+
+
+@pytest.mark.parametrize("level", ["medium", "hard", "camera_hard"])
+def test_twenty_resets_do_not_drift(level):
+    env = lift(level)
+    model = env.base_env.scene.model
+    original = {name: getattr(model, name).copy() for name in MODEL_FIELDS}
+    perturbations = [t for t in env.transform if isinstance(t, ScenePerturbation)]
+    for _ in range(20):
+        env.reset()
+    for perturbation in perturbations:
+        perturbation.restore()
+    for name, value in original.items():
+        assert np.array_equal(getattr(model, name), value), f"{name} drifted"
+
+
+def test_moving_light_starts_at_height_four_and_moves():
+    env = lift("medium")
+    model = env.base_env.scene.model
+    state = env.reset()
+    assert np.allclose(model.light_pos[:, 2], 4.0)
+    start = model.light_pos.copy()
+    env.step(state.set("action", torch.zeros(7)))
+    assert np.allclose(model.light_pos - start, 0.03)
+
+
+def test_hard_level_replaces_floor_and_walls_with_video():
+    env = lift("hard", frame_stack=1)
+    pixels = env.reset()["pixels"]
+    video = next(t for t in env.transform if isinstance(t, vigen.transforms.VideoBackground))
+    mask = torch.from_numpy(video.background_mask(env.base_env.scene))
+    assert 0.1 < mask.float().mean() < 0.9, "floor and walls are part of the view, the robot and table are not"
+    expected = video.videos.frames(video.params["video"], SIZE, SIZE)[0].permute(2, 0, 1)
+    assert torch.equal(pixels[:, mask], expected[:, mask])
+
+
+@pytest.mark.parametrize("robot", ["IIWA", "Kinova3"])
+def test_cross_embodiment_keeps_the_panda_action_spec(robot):
+    panda = lift()
+    other = lift(f"robot_{robot.lower()}")
+    assert other.base_env.robot == robot
+    assert other.action_spec == panda.action_spec
+    assert any(name.startswith("robot0_") for name in other.base_env.scene.model.names.decode().split("\x00"))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("robot", suite.ROBOTS)
+def test_every_listed_robot_keeps_the_panda_action_spec(robot):
+    assert make_env("robosuite/door", robot=robot, image_size=16, render_settings=FAST).action_spec == lift().action_spec
+
+
+def test_levels_use_the_same_transform_classes_as_dm_control():
+    dmc_classes = {type(t) for level in DMC_LEVELS for t in dmc_level_transforms(level)}
+    for level in suite.LEVELS:
+        for transform in suite.level_transforms("door", level):
+            assert type(transform) in vars(vigen.transforms).values(), f"{level}: {type(transform)} is not a vigen transform"
+    used = {type(t) for level in suite.LEVELS for t in suite.level_transforms("door", level)}
+    assert used & dmc_classes >= {vigen.transforms.RandomTextures, vigen.transforms.RandomCamera,
+                                  vigen.transforms.RandomLighting, vigen.transforms.VideoBackground}
+
+
+def test_bad_names_say_what_is_valid():
+    with pytest.raises(ValueError, match="Did you mean robosuite/door"):
+        make_env("robosuite/dor")
+    with pytest.raises(ValueError, match="Unknown robosuite level 'extreme'.*easy"):
+        make_env("robosuite/door", generalization="extreme")
+    with pytest.raises(ValueError, match="scene_id selects one of RL-ViGen's 10 scenes"):
+        make_env("robosuite/door", generalization="easy", scene_id=10)
+    with pytest.raises(ValueError, match="Unknown robot 'Baxter'"):
+        make_env("robosuite/door", robot="Baxter")
+    with pytest.raises(ValueError, match="uses the IIWA arm"):
+        make_env("robosuite/door", generalization="robot_iiwa", robot="Sawyer")
+    assert resolve_levels(["train", "rlvigen"], suite="robosuite") == ["train", "easy", "medium", "hard"]

@@ -1,0 +1,434 @@
+"""robosuite manipulation tasks as TorchRL pixel envs, set up as in RL-ViGen, with its generalization levels.
+
+RL-ViGen's robosuite setting: a Panda arm under the ``OSC_POSE`` controller, the ``agentview``
+camera at 84×84, shaped rewards, 20 Hz control, 500-step episodes (a time-limit truncation),
+action repeat 1 and a stack of 3 frames. TorchRL has no robosuite wrapper; :class:`RobosuitePixelEnv`
+is one, following TorchRL's wrapper conventions (specs, seeding, ``_reset``/``_step``).
+
+The levels (RL-ViGen's ``eval-easy``/``medium``/``hard`` scene presets from SECANT, its camera
+ranges and its cross-embodiment robots) are made of vigen's scene transforms, the same classes
+as for dm_control, acting on the live model through :class:`RobosuiteScene`. robosuite's own
+modders are not used: on mujoco 3 they write to renamed texture fields, do not re-upload textures
+to an existing render context, and save their defaults against a stale sim after a hard reset.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+import torch
+from tensordict import TensorDict, TensorDictBase
+from torchrl.data import Bounded, Categorical, Composite, Unbounded
+from torchrl.envs import CatFrames, Compose, ToTensorImage, Transform, TransformedEnv
+from torchrl.envs.common import _EnvWrapper
+
+from vigen.rendering import RenderSettings
+from vigen.transforms import (
+    ImageBank,
+    RandomCamera,
+    RandomLighting,
+    RandomMaterialColors,
+    RandomTextures,
+    VideoBackground,
+)
+from vigen.transforms.scene import ScenePerturbation
+
+TASKS = {"door": "Door", "lift": "Lift", "two-arm-peg-in-hole": "TwoArmPegInHole"}
+"""vigen name -> robosuite environment class."""
+
+ROBOTS = ("Panda", "IIWA", "Kinova3", "Sawyer", "Jaco", "UR5e")
+"""Single-arm robots installed with robosuite 1.5.2 whose OSC_POSE + gripper action has 7 dimensions."""
+
+ROBOT_PARTS = ("robot", "gripper", "fixed_mount")
+"""Name prefixes of the robot's materials and geoms (arm, gripper, mount)."""
+
+TEXTURES = {
+    "door": ("texplane", "tex-light-gray-plaster", "tex-ceramic", "tex-steel-brushed", "Door_dark-wood", "Door_light-wood", "Door_metal"),
+    "lift": ("texplane", "tex-light-gray-plaster", "tex-ceramic", "tex-steel-brushed", "cube_redwood"),
+    "two-arm-peg-in-hole": ("texplane", "tex-light-gray-plaster", "hole_red-wood", "peg_greenwood"),
+}
+"""Textures the scene presets replace: floor, walls, table top and legs, and the task's objects (RL-ViGen's aliases)."""
+
+BACKGROUND_TEXTURES = ("texplane", "tex-light-gray-plaster")
+"""The floor and wall textures, which the ``hard`` level covers with a video instead."""
+
+SCENES = 10
+"""Scene presets per level (RL-ViGen's ``scene_id`` 0..9)."""
+
+ROBOSUITE_TEXTURES = {
+    "easy": ("green-wood", "red-wood", "blue-wood", "gray-woodgrain", "gray-felt", "dirt"),
+    "medium": ("wood-varnished-panels", "white-bricks"),
+    "hard": (),
+}
+"""robosuite's own texture files in each level's texture set (RL-ViGen: WoodGreen ... Dirt; WoodPanels, BricksWhite)."""
+
+GENERATED_TEXTURES = {"easy": 5, "medium": 20, "hard": 15}
+"""Generated stand-ins for SECANT's Custom01–05, Custom06–25 and Custom26–40 textures, which robosuite 1.5 does not ship."""
+
+CAMERA_RANGES = {"camera_easy": (0.12, 0.12, 10.0), "camera_hard": (0.16, 0.16, 20.0)}
+"""RL-ViGen ``robo_setting.yaml``: position (m, per axis), rotation (rad), field of view (±degrees)."""
+
+# name -> (what it shows, where it comes from)
+LEVELS: dict[str, tuple[str, str]] = {
+    "train": ("robosuite's default scene", "RL-ViGen train"),
+    "easy": (
+        "new floor, wall, table and object textures per scene; non-robot colours 0.8·default + 0.2·U(0, 1)",
+        "RL-ViGen eval-easy (SECANT presets)",
+    ),
+    "medium": (
+        "easy's colours, the medium texture set, the robot in one random colour, a moving light",
+        "RL-ViGen eval-medium (SECANT presets)",
+    ),
+    "hard": (
+        "the hard texture set, a video behind the robot (floor and walls), a moving light",
+        "RL-ViGen eval-hard (SECANT presets, DMC-GB videos)",
+    ),
+    "camera_easy": ("camera moved ± 0.12 m, turned ≤ 0.12 rad, field of view ± 10°; easy's colours", "RL-ViGen cam-easy"),
+    "camera_hard": ("camera moved ± 0.16 m, turned ≤ 0.16 rad, field of view ± 20°; easy's colours", "RL-ViGen cam-hard"),
+    **{
+        f"robot_{robot.lower()}": (f"the {robot} arm instead of the Panda, same controller", "RL-ViGen cross-embodiment")
+        for robot in ROBOTS[1:]
+    },
+}
+
+GROUPS: dict[str, list[str]] = {
+    "rlvigen": ["easy", "medium", "hard"],
+    "camera": ["camera_easy", "camera_hard"],
+    "embodiment": [f"robot_{robot.lower()}" for robot in ROBOTS[1:]],
+    "all": list(LEVELS),
+}
+
+
+def env_names() -> list[str]:
+    """The robosuite tasks as vigen env names.
+
+    Examples:
+        >>> from vigen.envs.robosuite import env_names
+        >>> env_names()
+        ['robosuite/door', 'robosuite/lift', 'robosuite/two-arm-peg-in-hole']
+    """
+    return [f"robosuite/{task}" for task in TASKS]
+
+
+def make_named(env: str, **kwargs: Any) -> TransformedEnv:
+    """Build ``"robosuite/<task>"`` from its ``"<task>"`` part; see :func:`make_robosuite_env`."""
+    return make_robosuite_env(env, **kwargs)
+
+
+class RobosuiteScene:
+    """The :class:`~vigen.transforms.scene.SceneHandle` of a robosuite env's ``MjSim``.
+
+    Examples:
+        >>> from vigen.envs.robosuite import RobosuitePixelEnv
+        >>> scene = RobosuitePixelEnv("lift", image_size=32).scene  # doctest: +SKIP
+        >>> scene.segmentation().shape  # doctest: +SKIP
+        (32, 32, 2)
+    """
+
+    def __init__(self, env: Any, camera: str, image_size: int) -> None:
+        self._env, self._camera, self._image_size = env, camera, image_size
+
+    @property
+    def model(self) -> mujoco.MjModel:
+        return self._env.sim.model._model
+
+    @property
+    def data(self) -> mujoco.MjData:
+        return self._env.sim.data._data
+
+    def upload_texture(self, texture_id: int) -> None:
+        context = self._env.sim._render_context_offscreen
+        if context is not None:
+            context.upload_texture(texture_id)
+
+    def segmentation(self) -> np.ndarray:
+        """``[H, W, 2]`` int32 (object id, object type) of the agent camera, top row first; ``-1`` where nothing is hit."""
+        sim, size = self._env.sim, self._image_size
+        camera_id = sim.model.camera_name2id(self._camera)
+        sim._render_context_offscreen.gl_ctx.make_current()  # each env has its own GL context
+        sim._render_context_offscreen.render(size, size, camera_id=camera_id, segmentation=True)
+        types_ids = sim._render_context_offscreen.read_pixels(size, size, segmentation=True)
+        return np.ascontiguousarray(types_ids[::-1, :, ::-1])
+
+
+class RobosuitePixelEnv(_EnvWrapper):
+    """A robosuite task rendered from one camera to uint8 HWC frames (top row first), with success flags.
+
+    The TorchRL base env of :func:`make_robosuite_env`. The action is robosuite's (``OSC_POSE``
+    deltas and the gripper, in [-1, 1]); the reward is robosuite's shaped reward; an episode ends
+    at ``episode_length`` steps as a truncation (robosuite tasks do not terminate). ``"success"`` reports
+    the task's success check after every step. Seeding sets robosuite's random generator (robot
+    initial joint noise and object placement).
+
+    Args:
+        task: ``"door"``, ``"lift"`` or ``"two-arm-peg-in-hole"``.
+        robot: the arm (``"Panda"`` in RL-ViGen's training; see :data:`ROBOTS`); two-arm tasks use two.
+        image_size: height and width of the rendered frame.
+        camera: robosuite camera name.
+        episode_length: control steps per episode (robosuite's ``horizon``), the same as agent
+            steps since the action repeat is 1.
+        control_freq: control steps per simulated second.
+        reward_shaping: robosuite's dense reward (RL-ViGen: on).
+        render_settings: MuJoCo render quality; ``None`` keeps robosuite's (4096² shadows, 4×
+            multisampling, a 640×480 buffer). :meth:`RenderSettings.fast` is much faster on CPU.
+        seed: seed of robosuite's random generator; ``None`` draws one.
+        device: device of the returned tensors.
+
+    Reference: RL-ViGen, https://arxiv.org/abs/2307.10224; robosuite, https://robosuite.ai.
+
+    Examples:
+        >>> from vigen.envs.robosuite import RobosuitePixelEnv
+        >>> env = RobosuitePixelEnv("lift", seed=0)  # doctest: +SKIP
+        >>> env.rollout(3)["next", "pixels"].shape  # doctest: +SKIP
+        torch.Size([3, 84, 84, 3])
+    """
+
+    git_url = "https://github.com/ARISE-Initiative/robosuite"
+    libname = "robosuite"
+
+    def __init__(
+        self,
+        task: str,
+        *,
+        robot: str = "Panda",
+        image_size: int = 84,
+        camera: str = "agentview",
+        episode_length: int = 500,
+        control_freq: int = 20,
+        reward_shaping: bool = True,
+        render_settings: RenderSettings | None = None,
+        seed: int | None = None,
+        device: torch.device | str = "cpu",
+    ) -> None:
+        super().__init__(
+            task=task, robot=robot, image_size=image_size, camera=camera, episode_length=episode_length,
+            control_freq=control_freq, reward_shaping=reward_shaping, render_settings=render_settings,
+            seed=seed, device=device,
+        )
+
+    def _check_kwargs(self, kwargs: dict) -> None:
+        if kwargs["task"] not in TASKS:
+            raise ValueError(f"Unknown robosuite task {kwargs['task']!r}. Valid names: {', '.join(TASKS)}.")
+        if kwargs["robot"] not in ROBOTS:
+            raise ValueError(f"Unknown robot {kwargs['robot']!r}. Robots with the Panda's action space: {', '.join(ROBOTS)}.")
+        if kwargs["episode_length"] < 1:
+            raise ValueError(f"episode_length must be at least 1 step, got {kwargs['episode_length']}.")
+
+    def _build_env(self, task, robot, image_size, camera, episode_length, control_freq, reward_shaping, render_settings, seed) -> Any:
+        try:
+            import robosuite
+            from robosuite.controllers import load_composite_controller_config
+        except ImportError as error:
+            raise ImportError(f"robosuite/ envs need robosuite: pip install -e \".[robosuite]\" ({error}).") from error
+
+        robots = [robot, robot] if TASKS[task].startswith("TwoArm") else robot
+        env = robosuite.make(
+            TASKS[task], robots=robots, controller_configs=load_composite_controller_config(robot=robot),
+            has_renderer=False, has_offscreen_renderer=True, use_camera_obs=False, use_object_obs=False,
+            reward_shaping=reward_shaping, control_freq=control_freq, horizon=episode_length, hard_reset=False,
+            ignore_done=False, seed=seed,
+        )
+        if camera not in env.sim.model.camera_names:
+            raise ValueError(f"No camera {camera!r} in robosuite/{task}; cameras: {', '.join(env.sim.model.camera_names)}.")
+        context = env.sim._render_context_offscreen
+        context.__class__ = _render_context_class(type(context))
+        (render_settings or RenderSettings()).apply(env.sim.model._model, image_size, image_size)
+        context.gl_ctx.make_current()
+        context.con.free()  # rebuild the render context with the new shadow map, multisampling and buffer
+        context._set_mujoco_context_and_buffers()
+        self.task, self.robot, self.camera, self.image_size, self.episode_length = task, robot, camera, image_size, episode_length
+        self.action_repeat = 1
+        self._camera_id = env.sim.model.camera_name2id(camera)
+        return env
+
+    def _make_specs(self, env: Any) -> None:
+        low, high = env.action_spec
+        self.action_spec = Bounded(
+            torch.as_tensor(low, dtype=torch.float32), torch.as_tensor(high, dtype=torch.float32),
+            shape=(len(low),), dtype=torch.float32, device=self.device,
+        )
+        self.observation_spec = Composite(
+            pixels=Unbounded((self.image_size, self.image_size, 3), dtype=torch.uint8, device=self.device),
+            success=Categorical(2, (1,), dtype=torch.bool, device=self.device),
+            device=self.device,
+        )
+        self.reward_spec = Unbounded((1,), dtype=torch.float32, device=self.device)
+        flag = Categorical(2, (1,), dtype=torch.bool, device=self.device)
+        self.done_spec = Composite(done=flag.clone(), terminated=flag.clone(), truncated=flag.clone(), device=self.device)
+
+    def _init_env(self) -> None:
+        self._env.reset()
+
+    def _set_seed(self, seed: int | None) -> None:
+        rng = np.random.default_rng(seed)
+        self._env.rng = rng
+        samplers = [getattr(self._env, "placement_initializer", None)]
+        while samplers:
+            sampler = samplers.pop()
+            if sampler is not None:
+                sampler.rng = rng
+                samplers += list(getattr(sampler, "samplers", {}).values())
+
+    @property
+    def scene(self) -> RobosuiteScene:
+        """The handle that scene perturbations (``vigen.transforms``) edit."""
+        return RobosuiteScene(self._env, self.camera, self.image_size)
+
+    def _render(self) -> torch.Tensor:
+        context, size = self._env.sim._render_context_offscreen, self.image_size
+        context.gl_ctx.make_current()  # each env has its own GL context; robosuite's render assumes one
+        context.render(size, size, camera_id=self._camera_id)
+        frame = context.read_pixels(size, size)[::-1]  # OpenGL rows run bottom-up
+        return torch.from_numpy(np.ascontiguousarray(frame)).to(self.device)
+
+    def _observation(self, success: bool, **flags: bool) -> TensorDict:
+        values = {name: torch.tensor([value], device=self.device) for name, value in flags.items()}
+        return TensorDict(pixels=self._render(), success=torch.tensor([success], device=self.device), **values)
+
+    def _reset(self, tensordict: TensorDictBase | None = None, **kwargs: Any) -> TensorDictBase:
+        self._env.reset()
+        return self._observation(False, done=False, terminated=False, truncated=False)
+
+    def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
+        action = tensordict.get("action").detach().cpu().numpy().astype(np.float64)
+        _, reward, done, _ = self._env.step(action)
+        result = self._observation(bool(self._env._check_success()), done=bool(done), terminated=False, truncated=bool(done))
+        result.set("reward", torch.tensor([reward], dtype=torch.float32, device=self.device))
+        return result
+
+    def __repr__(self) -> str:
+        return (
+            f"{type(self).__name__}({self.task}, robot={self.robot}, camera={self.camera}, "
+            f"image_size={self.image_size}, episode_length={self.episode_length})"
+        )
+
+
+def _render_context_class(base: type) -> type:
+    """robosuite's render context, freed in its own GL context.
+
+    robosuite frees a render context's GL objects in whichever context is current, so the
+    garbage collection of one env deletes the framebuffers of another env in the same process.
+    """
+
+    class RenderContext(base):
+        def __del__(self) -> None:
+            try:
+                self.gl_ctx.make_current()
+            except Exception:  # the GL context is already gone at interpreter exit
+                return
+            super().__del__()
+
+    return RenderContext
+
+
+def level_transforms(task: str, level: str, scene_id: int = 0, seed: int | None = None, videos: Any = None) -> list[Transform]:
+    """The scene transforms of a robosuite ``level`` for ``task`` and one of its 10 scenes.
+
+    Textures come from the level's set (robosuite's texture files and generated stand-ins for
+    SECANT's), one image per textured material, fixed by ``scene_id``; colours, lights and
+    cameras are drawn per episode from ``seed``.
+    """
+    if level not in LEVELS:
+        raise ValueError(f"Unknown robosuite level {level!r}. Levels: {', '.join(LEVELS)}. Groups: {', '.join(GROUPS)}.")
+    if not 0 <= scene_id < SCENES:
+        raise ValueError(f"scene_id selects one of RL-ViGen's {SCENES} scenes per level: 0..{SCENES - 1}, got {scene_id}.")
+
+    def seeded(index: int) -> int | None:
+        return None if seed is None else seed * 1_000_003 + index
+
+    local_colors = RandomMaterialColors(mix=0.2, exclude=ROBOT_PARTS, seed=seeded(0))
+    moving_light = RandomLighting(position_offset=None, diffuse_offset=None, moving_step=0.03, moving_range=3.0,
+                                  height=4.0, seed=seeded(1))
+    if level in ("easy", "medium", "hard"):
+        textures = [name for name in TEXTURES[task] if level != "hard" or name not in BACKGROUND_TEXTURES]
+        built = [RandomTextures(textures, images=texture_bank(level), scene_id=SCENES * ("easy", "medium", "hard").index(level) + scene_id)]
+        if level == "easy":
+            return built + [local_colors]
+        if level == "medium":
+            robot = RandomMaterialColors(mix=1.0, include=ROBOT_PARTS[:2], shared=True, seed=seeded(2))
+            return built + [local_colors, robot, moving_light]
+        return built + [local_colors, moving_light, VideoBackground(videos, floor=True, background=("wall",), seed=seeded(3))]
+    if level in CAMERA_RANGES:
+        position, rotation, fov = CAMERA_RANGES[level]
+        camera = RandomCamera(position=position, rotation_deg=math.degrees(rotation), fov_deg=(-fov, fov), seed=seeded(4))
+        return [local_colors, camera]
+    return []
+
+
+def texture_bank(level: str) -> ImageBank:
+    """The level's texture set: robosuite's texture files, then generated stand-ins for SECANT's custom textures."""
+    import robosuite
+
+    folder = Path(robosuite.__file__).parent / "models" / "assets" / "textures"
+    generated = ImageBank.procedural(GENERATED_TEXTURES[level], size=256, seed=("easy", "medium", "hard").index(level))
+    files = ROBOSUITE_TEXTURES[level]
+    if not files:
+        return generated
+    return ImageBank.from_files([folder / f"{name}.png" for name in files], size=256) + generated
+
+
+def make_robosuite_env(
+    task: str,
+    *,
+    frame_stack: int = 3,
+    generalization: str | Sequence[Transform] | None = None,
+    scene_id: int | None = None,
+    seed: int | None = None,
+    level_options: dict[str, Any] | None = None,
+    robot: str | None = None,
+    **env_options: Any,
+) -> TransformedEnv:
+    """Build a robosuite task as a TorchRL pixel env (RL-ViGen's setup by default).
+
+    Args:
+        task: ``"door"``, ``"lift"`` or ``"two-arm-peg-in-hole"``.
+        frame_stack: frames stacked along channels (``"pixels"`` is ``[3·frame_stack, H, W]``).
+        generalization: a level name (:data:`LEVELS`: ``train``, ``easy``, ``medium``, ``hard``,
+            ``camera_easy``, ``camera_hard``, ``robot_iiwa``, ...) or a list of vigen transforms.
+        scene_id: which of the level's 10 scenes (RL-ViGen's ``scene_id``); ``None`` uses
+            ``seed % 10`` (0 without a seed), so ``seeds=range(10)`` in
+            :func:`vigen.evaluation.evaluate` is RL-ViGen's 10 scenes.
+        seed: seeds robosuite (initial joints and object placement) and the level's draws.
+        level_options: ``{"videos": folder}`` for the ``hard`` level's video background
+            (default: procedural videos).
+        robot: the arm; a ``robot_*`` level sets it. Default ``"Panda"``.
+        **env_options: options of :class:`RobosuitePixelEnv` (``image_size``, ``camera``,
+            ``episode_length``, ``control_freq``, ``reward_shaping``, ``render_settings``, ``device``).
+
+    Returns:
+        A ``TransformedEnv`` with uint8 ``"pixels"`` ``[3·frame_stack, H, W]``, float32
+        ``"action"`` and ``"reward"``, ``"success"`` and the done flags.
+
+    Examples:
+        >>> from vigen.envs import make_env
+        >>> env = make_env("robosuite/lift", generalization="easy", scene_id=3, seed=0)  # doctest: +SKIP
+        >>> env.rollout(2)["pixels"].shape  # doctest: +SKIP
+        torch.Size([2, 9, 84, 84])
+    """
+    if frame_stack < 1:
+        raise ValueError(f"frame_stack must be at least 1, got {frame_stack}.")
+    scene_id = (0 if seed is None else seed % SCENES) if scene_id is None else scene_id
+    if isinstance(generalization, str):
+        if generalization.startswith("robot_") and generalization in LEVELS:
+            level_robot = next(r for r in ROBOTS if r.lower() == generalization[len("robot_"):])
+            if robot is not None and robot != level_robot:
+                raise ValueError(f"Level {generalization!r} uses the {level_robot} arm, but robot={robot!r} was given.")
+            robot = level_robot
+        perturbations = level_transforms(task, generalization, scene_id, seed, **(level_options or {}))
+    else:
+        perturbations = list(generalization or [])
+        for transform in perturbations:
+            if not isinstance(transform, Transform):
+                raise TypeError(f"generalization takes a level name or a list of TorchRL transforms, got {transform!r}.")
+    env = RobosuitePixelEnv(task, robot=robot or "Panda", seed=seed, **env_options)
+    transforms = [t for t in perturbations if isinstance(t, ScenePerturbation)]
+    transforms.append(ToTensorImage(in_keys=["pixels"], from_int=False, dtype=torch.uint8))
+    transforms += [t for t in perturbations if not isinstance(t, ScenePerturbation)]
+    if frame_stack > 1:
+        transforms.append(CatFrames(N=frame_stack, dim=-3, in_keys=["pixels"]))
+    return TransformedEnv(env, Compose(*transforms))

@@ -1,0 +1,107 @@
+"""Texture swaps: replace named textures of the live model with images, once per episode (RL-ViGen's floor, table and wall textures)."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+
+import mujoco
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+from vigen.transforms.image_bank import ImageBank
+from vigen.transforms.scene import Defaults, SceneHandle, SceneParams, ScenePerturbation
+from vigen.transforms.scene_colors import _named_id, _texture
+
+
+class RandomTextures(ScenePerturbation):
+    """Draw named textures of the scene with different images, per episode or per fixed scene.
+
+    RL-ViGen swaps the ground texture of its DMC tasks for one of 10 images per level, and the
+    floor, wall, table and object textures of its robosuite scenes for images chosen per scene id
+    (SECANT's presets). vigen draws one image per named texture from an
+    :class:`~vigen.transforms.ImageBank` (by default the built-in one, whose labmaze floor and wall
+    textures are made for this), writes it into the live model's texture pixels, resized to the
+    texture's size (repeated on every face of a cube texture), and re-uploads it to the render
+    context. With ``scene_id`` set, every episode gets the same draw, from that scene id.
+
+    Paper: RL-ViGen, https://arxiv.org/abs/2307.10224.
+
+    Args:
+        textures: name or names of the textures to replace (dm_control's floor: ``"grid"``).
+        images: an :class:`ImageBank`, a folder of images, or ``None`` for the built-in bank.
+        scene_id: a scene id that fixes the draw for every episode, or ``None`` to draw per episode.
+        seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
+
+    Examples:
+        >>> from vigen.envs import make_env
+        >>> env = make_env("dmc/walker-walk", generalization="floor_texture", seed=0)
+        >>> env.reset()["pixels"].shape
+        torch.Size([9, 84, 84])
+    """
+
+    def __init__(
+        self,
+        textures: str | Sequence[str] = "grid",
+        images: ImageBank | str | os.PathLike | None = None,
+        scene_id: int | None = None,
+        seed: int | None = None,
+    ) -> None:
+        super().__init__(seed=seed)
+        self._images = images
+        self.textures = (textures,) if isinstance(textures, str) else tuple(textures)
+        self.scene_id = scene_id
+        self._pixels: dict[tuple[int, int], np.ndarray] = {}
+
+    @property
+    def bank(self) -> ImageBank:
+        self._images = ImageBank.load(self._images)
+        return self._images
+
+    def read_defaults(self, scene: SceneHandle) -> Defaults:
+        model = scene.model
+        ids = np.array([_named_id(model, mujoco.mjtObj.mjOBJ_TEXTURE, name) for name in self.textures])
+        for name, texture in zip(self.textures, ids):
+            if model.tex_nchannel[texture] not in (3, 4):
+                raise ValueError(f"RandomTextures writes RGB(A) textures; {name!r} has {model.tex_nchannel[texture]} channels.")
+        self._pixels = {}
+        return {"textures": ids, **{f"original_{i}": _texture(model, t).copy() for i, t in enumerate(ids)}}
+
+    def sample(self, rng: np.random.Generator, defaults: Defaults) -> SceneParams:
+        if self.scene_id is not None:
+            rng = np.random.default_rng(self.scene_id)
+        return {"images": rng.integers(len(self.bank), size=len(self.textures))}
+
+    def identity_params(self, defaults: Defaults) -> SceneParams:
+        return {"images": np.full(len(self.textures), -1)}
+
+    def apply(self, scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
+        for index, (texture, image) in enumerate(zip(defaults["textures"], params["images"])):
+            texture, image = int(texture), int(image)
+            pixels = defaults[f"original_{index}"] if image < 0 else self._texture_pixels(scene.model, texture, image)
+            _texture(scene.model, texture)[:] = pixels
+            scene.upload_texture(texture)
+
+    def _texture_pixels(self, model: object, texture: int, image: int) -> np.ndarray:
+        """The image resized to the texture (each cube face gets the whole image), flat uint8 as MuJoCo stores it."""
+        if (texture, image) not in self._pixels:
+            width, height, channels = (int(x) for x in (model.tex_width[texture], model.tex_height[texture], model.tex_nchannel[texture]))
+            faces = height // width if model.tex_type[texture] != mujoco.mjtTexture.mjTEXTURE_2D and height % width == 0 else 1
+            resized = F.interpolate(self.bank.images[image][None].float(), size=(height // faces, width), mode="bilinear",
+                                    antialias=True, align_corners=False)
+            pixels = resized[0].round().clamp(0, 255).to(torch.uint8).permute(1, 2, 0).repeat(faces, 1, 1)
+            if channels == 4:
+                pixels = torch.cat([pixels, torch.full_like(pixels[..., :1], 255)], dim=-1)
+            self._pixels[texture, image] = pixels.reshape(-1).numpy()
+        return self._pixels[texture, image]
+
+    def __getstate__(self) -> dict:
+        state = super().__getstate__()
+        state["_pixels"] = {}
+        return state
+
+    def extra_repr(self) -> str:
+        source = self._images if isinstance(self._images, ImageBank) else (self._images or "builtin")
+        scene = "" if self.scene_id is None else f", scene_id={self.scene_id}"
+        return f"textures={self.textures}, images={source!s}{scene}"
