@@ -21,7 +21,7 @@ import torch
 from tensordict.nn import TensorDictModuleBase
 from torchrl.data import Bounded
 
-from vigen.envs.levels import GROUPS, LEVELS
+from vigen.envs.levels import resolve_levels
 from vigen.evaluation import evaluate, markdown_table, plot_levels, summarize, write_csv
 from vigen.io import unused_path
 from vigen.losses import make_loss
@@ -29,12 +29,18 @@ from vigen.policies import make_policy
 from vigen.rendering import RenderSettings
 
 
+DEFAULT_GROUPS = {"dmc": "dmcgb", "robosuite": "rlvigen"}
+
+
 def parse_args() -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("runs", nargs="+", type=Path, help="run folders or checkpoint files of examples/train.py")
-    parser.add_argument("--levels", nargs="+", default=["train", "dmcgb"], help=f"levels or groups ({', '.join(GROUPS)})")
+    parser.add_argument("--levels", nargs="+", default=None,
+                        help="levels or groups of the runs' suite (dmc: dmcgb, rlvigen, corruptions; robosuite: rlvigen, "
+                             "camera, embodiment); default: train and dmcgb (dmc) or rlvigen (robosuite)")
     parser.add_argument("--episodes", type=int, default=10, help="episodes per level and seed")
-    parser.add_argument("--seeds", nargs="+", type=int, default=[0], help="env and level seeds")
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0],
+                        help="env and level seeds (robosuite: also the scene, seed %% 10; RL-ViGen: --seeds 0 1 ... 9)")
     parser.add_argument("--random", action="store_true", help="also evaluate a random policy as a baseline")
     parser.add_argument("--videos", default=None, help="a folder of videos for the video levels (default: procedural)")
     parser.add_argument("--episode-length", type=int, default=None, help="simulator steps per episode (default: the run's)")
@@ -59,21 +65,26 @@ def load_agent(path: Path) -> tuple[dict, TensorDictModuleBase]:
 
 def main() -> None:
     args = parse_args()
-    unknown = [name for name in args.levels if name not in LEVELS and name not in GROUPS]
-    if unknown:
-        raise SystemExit(f"Unknown levels {unknown}. Levels: {', '.join(LEVELS)}. Groups: {', '.join(GROUPS)}.")
     level_options = {"videos": args.videos} if args.videos else None
+    agents = [load_agent(path) for path in args.runs]
+    suites = {config["env"].split("/")[0] for config, _ in agents}
+    levels = args.levels or ["train", *(DEFAULT_GROUPS.get(suite, "all") for suite in suites)]
+    for suite in suites:
+        try:
+            resolve_levels(levels, suite=suite)
+        except ValueError as error:
+            raise SystemExit(str(error)) from None
     rows = []
-    for path in args.runs:
-        config, policy = load_agent(path)
+    for config, policy in agents:
+        length = args.episode_length or config.get("episode_length")
         env_options = {"render_settings": RenderSettings.fast(), "level_options": level_options,
-                       "episode_length": args.episode_length or config.get("episode_length", 1000)}
-        rows += evaluate(policy, config["env"], args.levels, episodes=args.episodes, seeds=args.seeds,
+                       **({} if length is None else {"episode_length": length})}
+        rows += evaluate(policy, config["env"], levels, episodes=args.episodes, seeds=args.seeds,
                          env_options=env_options,
                          tags={"method": config["algo"], "run": config["seed"], "frames": config["frames"]})
     if args.random:
         for env in dict.fromkeys(row["env"] for row in rows):
-            rows += evaluate(None, env, args.levels, episodes=args.episodes, seeds=args.seeds,
+            rows += evaluate(None, env, levels, episodes=args.episodes, seeds=args.seeds,
                              env_options=env_options, tags={"method": "random", "run": 0})
 
     out = unused_path(args.out)
@@ -82,7 +93,12 @@ def main() -> None:
     write_csv(rows, out / "episodes.csv")
     write_csv(lines, out / "summary.csv")
     task = ", ".join(dict.fromkeys(row["env"] for row in rows))
-    (out / "report.md").write_text(f"# Zero-shot evaluation: {task}\n\n{markdown_table(lines)}\n")
+    report = f"# Zero-shot evaluation: {task}\n\n## Episode return\n\n{markdown_table(lines)}\n"
+    if all("success" in row for row in rows):  # tasks with a success check: the success rate in %
+        success = summarize([dict(row, success=100.0 * row["success"]) for row in rows], value="success")
+        write_csv(success, out / "summary_success.csv")
+        report += f"\n## Success rate (%)\n\n{markdown_table(success)}\n"
+    (out / "report.md").write_text(report)
     plot_levels(lines, out / "levels.png", title=f"{task}: zero-shot IQM per level (95 % CI)")
     print(markdown_table(lines))
     print(f"\nwrote {out}/: episodes.csv, summary.csv, report.md, levels.png")

@@ -1,4 +1,4 @@
-"""Train an augmentation-based agent on a dm_control task from pixels, with vigen and TorchRL.
+"""Train an augmentation-based agent from pixels on a dm_control or robosuite task, with vigen and TorchRL.
 
     python examples/train.py --algo svea --env dmc/cartpole-balance --preset cpu --frames 20000
     python examples/train.py --resume runs/svea-cartpole-balance-s0 --frames 40000   # continue it
@@ -46,9 +46,10 @@ PRESETS = {
 }
 
 
-def training_env(name: str, seed: int, episode_length: int = 1000) -> TransformedEnv:
-    """DrQ-v2's pixels (uint8 [9, 84, 84], action repeat 2), rendered fast, with episode returns summed."""
-    env = make_env(name, seed=seed, episode_length=episode_length, render_settings=RenderSettings.fast())
+def training_env(name: str, seed: int, episode_length: int | None = None) -> TransformedEnv:
+    """The suite's pixels (uint8 [9, 84, 84]; DrQ-v2's action repeat 2 on dm_control), rendered fast, with episode returns summed."""
+    length = {} if episode_length is None else {"episode_length": episode_length}
+    env = make_env(name, seed=seed, render_settings=RenderSettings.fast(), **length)
     return env.append_transform(RewardSum())
 
 
@@ -64,7 +65,8 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--workers", type=int, default=1, help=">1: a MultiSyncCollector with one env per process")
     parser.add_argument("--eval-levels", nargs="*", default=["train"], help="levels evaluated at every checkpoint")
     parser.add_argument("--logger", choices=["csv", "wandb"], default="csv", help="wandb runs offline")
-    parser.add_argument("--episode-length", type=int, default=1000, help="simulator steps per episode (dm_control: 1000)")
+    parser.add_argument("--episode-length", type=int, default=None,
+                        help="simulator steps per episode (default: the suite's, dm_control 1000, robosuite 500)")
     parser.add_argument("--threads", type=int, default=None, help="torch threads (default: torch's choice)")
     for name, value in PRESETS["paper"].items():  # every preset value can be overridden
         parser.add_argument(f"--{name.replace('_', '-')}", type=type(value), default=None)
@@ -180,9 +182,9 @@ def main() -> None:
         collector.update_policy_weights_()
 
         if steps // eval_every > (steps - new) // eval_every or steps >= total_steps:
+            length = {} if config["episode_length"] is None else {"episode_length": config["episode_length"]}
             rows = evaluate(policy, config["env"], config["eval_levels"], episodes=config["eval_episodes"],
-                            seeds=[config["seed"] + 10_000], env_options={"render_settings": RenderSettings.fast(),
-                                         "episode_length": config["episode_length"]})
+                            seeds=[config["seed"] + 10_000], env_options={"render_settings": RenderSettings.fast(), **length})
             for level in config["eval_levels"]:
                 returns = [row["return"] for row in rows if row["level"] == level]
                 logger.log_scalar(f"eval/{level}_return", sum(returns) / len(returns), step=steps * action_repeat)

@@ -113,3 +113,23 @@ def test_train_with_worker_processes(tmp_path):
     assert (checkpoint["steps"], checkpoint["updates"]) == (400, 150)
     metadata = json.loads((tmp_path / "run" / "replay_buffer" / "storage" / "storage_metadata.json").read_text())
     assert metadata["len"] == 400 - 2 * 3, "each worker's last 3 steps wait for their n-step window"
+
+
+@pytest.mark.render
+def test_robosuite_train_then_evaluate_reports_success(tmp_path):
+    """RL-ViGen's robosuite protocol in small: scenes picked by seed, a success-rate table next to the returns."""
+    pytest.importorskip("robosuite", reason="the robosuite extra is not installed: pip install -e '.[robosuite]'")
+    run_dir = tmp_path / "lift"
+    run("train.py", "--algo", "drqv2", "--env", "robosuite/lift", "--frames", "100", "--seed-frames", "50", "--eval-every",
+        "100", "--eval-episodes", "1", "--batch-size", "8", "--hidden-dim", "32", "--buffer-size", "2000",
+        "--episode-length", "50", "--out", run_dir)
+    config = json.loads((run_dir / "config.json").read_text())
+    assert config["env"] == "robosuite/lift" and config["action_dim"] == 7
+    out = tmp_path / "report"
+    result = run("evaluate.py", run_dir, "--levels", "easy", "robot_iiwa", "--seeds", "0", "1", "--episodes", "1",
+                 "--episode-length", "10", "--out", out)
+    assert "| level | drqv2 |" in result.stdout
+    rows = list(csv.DictReader((out / "episodes.csv").open()))
+    assert [(r["level"], r["seed"]) for r in rows] == [("easy", "0"), ("easy", "1"), ("robot_iiwa", "0"), ("robot_iiwa", "1")]
+    assert all(int(r["length"]) == 10 and r["success"] in ("True", "False") for r in rows)
+    assert "## Success rate (%)" in (out / "report.md").read_text() and (out / "summary_success.csv").exists()
