@@ -5,9 +5,9 @@
 #   bash benchmarks/learning_check.sh [ALGOS...]     (default: drqv2 svea; run from the repository root)
 set -euo pipefail
 python="${VIGEN_VENV:-.venv}/bin/python"
-algos=("${@:-drqv2 svea}")
+if [ $# -eq 0 ]; then set -- drqv2 svea; fi
 runs=()
-for algo in ${algos[@]}; do
+for algo in "$@"; do
   run="runs/learning-check/$algo-cartpole-balance-s1"
   if [ -d "$run" ]; then  # continue a stopped run
     "$python" examples/train.py --resume "$run" --frames 60000
