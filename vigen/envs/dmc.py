@@ -240,6 +240,10 @@ class DMCPixelEnv(DMControlWrapper):
         """The live dm_control ``Physics``: MuJoCo model and data, and the render contexts."""
         return self._env.physics
 
+    def render_frame(self) -> np.ndarray:
+        """The current view as uint8 ``[H, W, 3]``, rendered as the env renders its observations."""
+        return self.physics.render(self.image_size, self.image_size, camera_id=self.camera_id)
+
     @property
     def scene(self) -> DMCScene:
         """The handle that scene perturbations (``vigen.transforms``) edit."""

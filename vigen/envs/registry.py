@@ -17,6 +17,7 @@ from torchrl.envs import EnvBase
 SUITES: dict[str, tuple[str, str]] = {
     "dmc": ("vigen.envs.dmc", "dm_control suite tasks, dmc/<domain>-<task> (e.g. dmc/walker-walk)"),
     "robosuite": ("vigen.envs.robosuite", "robosuite manipulation, robosuite/<task> (e.g. robosuite/door); extra [robosuite]"),
+    "adroit": ("vigen.envs.adroit", "Adroit dexterous hand, adroit/<task> (door, hammer, pen); extra [adroit]"),
 }
 """Suite prefix -> (module, description)."""
 

@@ -279,16 +279,16 @@ class RobosuitePixelEnv(_EnvWrapper):
         """The handle that scene perturbations (``vigen.transforms``) edit."""
         return RobosuiteScene(self._env, self.camera, self.image_size)
 
-    def _render(self) -> torch.Tensor:
+    def render_frame(self) -> np.ndarray:
+        """The current view as uint8 ``[H, W, 3]``, top row first."""
         context, size = self._env.sim._render_context_offscreen, self.image_size
         context.gl_ctx.make_current()  # each env has its own GL context; robosuite's render assumes one
         context.render(size, size, camera_id=self._camera_id)
-        frame = context.read_pixels(size, size)[::-1]  # OpenGL rows run bottom-up
-        return torch.from_numpy(np.ascontiguousarray(frame)).to(self.device)
+        return np.ascontiguousarray(context.read_pixels(size, size)[::-1])  # OpenGL rows run bottom-up
 
     def _observation(self, success: bool, **flags: bool) -> TensorDict:
         values = {name: torch.tensor([value], device=self.device) for name, value in flags.items()}
-        return TensorDict(pixels=self._render(), success=torch.tensor([success], device=self.device), **values)
+        return TensorDict(pixels=torch.from_numpy(self.render_frame()).to(self.device), success=torch.tensor([success], device=self.device), **values)
 
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs: Any) -> TensorDictBase:
         self._env.reset()

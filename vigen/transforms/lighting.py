@@ -35,6 +35,9 @@ class RandomLighting(ScenePerturbation):
         diffuse_offset: half-width of the uniform diffuse offset, or ``None``.
         moving_step: per-step displacement of a moving light, or ``None`` for static lights.
         moving_range: how far a moving light travels from its episode start before turning.
+        position_jitter: per-axis half-widths ``(x, y, z)`` of a uniform position offset, added to
+            ``position_offset`` (RL-ViGen's Adroit ``light_*``: (0.5, 0.5, 0.2) easy, (1, 1, 0.5) hard).
+        moving_axes: the axes a moving light moves along (RL-ViGen's Adroit moves it along y only).
         height: a height to put every light at before the offsets (RL-ViGen's robosuite moving
             light starts at z = 4), or ``None`` to keep the model's.
         seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
@@ -58,6 +61,8 @@ class RandomLighting(ScenePerturbation):
         diffuse_offset: float | None = 0.2,
         moving_step: float | None = None,
         moving_range: float = 5.0,
+        position_jitter: tuple[float, float, float] | None = None,
+        moving_axes: tuple[int, ...] = (0, 1, 2),
         height: float | None = None,
         seed: int | None = None,
     ) -> None:
@@ -66,6 +71,8 @@ class RandomLighting(ScenePerturbation):
         self.diffuse_offset = diffuse_offset
         self.moving_step = moving_step
         self.moving_range = moving_range
+        self.position_jitter = tuple(position_jitter) if position_jitter is not None else None
+        self.moving_axes = tuple(moving_axes)
         self.height = height
 
     @classmethod
@@ -90,6 +97,9 @@ class RandomLighting(ScenePerturbation):
         if self.position_offset is not None:
             low, high = self.position_offset
             position = rng.integers(low, high + 1, size=shape).astype(np.float64)
+        if self.position_jitter is not None:
+            half_widths = np.asarray(self.position_jitter)
+            position = position + rng.uniform(-half_widths, half_widths, size=shape)
         diffuse = np.zeros(shape)
         if self.diffuse_offset is not None:
             diffuse = rng.uniform(-self.diffuse_offset, self.diffuse_offset, size=shape)
@@ -106,7 +116,9 @@ class RandomLighting(ScenePerturbation):
     def advance(self, scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
         if self.moving_step is None:
             return
-        motion = params["motion"] + params["direction"] * self.moving_step
+        axes = np.zeros(3)
+        axes[list(self.moving_axes)] = 1.0
+        motion = params["motion"] + params["direction"] * self.moving_step * axes
         outside = np.abs(motion) > self.moving_range
         params["direction"] = np.where(outside, -params["direction"], params["direction"])
         params["motion"] = np.clip(motion, -self.moving_range, self.moving_range)
@@ -116,6 +128,8 @@ class RandomLighting(ScenePerturbation):
         return (
             f"position_offset={self.position_offset}, diffuse_offset={self.diffuse_offset}, "
             f"moving_step={self.moving_step}, moving_range={self.moving_range}"
+            + ("" if self.position_jitter is None else f", position_jitter={self.position_jitter}")
+            + ("" if self.moving_axes == (0, 1, 2) else f", moving_axes={self.moving_axes}")
             + ("" if self.height is None else f", height={self.height}")
         )
 

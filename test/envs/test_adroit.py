@@ -1,0 +1,133 @@
+"""Adroit envs: TorchRL contract, seeding, episode length, RL-ViGen's Adroit levels through vigen's scene transforms."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+from torchrl.envs.utils import check_env_specs
+
+import vigen.transforms
+from vigen.envs import make_env
+from vigen.envs.levels import resolve_levels
+from vigen.rendering import RenderSettings
+from vigen.transforms.scene import ScenePerturbation
+
+adroit = pytest.importorskip("vigen.envs.adroit")
+pytest.importorskip("gymnasium_robotics", reason="the adroit extra is not installed: pip install -e '.[adroit]'")
+
+pytestmark = pytest.mark.render
+FAST = RenderSettings.fast()
+SIZE = 48
+MODEL_FIELDS = ["mat_rgba", "geom_rgba", "tex_data", "light_pos", "cam_pos", "cam_quat", "cam_fovy"]
+
+
+def door(level=None, seed: int = 0, **kwargs):
+    return make_env("adroit/door", generalization=level, seed=seed, image_size=SIZE, render_settings=FAST, **kwargs)
+
+
+def first_frame(env) -> torch.Tensor:
+    return env.reset()["pixels"][-3:].float()
+
+
+@pytest.mark.parametrize("task, action_dim", [("door", 28), ("hammer", 26), ("pen", 24)])
+def test_check_env_specs(task, action_dim):
+    env = make_env(f"adroit/{task}", seed=0, image_size=SIZE, render_settings=FAST)
+    check_env_specs(env)
+    state = env.reset()
+    assert state["pixels"].shape == (9, SIZE, SIZE) and state["pixels"].dtype == torch.uint8
+    assert env.action_spec.shape == (action_dim,)
+    assert state["pixels"].float().std() > 10
+    env.close()
+
+
+def test_frames_match_mujocos_renderer_top_row_first():
+    env = door(frame_stack=1)
+    pixels = env.reset()["pixels"].permute(1, 2, 0).numpy()
+    segmentation = env.base_env.scene.segmentation()
+    model = env.base_env.scene.model
+    background_rows = np.nonzero((segmentation[..., 0] < 0).any(axis=1))[0]
+    assert background_rows.min() == 0, "the black background is at the top of the view"
+    assert (pixels[segmentation[..., 0] < 0] == 0).all(), "and it is black where nothing is hit"
+    assert model.geom("ground").id in np.unique(segmentation[SIZE - 1, :, 0]), "the floor reaches the bottom row"
+
+
+def test_same_seed_same_episode_other_seed_other_start():
+    actions = torch.rand(4, 28, generator=torch.Generator().manual_seed(0)) * 2 - 1
+
+    def play(seed):
+        env = door(seed=seed)
+        state = env.reset()
+        frames = [state["pixels"]]
+        for action in actions:
+            state = env.step(state.set("action", action))["next"]
+            frames.append(state["pixels"])
+        return torch.stack(frames)
+
+    assert torch.equal(play(3), play(3))
+    assert not torch.equal(play(3)[0], play(4)[0]), "the door starts elsewhere"
+
+
+def test_truncated_after_episode_length_simulator_steps():
+    env = door(episode_length=6)
+    rollout = env.rollout(10, break_when_any_done=True)
+    assert rollout.shape == (3,), "6 simulator steps at action repeat 2"
+    assert rollout["next", "truncated"].squeeze(-1).tolist() == [False, False, True]
+    assert not rollout["next", "terminated"].any()
+
+
+@pytest.mark.parametrize("level", [level for level in adroit.LEVELS if level != "train"])
+def test_each_level_changes_the_first_frame(level):
+    assert (first_frame(door(level)) - first_frame(door("train"))).abs().mean() > 1.0
+
+
+def test_train_is_the_untouched_scene():
+    assert torch.equal(first_frame(door("train")), first_frame(door(None)))
+
+
+@pytest.mark.parametrize("level", ["color_hard", "video_hard", "camera_hard", "light_hard"])
+def test_twenty_resets_do_not_drift(level):
+    env = door(level)
+    model = env.base_env.scene.model
+    original = {name: getattr(model, name).copy() for name in MODEL_FIELDS}
+    for _ in range(20):
+        env.reset()
+    for perturbation in (t for t in env.transform if isinstance(t, ScenePerturbation)):
+        perturbation.restore()
+    for name, value in original.items():
+        assert np.array_equal(getattr(model, name), value), f"{name} drifted"
+
+
+def test_video_light_moves_along_y_only():
+    env = door("video_hard")
+    model = env.base_env.scene.model
+    state = env.reset()
+    start = model.light_pos.copy()
+    env.step(state.set("action", torch.zeros(28)))
+    np.testing.assert_allclose(model.light_pos - start, [[0.0, 0.12, 0.0]], atol=1e-12)
+
+
+def test_hand_keeps_its_colours():
+    env = door("color_hard")
+    model = env.base_env.scene.model
+    hand = [i for i in range(model.ngeom) if model.geom(i).name.startswith("V_")]
+    before = model.geom_rgba[hand].copy(), model.mat_rgba.copy()
+    env.reset()
+    assert np.array_equal(model.geom_rgba[hand], before[0])
+    assert not np.array_equal(model.mat_rgba, before[1]), "the scene's materials changed"
+
+
+def test_levels_use_vigen_transform_classes():
+    for level in adroit.LEVELS:
+        for transform in adroit.level_transforms(level):
+            assert type(transform) in vars(vigen.transforms).values(), f"{level}: {type(transform)}"
+
+
+def test_bad_names_say_what_is_valid():
+    with pytest.raises(ValueError, match="Did you mean adroit/door"):
+        make_env("adroit/dor")
+    with pytest.raises(ValueError, match="Unknown Adroit level 'extreme'"):
+        make_env("adroit/door", generalization="extreme")
+    with pytest.raises(ValueError, match="No camera 'top'"):
+        make_env("adroit/door", camera="top")
+    assert resolve_levels(["rlvigen"], suite="adroit") == ["color_easy", "color_hard", "video_easy", "video_hard"]

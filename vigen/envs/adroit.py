@@ -1,0 +1,332 @@
+"""Adroit dexterous-hand tasks (gymnasium-robotics) as TorchRL pixel envs, with RL-ViGen's Adroit levels.
+
+RL-ViGen's Adroit setting: 84×84 frames from a fixed camera, a stack of 3, success reported per
+episode. vigen builds the gymnasium-robotics models (``AdroitHandDoor/Hammer/Pen``, mujoco 3),
+repeats each action twice (VRL3's setting) and renders with its own ``mujoco.Renderer`` at the
+target size, so :class:`~vigen.rendering.RenderSettings` apply (gymnasium's renderer keeps a
+640×480 buffer with multisampling).
+
+Differences from RL-ViGen's ``mj_envs`` models, which need mujoco-py: the gymnasium-robotics models
+have no ``top`` camera (RL-ViGen's door and hammer view) and no skybox, so every task renders from
+``vil_camera`` (RL-ViGen's pen view) and the colour levels recolour the floor, table and objects
+(the background stays black) while the video levels key the background and floor by segmentation.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import mujoco
+import numpy as np
+import torch
+from tensordict import TensorDict, TensorDictBase
+from torchrl.data import Bounded, Categorical, Composite, Unbounded
+from torchrl.envs import CatFrames, Compose, ToTensorImage, Transform, TransformedEnv
+from torchrl.envs.common import _EnvWrapper
+
+from vigen.rendering import RenderSettings
+from vigen.transforms import ImageBank, RandomCamera, RandomLighting, RandomMaterialColors, RandomTextures, VideoBackground
+from vigen.transforms.scene import ScenePerturbation
+
+TASKS = {"door": "AdroitHandDoorEnv", "hammer": "AdroitHandHammerEnv", "pen": "AdroitHandPenEnv"}
+"""vigen name -> gymnasium-robotics env class (module ``adroit_<name>``)."""
+
+HAND_PARTS = ("C_", "V_", "MatColl", "MatViz", "forearm", "Adroit", "ARM", "arm")
+"""Name prefixes of the hand's and arm's geoms and materials, which the colour levels leave alone."""
+
+TABLE_TEXTURES = ("marble2d", "marblecube")
+"""The table top's textures, which the colour and video levels replace (RL-ViGen: one of 10 per level)."""
+
+# name -> (what it shows, where it comes from)
+LEVELS: dict[str, tuple[str, str]] = {
+    "train": ("gymnasium-robotics' default scene", "RL-ViGen train"),
+    "color_easy": ("table texture (10 per level), floor and object colours 0.5·default + 0.5·U(0, 1)", "RL-ViGen color-easy"),
+    "color_hard": ("table texture (10 per level), floor and object colours U(0, 1)", "RL-ViGen color-hard"),
+    "video_easy": ("background and floor replaced by a video; easy colours; light moving 0.04/step within ± 1.2 along y",
+                   "RL-ViGen video-easy"),
+    "video_hard": ("background and floor replaced by a video; hard colours; light moving 0.12/step within ± 3 along y",
+                   "RL-ViGen video-hard"),
+    "camera_easy": ("camera moved ± 0.03, turned ± 3.4°, field of view −4° … +5°", "RL-ViGen camera easy (setting.yaml)"),
+    "camera_hard": ("camera moved ± 0.07, turned ± 9.2°, field of view ± 10°", "RL-ViGen camera hard (setting.yaml)"),
+    "light_easy": ("light moved ± (0.5, 0.5, 0.2)", "RL-ViGen light easy (setting.yaml)"),
+    "light_hard": ("light moved ± (1, 1, 0.5)", "RL-ViGen light hard (setting.yaml)"),
+}
+
+GROUPS: dict[str, list[str]] = {
+    "rlvigen": ["color_easy", "color_hard", "video_easy", "video_hard"],
+    "camera": ["camera_easy", "camera_hard"],
+    "light": ["light_easy", "light_hard"],
+    "all": list(LEVELS),
+}
+
+COLOR_MIX = {"easy": 0.5, "hard": 1.0}
+MOVING_LIGHT = {"easy": (0.04, 1.2), "hard": (0.12, 3.0)}
+CAMERA = {"camera_easy": (0.03, 0.03, (-4.0, 5.0)), "camera_hard": (0.07, 0.08, (-10.0, 10.0))}
+"""Position (per axis), quaternion-component noise (RL-ViGen adds it unnormalised; vigen turns by 2·asin of it per axis), FOV."""
+LIGHT = {"light_easy": (0.5, 0.5, 0.2), "light_hard": (1.0, 1.0, 0.5)}
+
+
+def env_names() -> list[str]:
+    """The Adroit tasks as vigen env names.
+
+    Examples:
+        >>> from vigen.envs.adroit import env_names
+        >>> env_names()
+        ['adroit/door', 'adroit/hammer', 'adroit/pen']
+    """
+    return [f"adroit/{task}" for task in TASKS]
+
+
+def make_named(env: str, **kwargs: Any) -> TransformedEnv:
+    """Build ``"adroit/<task>"`` from its ``"<task>"`` part; see :func:`make_adroit_env`."""
+    return make_adroit_env(env, **kwargs)
+
+
+class AdroitScene:
+    """The :class:`~vigen.transforms.scene.SceneHandle` of an Adroit env and its renderer."""
+
+    def __init__(self, env: AdroitPixelEnv) -> None:
+        self._env = env
+
+    @property
+    def model(self) -> mujoco.MjModel:
+        return self._env._env.model
+
+    @property
+    def data(self) -> mujoco.MjData:
+        return self._env._env.data
+
+    def upload_texture(self, texture_id: int) -> None:
+        renderer = self._env.renderer
+        renderer._gl_context.make_current()
+        mujoco.mjr_uploadTexture(self.model, renderer._mjr_context, texture_id)
+
+    def segmentation(self) -> np.ndarray:
+        """``[H, W, 2]`` int32 (object id, object type) of the env's camera; ``-1`` where nothing is hit."""
+        renderer = self._env.renderer
+        renderer.enable_segmentation_rendering()
+        try:
+            renderer.update_scene(self.data, camera=self._env.camera)
+            return renderer.render()
+        finally:
+            renderer.disable_segmentation_rendering()
+
+
+class AdroitPixelEnv(_EnvWrapper):
+    """An Adroit hand task rendered to uint8 HWC frames, with the action repeat under the renderer.
+
+    The TorchRL base env of :func:`make_adroit_env`. The action is the hand's (and arm's) joint
+    targets in [-1, 1]; rewards (gymnasium-robotics' dense reward) are summed over repeated steps;
+    an episode ends at ``episode_length`` simulator steps as a truncation (the tasks do not
+    terminate). ``"success"`` is the task's success flag of the agent step (any repeated step).
+
+    Args:
+        task: ``"door"``, ``"hammer"`` or ``"pen"``.
+        action_repeat: simulator steps per agent step; only the last is rendered.
+        image_size: height and width of the rendered frame.
+        camera: camera name (``"vil_camera"``, or ``"fixed"`` for a closer view).
+        episode_length: simulator steps per episode (gymnasium-robotics: 200).
+        render_settings: MuJoCo render quality; ``None`` keeps the model's.
+        seed: seeds the first reset (initial door, hammer or pen target); ``None`` draws one.
+        device: device of the returned tensors.
+
+    Reference: RL-ViGen, https://arxiv.org/abs/2307.10224; Adroit (DAPG), https://arxiv.org/abs/1709.10087.
+
+    Examples:
+        >>> from vigen.envs.adroit import AdroitPixelEnv
+        >>> env = AdroitPixelEnv("door", seed=0)  # doctest: +SKIP
+        >>> env.rollout(3)["next", "pixels"].shape  # doctest: +SKIP
+        torch.Size([3, 84, 84, 3])
+    """
+
+    git_url = "https://github.com/Farama-Foundation/Gymnasium-Robotics"
+    libname = "gymnasium_robotics"
+
+    def __init__(
+        self,
+        task: str,
+        *,
+        action_repeat: int = 2,
+        image_size: int = 84,
+        camera: str = "vil_camera",
+        episode_length: int = 200,
+        render_settings: RenderSettings | None = None,
+        seed: int | None = None,
+        device: torch.device | str = "cpu",
+    ) -> None:
+        self._next_seed = seed
+        super().__init__(
+            task=task, action_repeat=action_repeat, image_size=image_size, camera=camera,
+            episode_length=episode_length, render_settings=render_settings, device=device,
+        )
+
+    def _check_kwargs(self, kwargs: dict) -> None:
+        if kwargs["task"] not in TASKS:
+            raise ValueError(f"Unknown Adroit task {kwargs['task']!r}. Valid names: {', '.join(TASKS)}.")
+        for name in ("action_repeat", "episode_length"):
+            if kwargs[name] < 1:
+                raise ValueError(f"{name} must be at least 1, got {kwargs[name]}.")
+
+    def _build_env(self, task, action_repeat, image_size, camera, episode_length, render_settings) -> Any:
+        try:
+            import importlib
+
+            module = importlib.import_module(f"gymnasium_robotics.envs.adroit_hand.adroit_{task}")
+        except ImportError as error:
+            raise ImportError(f"adroit/ envs need gymnasium-robotics: pip install -e \".[adroit]\" ({error}).") from error
+        env = getattr(module, TASKS[task])(reward_type="dense")
+        cameras = [env.model.camera(i).name for i in range(env.model.ncam)]
+        if camera not in cameras:
+            raise ValueError(f"No camera {camera!r} in adroit/{task}; cameras: {', '.join(cameras)}.")
+        (render_settings or RenderSettings()).apply(env.model, image_size, image_size)
+        self.renderer = mujoco.Renderer(env.model, image_size, image_size)
+        self.task, self.camera, self.image_size = task, camera, image_size
+        self.action_repeat, self.episode_length = action_repeat, episode_length
+        self._elapsed = 0
+        return env
+
+    def _make_specs(self, env: Any) -> None:
+        space = env.action_space
+        self.action_spec = Bounded(
+            torch.as_tensor(space.low, dtype=torch.float32), torch.as_tensor(space.high, dtype=torch.float32),
+            shape=space.shape, dtype=torch.float32, device=self.device,
+        )
+        self.observation_spec = Composite(
+            pixels=Unbounded((self.image_size, self.image_size, 3), dtype=torch.uint8, device=self.device),
+            success=Categorical(2, (1,), dtype=torch.bool, device=self.device),
+            device=self.device,
+        )
+        self.reward_spec = Unbounded((1,), dtype=torch.float32, device=self.device)
+        flag = Categorical(2, (1,), dtype=torch.bool, device=self.device)
+        self.done_spec = Composite(done=flag.clone(), terminated=flag.clone(), truncated=flag.clone(), device=self.device)
+
+    def _init_env(self) -> None:
+        pass
+
+    def _set_seed(self, seed: int | None) -> None:
+        self._next_seed = seed
+
+    @property
+    def scene(self) -> AdroitScene:
+        """The handle that scene perturbations (``vigen.transforms``) edit."""
+        return AdroitScene(self)
+
+    def render_frame(self) -> np.ndarray:
+        """The current view as uint8 ``[H, W, 3]``, top row first."""
+        self.renderer.update_scene(self._env.data, camera=self.camera)
+        return self.renderer.render()
+
+    def _observation(self, success: bool, done: bool) -> TensorDict:
+        frame = torch.from_numpy(self.render_frame()).to(self.device)
+        flag = torch.tensor([done], device=self.device)
+        return TensorDict(pixels=frame, success=torch.tensor([success], device=self.device), done=flag,
+                          truncated=flag.clone(), terminated=torch.zeros_like(flag))
+
+    def _reset(self, tensordict: TensorDictBase | None = None, **kwargs: Any) -> TensorDictBase:
+        self._env.reset(seed=self._next_seed)
+        self._next_seed, self._elapsed = None, 0
+        return self._observation(False, False)
+
+    def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
+        action = tensordict.get("action").detach().cpu().numpy().astype(np.float64)
+        reward, success = 0.0, False
+        for _ in range(self.action_repeat):
+            _, step_reward, _, _, info = self._env.step(action)
+            reward += float(step_reward)
+            success |= bool(info.get("success", False))
+            self._elapsed += 1
+            if self._elapsed >= self.episode_length:
+                break
+        result = self._observation(success, self._elapsed >= self.episode_length)
+        result.set("reward", torch.tensor([reward], dtype=torch.float32, device=self.device))
+        return result
+
+    def close(self, *, raise_if_closed: bool = True) -> None:
+        renderer = self.__dict__.get("renderer")
+        if renderer is not None:
+            renderer.close()
+            self.renderer = None
+        super().close(raise_if_closed=raise_if_closed)
+
+    def __repr__(self) -> str:
+        return (
+            f"{type(self).__name__}({self.task}, camera={self.camera}, image_size={self.image_size}, "
+            f"action_repeat={self.action_repeat}, episode_length={self.episode_length})"
+        )
+
+
+def level_transforms(level: str, seed: int | None = None, videos: Any = None) -> list[Transform]:
+    """The scene transforms of an Adroit ``level``, seeded from ``seed``."""
+    if level not in LEVELS:
+        raise ValueError(f"Unknown Adroit level {level!r}. Levels: {', '.join(LEVELS)}. Groups: {', '.join(GROUPS)}.")
+
+    def seeded(index: int) -> int | None:
+        return None if seed is None else seed * 1_000_003 + index
+
+    kind, _, difficulty = level.partition("_")
+    if kind in ("color", "video"):
+        tables = ImageBank.procedural(10, size=256, seed=100 + ("easy", "hard").index(difficulty))
+        built: list[Transform] = [
+            RandomTextures(TABLE_TEXTURES, images=tables, seed=seeded(0)),
+            RandomMaterialColors(mix=COLOR_MIX[difficulty], exclude=HAND_PARTS, seed=seeded(1)),
+        ]
+        if kind == "video":
+            step, moving_range = MOVING_LIGHT[difficulty]
+            built += [
+                RandomLighting(position_offset=None, diffuse_offset=None, moving_step=step, moving_range=moving_range,
+                               moving_axes=(1,), seed=seeded(2)),
+                VideoBackground(videos, floor=True, seed=seeded(3)),
+            ]
+        return built
+    if kind == "camera":
+        position, quaternion, fov = CAMERA[level]
+        return [RandomCamera(position=position, rotation_deg=math.degrees(2 * math.asin(quaternion)), fov_deg=fov, seed=seeded(4))]
+    if kind == "light":
+        return [RandomLighting(position_offset=None, diffuse_offset=None, position_jitter=LIGHT[level], seed=seeded(5))]
+    return []
+
+
+def make_adroit_env(
+    task: str,
+    *,
+    frame_stack: int = 3,
+    generalization: str | Sequence[Transform] | None = None,
+    seed: int | None = None,
+    level_options: dict[str, Any] | None = None,
+    **env_options: Any,
+) -> TransformedEnv:
+    """Build an Adroit task as a TorchRL pixel env (RL-ViGen's frames: 84×84, a stack of 3).
+
+    Args:
+        task: ``"door"``, ``"hammer"`` or ``"pen"``.
+        frame_stack: frames stacked along channels (``"pixels"`` is ``[3·frame_stack, H, W]``).
+        generalization: a level name (:data:`LEVELS`) or a list of vigen transforms.
+        seed: seeds the task's first reset and the level's draws.
+        level_options: ``{"videos": folder}`` for the video levels (default: procedural videos).
+        **env_options: options of :class:`AdroitPixelEnv` (``action_repeat``, ``image_size``,
+            ``camera``, ``episode_length``, ``render_settings``, ``device``).
+
+    Examples:
+        >>> from vigen.envs import make_env
+        >>> env = make_env("adroit/door", generalization="video_hard", seed=0)  # doctest: +SKIP
+        >>> env.rollout(2)["pixels"].shape  # doctest: +SKIP
+        torch.Size([2, 9, 84, 84])
+    """
+    if frame_stack < 1:
+        raise ValueError(f"frame_stack must be at least 1, got {frame_stack}.")
+    if isinstance(generalization, str):
+        perturbations = level_transforms(generalization, seed, **(level_options or {}))
+    else:
+        perturbations = list(generalization or [])
+        for transform in perturbations:
+            if not isinstance(transform, Transform):
+                raise TypeError(f"generalization takes a level name or a list of TorchRL transforms, got {transform!r}.")
+    env = AdroitPixelEnv(task, seed=seed, **env_options)
+    transforms = [t for t in perturbations if isinstance(t, ScenePerturbation)]
+    transforms.append(ToTensorImage(in_keys=["pixels"], from_int=False, dtype=torch.uint8))
+    transforms += [t for t in perturbations if not isinstance(t, ScenePerturbation)]
+    if frame_stack > 1:
+        transforms.append(CatFrames(N=frame_stack, dim=-3, in_keys=["pixels"]))
+    return TransformedEnv(env, Compose(*transforms))
