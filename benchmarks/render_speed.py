@@ -1,11 +1,14 @@
-"""Render cost of dm_control pixel envs: dm_control's default quality vs vigen's fast preset.
+"""Render cost of vigen's pixel envs per suite: the simulator's default quality vs vigen's fast preset.
 
 For each task, builds the same env twice (``RenderSettings()`` and ``RenderSettings.fast()``) and
 measures, in the same run and interleaved so that machine noise hits both alike:
 
-* render: ms per ``physics.render`` of one frame at the env's image size (camera of the task);
-* step: ms per agent step of the full vigen env (physics ×2 for action repeat, one render,
-  frame stacking, TorchRL bookkeeping).
+* render: ms per ``base_env.render_frame()`` (one frame at the env's image size and camera);
+* step: ms per agent step of the full vigen env (physics, action repeat, one render, frame
+  stacking, TorchRL bookkeeping).
+
+For Adroit it also times gymnasium-robotics' own ``render()`` at 84×84 (its ``MujocoRenderer``),
+the path RL-ViGen-style code takes. Suites whose extra is not installed are skipped.
 
 Each figure is the median over ``--repeats`` blocks of ``--frames`` calls. The ratio is
 default / fast (how many times faster the fast preset is).
@@ -14,11 +17,13 @@ Reproduce (about two minutes on 2 CPU cores):
 
     python benchmarks/render_speed.py
     python benchmarks/render_speed.py --tasks dmc/walker-walk --frames 300 --size 84
+    python benchmarks/render_speed.py --tasks robosuite/door robosuite/lift adroit/door adroit/pen --frames 30
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import statistics
 import time
 
@@ -27,7 +32,9 @@ import torch
 from vigen.envs import make_env
 from vigen.rendering import RenderSettings
 
-TASKS = ["dmc/walker-walk", "dmc/cartpole-swingup", "dmc/cheetah-run", "dmc/quadruped-walk", "dmc/finger-spin"]
+TASKS = ["dmc/walker-walk", "dmc/cartpole-swingup", "dmc/cheetah-run", "dmc/quadruped-walk", "dmc/finger-spin",
+         "robosuite/door", "robosuite/lift", "adroit/door", "adroit/pen"]
+EXTRAS = {"robosuite": "robosuite", "adroit": "gymnasium_robotics"}
 
 
 def ms_per_call(fn, calls: int) -> float:
@@ -45,8 +52,7 @@ def measure(name: str, size: int, frames: int, repeats: int) -> dict[str, tuple[
         env.reset()
     for _ in range(repeats):
         for key, env in envs.items():
-            physics, camera = env.base_env.physics, env.base_env.camera_id
-            renders[key].append(ms_per_call(lambda: physics.render(size, size, camera_id=camera), frames))
+            renders[key].append(ms_per_call(env.base_env.render_frame, frames))
             state = env.reset()
             action = torch.zeros(env.action_spec.shape)
 
@@ -63,6 +69,19 @@ def measure(name: str, size: int, frames: int, repeats: int) -> dict[str, tuple[
     }
 
 
+def gymnasium_render_ms(name: str, size: int, frames: int, repeats: int) -> float:
+    """ms per ``render()`` of the gymnasium-robotics env itself (its own renderer and defaults)."""
+    import gymnasium as gym
+    import gymnasium_robotics
+
+    gym.register_envs(gymnasium_robotics)
+    env = gym.make(f"AdroitHand{name.split('/')[1].capitalize()}-v1", render_mode="rgb_array", width=size, height=size)
+    env.reset(seed=0)
+    result = statistics.median(ms_per_call(env.render, frames) for _ in range(repeats))
+    env.close()
+    return result
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--tasks", nargs="+", default=TASKS)
@@ -75,9 +94,16 @@ def main() -> None:
     print("| task | render default (ms) | render fast (ms) | ratio | step default (ms) | step fast (ms) | ratio |")
     print("|---|---|---|---|---|---|---|")
     for name in args.tasks:
+        module = EXTRAS.get(name.split("/")[0])
+        if module is not None and importlib.util.find_spec(module) is None:
+            print(f"| {name} | skipped: pip install -e \".[{name.split('/')[0]}]\" |")
+            continue
         result = measure(name, args.size, args.frames, args.repeats)
         (rd, rf), (sd, sf) = result["render"], result["step"]
         print(f"| {name} | {rd:.1f} | {rf:.1f} | {rd / rf:.2f}x | {sd:.1f} | {sf:.1f} | {sd / sf:.2f}x |", flush=True)
+        if name.startswith("adroit/"):
+            reference = gymnasium_render_ms(name, args.size, args.frames, args.repeats)
+            print(f"| {name}, gymnasium's render() | {reference:.1f} | {rf:.1f} | {reference / rf:.2f}x | | | |", flush=True)
 
 
 if __name__ == "__main__":

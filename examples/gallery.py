@@ -3,6 +3,8 @@
     python examples/gallery.py --task dmc/walker-walk              # writes docs/gallery_walker-walk.png
     python examples/gallery.py --task dmc/cartpole-swingup --levels train dmcgb --seeds 0 1 2
     python examples/gallery.py --levels video_hard --level-option videos=/data/dmcgb/video_hard
+    python examples/gallery.py --task robosuite/door                # every robosuite level; seeds pick the scenes
+    python examples/gallery.py --task adroit/door                   # writes docs/gallery_adroit-door.png
 
 An existing file is never overwritten: the new grid gets the next free name (``-1``, ``-2``, ...)
 unless ``--overwrite`` is given.
@@ -21,7 +23,7 @@ from vigen.envs.levels import resolve_levels
 from vigen.io import unused_path
 from vigen.rendering import RenderSettings
 
-LEVELS = [
+DMC_LEVELS = [
     "train", "color_easy", "color_hard", "objects_color_hard", "floor_texture", "video_easy", "video_hard",
     "light_easy", "light_hard", "camera_easy", "camera_hard", "gaussian_noise_3", "gaussian_blur_3",
     "jpeg_compression_5", "contrast_3", "brightness_3",
@@ -50,21 +52,23 @@ def labelled_row(level: str, frames: list[np.ndarray]) -> np.ndarray:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--task", default="dmc/walker-walk")
-    parser.add_argument("--levels", nargs="+", default=LEVELS, help="level or group names (see docs/levels.md)")
+    parser.add_argument("--levels", nargs="+", default=None,
+                        help="level or group names (see docs/levels.md); default: every scene level of the task's suite")
     parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2, 3, 4])
     parser.add_argument("--fast", action="store_true", help="CPU-friendly render settings")
     parser.add_argument("--level-option", action="append", default=[], metavar="KEY=VALUE",
                         help="passed to the levels' transforms, e.g. videos=/path or palette=/path/color_hard.pt")
-    parser.add_argument("--out", type=Path, help="default: docs/gallery_<task>.png")
+    parser.add_argument("--out", type=Path, help="default: docs/gallery_<task>.png (dmc), docs/gallery_<suite>-<task>.png")
     parser.add_argument("--overwrite", action="store_true")
     args = parser.parse_args()
 
     options = dict(option.split("=", 1) for option in args.level_option)
-    levels = resolve_levels(args.levels)
+    suite, name = args.task.split("/", 1)
+    levels = resolve_levels(args.levels or (DMC_LEVELS if suite == "dmc" else ["all"]), suite=suite)
     rows = [labelled_row(level, first_frames(args.task, level, args.seeds, args.fast, options)) for level in levels]
     grid = np.concatenate(rows, axis=0)
 
-    out = args.out or Path("docs") / f"gallery_{args.task.split('/', 1)[1]}.png"
+    out = args.out or Path("docs") / f"gallery_{name if suite == 'dmc' else f'{suite}-{name}'}.png"
     out = out if args.overwrite else unused_path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     if not cv2.imwrite(str(out), cv2.cvtColor(grid, cv2.COLOR_RGB2BGR)):
