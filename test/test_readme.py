@@ -24,7 +24,7 @@ def run_example(code: str, tmp_path: Path) -> str:
 
 
 def test_every_example_is_checked():
-    assert len(EXAMPLES) == 5
+    assert len(EXAMPLES) == 6
 
 
 @pytest.mark.slow
@@ -53,3 +53,10 @@ def test_loss_example_runs(tmp_path):
 def test_evaluation_example_runs(tmp_path):
     out = run_example(EXAMPLES[4], tmp_path)
     assert "'level': 'train'" in out and "| level | random |" in out and "| color_hard |" in out
+
+
+@pytest.mark.render
+def test_manipulation_example_runs(tmp_path):
+    pytest.importorskip("robosuite", reason="the robosuite extra is not installed: pip install -e '.[robosuite]'")
+    out = run_example(EXAMPLES[5], tmp_path)
+    assert "('train', 0, 20, False)" in out and "('robot_iiwa', 1, 20, " in out

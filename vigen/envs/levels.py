@@ -176,7 +176,26 @@ def levels_markdown() -> str:
         lines.append(f"| `{level}` | {what} | {spec or '—'} | {source} |")
     lines += ["", "| group | levels |", "|---|---|"]
     lines += [f"| `{group}` | {', '.join(f'`{name}`' for name in names)} |" for group, names in GROUPS.items()]
+    lines += _suite_markdown("robosuite", "robosuite/door", "the transforms for `robosuite/door`, scene 0")
+    lines += _suite_markdown("adroit", "adroit/door", "the transforms")
     return "\n".join(lines) + "\n"
+
+
+def _suite_markdown(suite: str, example: str, shown: str) -> list[str]:
+    """The level table of another suite: what each level shows, its source, and the transforms (with their parameters)."""
+    from vigen.envs.registry import suite_module
+
+    module = suite_module(suite)
+    task = example.split("/", 1)[1]
+    lines = ["", f"## {suite}/ levels", "", f"Use a level with `make_env(\"{example}\", generalization=level, seed=...)`; "
+             f"the last column lists {shown}.", "", "| level | what changes | source | transforms |", "|---|---|---|---|"]
+    for level, (what, source) in module.LEVELS.items():
+        built = module.level_transforms(task, level) if suite == "robosuite" else module.level_transforms(level)
+        spec = "; ".join(f"`{transform!r}`".replace("|", "\\|") for transform in built)
+        lines.append(f"| `{level}` | {what} | {source} | {spec or '—'} |")
+    lines += ["", "| group | levels |", "|---|---|"]
+    lines += [f"| `{group}` | {', '.join(f'`{name}`' for name in names)} |" for group, names in module.GROUPS.items()]
+    return lines
 
 
 if __name__ == "__main__":

@@ -14,6 +14,7 @@ to an existing render context, and save their defaults against a stale sim after
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -346,7 +347,7 @@ def level_transforms(task: str, level: str, scene_id: int = 0, seed: int | None 
                                   height=4.0, seed=seeded(1))
     if level in ("easy", "medium", "hard"):
         textures = [name for name in TEXTURES[task] if level != "hard" or name not in BACKGROUND_TEXTURES]
-        built = [RandomTextures(textures, images=texture_bank(level), scene_id=SCENES * ("easy", "medium", "hard").index(level) + scene_id)]
+        built = [RandomTextures(textures, images=functools.partial(texture_bank, level), scene_id=SCENES * ("easy", "medium", "hard").index(level) + scene_id)]
         if level == "easy":
             return built + [local_colors]
         if level == "medium":

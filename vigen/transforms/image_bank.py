@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from functools import partial
 from pathlib import Path
@@ -98,10 +99,12 @@ class ImageBank:
         return cls(torch.stack(_load_images(paths, size)), name=str(root))
 
     @classmethod
-    def load(cls, images: ImageBank | str | os.PathLike | None) -> ImageBank:
-        """``images`` itself if it is a bank, the built-in bank for ``None``, else the folder's images."""
+    def load(cls, images: ImageBank | str | os.PathLike | Callable[[], ImageBank] | None) -> ImageBank:
+        """``images`` itself if it is a bank, the built-in bank for ``None``, a factory's bank, else the folder's images."""
         if isinstance(images, ImageBank):
             return images
+        if callable(images):  # built on first use, e.g. functools.partial(texture_bank, "easy")
+            return images()
         return cls.builtin() if images is None else cls.from_folder(images)
 
     def __len__(self) -> int:

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import functools
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import mujoco
 import numpy as np
@@ -30,7 +31,8 @@ class RandomTextures(ScenePerturbation):
 
     Args:
         textures: name or names of the textures to replace (dm_control's floor: ``"grid"``).
-        images: an :class:`ImageBank`, a folder of images, or ``None`` for the built-in bank.
+        images: an :class:`ImageBank`, a folder of images, a function that returns a bank (called
+            at the first reset), or ``None`` for the built-in bank.
         scene_id: a scene id that fixes the draw for every episode, or ``None`` to draw per episode.
         seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
 
@@ -44,7 +46,7 @@ class RandomTextures(ScenePerturbation):
     def __init__(
         self,
         textures: str | Sequence[str] = "grid",
-        images: ImageBank | str | os.PathLike | None = None,
+        images: ImageBank | str | os.PathLike | Callable[[], ImageBank] | None = None,
         scene_id: int | None = None,
         seed: int | None = None,
     ) -> None:
@@ -102,6 +104,10 @@ class RandomTextures(ScenePerturbation):
         return state
 
     def extra_repr(self) -> str:
-        source = self._images if isinstance(self._images, ImageBank) else (self._images or "builtin")
+        images = self._images
+        if isinstance(images, functools.partial):
+            source = f"{images.func.__name__}({', '.join(map(repr, images.args))})"
+        else:
+            source = images if isinstance(images, ImageBank) else (images or "builtin")
         scene = "" if self.scene_id is None else f", scene_id={self.scene_id}"
         return f"textures={self.textures}, images={source!s}{scene}"
