@@ -22,13 +22,12 @@ import mujoco
 import numpy as np
 import torch
 from tensordict import TensorDict, TensorDictBase
-from torchrl.data import Bounded, Categorical, Composite, Unbounded
-from torchrl.envs import CatFrames, Compose, ToTensorImage, Transform, TransformedEnv
+from torchrl.envs import Transform, TransformedEnv
 from torchrl.envs.common import _EnvWrapper
 
+from vigen.envs.pixels import perturbations, set_task_specs, stacked_pixel_env
 from vigen.rendering import RenderSettings
 from vigen.transforms import ImageBank, RandomCamera, RandomLighting, RandomMaterialColors, RandomTextures, VideoBackground
-from vigen.transforms.scene import ScenePerturbation
 
 TASKS = {"door": "AdroitHandDoorEnv", "hammer": "AdroitHandHammerEnv", "pen": "AdroitHandPenEnv"}
 """vigen name -> gymnasium-robotics env class (module ``adroit_<name>``)."""
@@ -188,19 +187,7 @@ class AdroitPixelEnv(_EnvWrapper):
         return env
 
     def _make_specs(self, env: Any) -> None:
-        space = env.action_space
-        self.action_spec = Bounded(
-            torch.as_tensor(space.low, dtype=torch.float32), torch.as_tensor(space.high, dtype=torch.float32),
-            shape=space.shape, dtype=torch.float32, device=self.device,
-        )
-        self.observation_spec = Composite(
-            pixels=Unbounded((self.image_size, self.image_size, 3), dtype=torch.uint8, device=self.device),
-            success=Categorical(2, (1,), dtype=torch.bool, device=self.device),
-            device=self.device,
-        )
-        self.reward_spec = Unbounded((1,), dtype=torch.float32, device=self.device)
-        flag = Categorical(2, (1,), dtype=torch.bool, device=self.device)
-        self.done_spec = Composite(done=flag.clone(), terminated=flag.clone(), truncated=flag.clone(), device=self.device)
+        set_task_specs(self, env.action_space.low, env.action_space.high, self.image_size)
 
     def _init_env(self) -> None:
         pass
@@ -314,19 +301,5 @@ def make_adroit_env(
         >>> env.rollout(2)["pixels"].shape  # doctest: +SKIP
         torch.Size([2, 9, 84, 84])
     """
-    if frame_stack < 1:
-        raise ValueError(f"frame_stack must be at least 1, got {frame_stack}.")
-    if isinstance(generalization, str):
-        perturbations = level_transforms(generalization, seed, **(level_options or {}))
-    else:
-        perturbations = list(generalization or [])
-        for transform in perturbations:
-            if not isinstance(transform, Transform):
-                raise TypeError(f"generalization takes a level name or a list of TorchRL transforms, got {transform!r}.")
-    env = AdroitPixelEnv(task, seed=seed, **env_options)
-    transforms = [t for t in perturbations if isinstance(t, ScenePerturbation)]
-    transforms.append(ToTensorImage(in_keys=["pixels"], from_int=False, dtype=torch.uint8))
-    transforms += [t for t in perturbations if not isinstance(t, ScenePerturbation)]
-    if frame_stack > 1:
-        transforms.append(CatFrames(N=frame_stack, dim=-3, in_keys=["pixels"]))
-    return TransformedEnv(env, Compose(*transforms))
+    transforms = perturbations(generalization, lambda level: level_transforms(level, seed, **(level_options or {})))
+    return stacked_pixel_env(AdroitPixelEnv(task, seed=seed, **env_options), transforms, frame_stack)

@@ -28,12 +28,12 @@ import torch
 from dm_control import suite
 from dm_control.mujoco.engine import Camera
 from dm_control.suite.wrappers import pixels
-from torchrl.envs import CatFrames, Compose, DoubleToFloat, ToTensorImage, Transform, TransformedEnv
+from torchrl.envs import DoubleToFloat, Transform, TransformedEnv
 from torchrl.envs.libs.dm_control import DMControlWrapper
 
 from vigen.envs.levels import make_perturbations
+from vigen.envs.pixels import stacked_pixel_env
 from vigen.rendering import RenderSettings
-from vigen.transforms.scene import ScenePerturbation
 
 DOMAIN_ALIASES = {"cup": "ball_in_cup"}
 """Short domain names used by DrQ-v2's task names (``cup_catch``)."""
@@ -307,11 +307,4 @@ def make_dmc_env(
     if frame_stack < 1:
         raise ValueError(f"frame_stack must be at least 1, got {frame_stack}.")
     perturbations = make_perturbations(generalization, seed, **(level_options or {}))
-    env = DMCPixelEnv(domain, task, seed=seed, **env_options)
-    transforms = [t for t in perturbations if isinstance(t, ScenePerturbation)]
-    transforms.append(ToTensorImage(in_keys=["pixels"], from_int=False, dtype=torch.uint8))
-    transforms += [t for t in perturbations if not isinstance(t, ScenePerturbation)]
-    if frame_stack > 1:
-        transforms.append(CatFrames(N=frame_stack, dim=-3, in_keys=["pixels"]))
-    transforms.append(DoubleToFloat())
-    return TransformedEnv(env, Compose(*transforms))
+    return stacked_pixel_env(DMCPixelEnv(domain, task, seed=seed, **env_options), perturbations, frame_stack, DoubleToFloat())

@@ -206,12 +206,6 @@ def make_perturbations(
     generalization: str | list[Transform] | None, seed: int | None = None, **options: Any
 ) -> list[Transform]:
     """The transforms for ``make_env(..., generalization=...)``: a level name, a list of transforms, or ``None``."""
-    if generalization is None:
-        return []
-    if isinstance(generalization, str):
-        return level_transforms(generalization, seed, **options)
-    built = list(generalization)
-    for transform in built:
-        if not isinstance(transform, Transform):
-            raise TypeError(f"generalization takes a level name or a list of TorchRL transforms, got {transform!r}.")
-    return built
+    from vigen.envs.pixels import perturbations
+
+    return perturbations(generalization, lambda level: level_transforms(level, seed, **options))

@@ -24,10 +24,10 @@ import mujoco
 import numpy as np
 import torch
 from tensordict import TensorDict, TensorDictBase
-from torchrl.data import Bounded, Categorical, Composite, Unbounded
-from torchrl.envs import CatFrames, Compose, ToTensorImage, Transform, TransformedEnv
+from torchrl.envs import Transform, TransformedEnv
 from torchrl.envs.common import _EnvWrapper
 
+from vigen.envs.pixels import perturbations, set_task_specs, stacked_pixel_env
 from vigen.rendering import RenderSettings
 from vigen.transforms import (
     ImageBank,
@@ -37,7 +37,6 @@ from vigen.transforms import (
     RandomTextures,
     VideoBackground,
 )
-from vigen.transforms.scene import ScenePerturbation
 
 TASKS = {"door": "Door", "lift": "Lift", "two-arm-peg-in-hole": "TwoArmPegInHole"}
 """vigen name -> robosuite environment class."""
@@ -248,19 +247,7 @@ class RobosuitePixelEnv(_EnvWrapper):
         return env
 
     def _make_specs(self, env: Any) -> None:
-        low, high = env.action_spec
-        self.action_spec = Bounded(
-            torch.as_tensor(low, dtype=torch.float32), torch.as_tensor(high, dtype=torch.float32),
-            shape=(len(low),), dtype=torch.float32, device=self.device,
-        )
-        self.observation_spec = Composite(
-            pixels=Unbounded((self.image_size, self.image_size, 3), dtype=torch.uint8, device=self.device),
-            success=Categorical(2, (1,), dtype=torch.bool, device=self.device),
-            device=self.device,
-        )
-        self.reward_spec = Unbounded((1,), dtype=torch.float32, device=self.device)
-        flag = Categorical(2, (1,), dtype=torch.bool, device=self.device)
-        self.done_spec = Composite(done=flag.clone(), terminated=flag.clone(), truncated=flag.clone(), device=self.device)
+        set_task_specs(self, *env.action_spec, self.image_size)
 
     def _init_env(self) -> None:
         self._env.reset()
@@ -411,25 +398,11 @@ def make_robosuite_env(
         >>> env.rollout(2)["pixels"].shape  # doctest: +SKIP
         torch.Size([2, 9, 84, 84])
     """
-    if frame_stack < 1:
-        raise ValueError(f"frame_stack must be at least 1, got {frame_stack}.")
     scene_id = (0 if seed is None else seed % SCENES) if scene_id is None else scene_id
-    if isinstance(generalization, str):
-        if generalization.startswith("robot_") and generalization in LEVELS:
-            level_robot = next(r for r in ROBOTS if r.lower() == generalization[len("robot_"):])
-            if robot is not None and robot != level_robot:
-                raise ValueError(f"Level {generalization!r} uses the {level_robot} arm, but robot={robot!r} was given.")
-            robot = level_robot
-        perturbations = level_transforms(task, generalization, scene_id, seed, **(level_options or {}))
-    else:
-        perturbations = list(generalization or [])
-        for transform in perturbations:
-            if not isinstance(transform, Transform):
-                raise TypeError(f"generalization takes a level name or a list of TorchRL transforms, got {transform!r}.")
-    env = RobosuitePixelEnv(task, robot=robot or "Panda", seed=seed, **env_options)
-    transforms = [t for t in perturbations if isinstance(t, ScenePerturbation)]
-    transforms.append(ToTensorImage(in_keys=["pixels"], from_int=False, dtype=torch.uint8))
-    transforms += [t for t in perturbations if not isinstance(t, ScenePerturbation)]
-    if frame_stack > 1:
-        transforms.append(CatFrames(N=frame_stack, dim=-3, in_keys=["pixels"]))
-    return TransformedEnv(env, Compose(*transforms))
+    if isinstance(generalization, str) and generalization.startswith("robot_") and generalization in LEVELS:
+        level_robot = next(r for r in ROBOTS if r.lower() == generalization[len("robot_"):])
+        if robot is not None and robot != level_robot:
+            raise ValueError(f"Level {generalization!r} uses the {level_robot} arm, but robot={robot!r} was given.")
+        robot = level_robot
+    transforms = perturbations(generalization, lambda level: level_transforms(task, level, scene_id, seed, **(level_options or {})))
+    return stacked_pixel_env(RobosuitePixelEnv(task, robot=robot or "Panda", seed=seed, **env_options), transforms, frame_stack)
