@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import mujoco
 import numpy as np
 import pytest
 import torch
@@ -22,7 +23,8 @@ pytestmark = pytest.mark.render
 FAST = RenderSettings.fast()
 SIZE = 40
 PERTURBED_LEVELS = ["easy", "medium", "hard", "camera_easy", "camera_hard", "robot_iiwa"]
-MODEL_FIELDS = ["mat_rgba", "geom_rgba", "tex_data", "light_pos", "cam_pos", "cam_quat", "cam_fovy"]
+MODEL_FIELDS = ["mat_rgba", "geom_rgba", "tex_data", "light_pos", "light_type", "light_castshadow", "cam_pos", "cam_quat",
+                "cam_fovy"]
 
 
 def lift(level=None, seed: int = 0, **kwargs):
@@ -120,14 +122,27 @@ def test_twenty_resets_do_not_drift(level):
         assert np.array_equal(getattr(model, name), value), f"{name} drifted"
 
 
-def test_moving_light_starts_at_height_four_and_moves():
-    env = lift("medium")
+def test_moving_light_is_a_shadow_casting_spot_from_height_four_that_moves():
+    """RL-ViGen's medium/hard light: z = 4, shadows on, not directional (a directional light's position changes nothing)."""
+    env = lift("medium", frame_stack=1)
     model = env.base_env.scene.model
+    assert model.light_type[0] == mujoco.mjtLightType.mjLIGHT_DIRECTIONAL and not model.light_castshadow[0]
     state = env.reset()
     assert np.allclose(model.light_pos[:, 2], 4.0)
-    start = model.light_pos.copy()
-    env.step(state.set("action", torch.zeros(7)))
-    assert np.allclose(model.light_pos - start, 0.03)
+    assert model.light_type[0] == mujoco.mjtLightType.mjLIGHT_SPOT and model.light_castshadow[0]
+    start, first = model.light_pos.copy(), state["pixels"].float()
+    for _ in range(10):
+        state = env.step(state.set("action", torch.zeros(7)))["next"]
+    assert np.allclose(model.light_pos - start, 0.3)
+    light = next(t for t in env.transform if isinstance(t, vigen.transforms.RandomLighting))
+    scene = env.base_env.scene
+    mujoco.mj_camlight(scene.model, scene.data)  # light positions reach the renderer through data.light_xpos
+    moved = env.base_env.render_frame()
+    model.light_pos[:] = start
+    mujoco.mj_camlight(scene.model, scene.data)
+    assert np.abs(moved.astype(float) - env.base_env.render_frame()).mean() > 0.5, "the image depends on the light's position"
+    light.restore()
+    assert model.light_type[0] == mujoco.mjtLightType.mjLIGHT_DIRECTIONAL and not model.light_castshadow[0]
 
 
 def test_hard_level_replaces_floor_and_walls_with_video():
@@ -138,6 +153,9 @@ def test_hard_level_replaces_floor_and_walls_with_video():
     assert 0.1 < mask.float().mean() < 0.9, "floor and walls are part of the view, the robot and table are not"
     expected = video.videos.frames(video.params["video"], SIZE, SIZE)[0].permute(2, 0, 1)
     assert torch.equal(pixels[:, mask], expected[:, mask])
+    videos = [t.video for scene in (3, 4) for t in suite.level_transforms("lift", "hard", scene)
+              if isinstance(t, vigen.transforms.VideoBackground)]
+    assert videos == [3, 4], "each scene plays its own video in every episode"
 
 
 @pytest.mark.parametrize("robot", ["IIWA", "Kinova3"])

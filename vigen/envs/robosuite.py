@@ -81,15 +81,17 @@ LEVELS: dict[str, tuple[str, str]] = {
         "RL-ViGen eval-easy (SECANT presets)",
     ),
     "medium": (
-        "easy's colours, the medium texture set, the robot in one random colour, a moving light",
+        "easy's colours, the medium texture set, the robot in one random colour, a moving spot light with shadows from z = 4",
         "RL-ViGen eval-medium (SECANT presets)",
     ),
     "hard": (
-        "the hard texture set, a video behind the robot (floor and walls), a moving light",
+        "the hard texture set, the scene's video behind the robot (floor and walls), a moving light",
         "RL-ViGen eval-hard (SECANT presets, DMC-GB videos)",
     ),
-    "camera_easy": ("camera moved ± 0.12 m, turned ≤ 0.12 rad, field of view ± 10°; easy's colours", "RL-ViGen cam-easy"),
-    "camera_hard": ("camera moved ± 0.16 m, turned ≤ 0.16 rad, field of view ± 20°; easy's colours", "RL-ViGen cam-hard"),
+    "camera_easy": ("camera moved ± 0.12 m, turned up to 0.12 rad about each of its axes, field of view ± 10°; easy's colours",
+                    "RL-ViGen cam-easy (one random axis there)"),
+    "camera_hard": ("camera moved ± 0.16 m, turned up to 0.16 rad about each of its axes, field of view ± 20°; easy's colours",
+                    "RL-ViGen cam-hard (one random axis there)"),
     **{
         f"robot_{robot.lower()}": (f"the {robot} arm instead of the Panda, same controller", "RL-ViGen cross-embodiment")
         for robot in ROBOTS[1:]
@@ -296,6 +298,7 @@ class RobosuitePixelEnv(_EnvWrapper):
         )
 
 
+@functools.cache
 def _render_context_class(base: type) -> type:
     """robosuite's render context, freed in its own GL context.
 
@@ -331,7 +334,7 @@ def level_transforms(task: str, level: str, scene_id: int = 0, seed: int | None 
 
     local_colors = RandomMaterialColors(mix=0.2, exclude=ROBOT_PARTS, seed=seeded(0))
     moving_light = RandomLighting(position_offset=None, diffuse_offset=None, moving_step=0.03, moving_range=3.0,
-                                  height=4.0, seed=seeded(1))
+                                  height=4.0, directional=False, cast_shadow=True, seed=seeded(1))
     if level in ("easy", "medium", "hard"):
         textures = [name for name in TEXTURES[task] if level != "hard" or name not in BACKGROUND_TEXTURES]
         built = [RandomTextures(textures, images=functools.partial(texture_bank, level), scene_id=SCENES * ("easy", "medium", "hard").index(level) + scene_id)]
@@ -340,7 +343,7 @@ def level_transforms(task: str, level: str, scene_id: int = 0, seed: int | None 
         if level == "medium":
             robot = RandomMaterialColors(mix=1.0, include=ROBOT_PARTS[:2], shared=True, seed=seeded(2))
             return built + [local_colors, robot, moving_light]
-        return built + [local_colors, moving_light, VideoBackground(videos, floor=True, background=("wall",), seed=seeded(3))]
+        return built + [local_colors, moving_light, VideoBackground(videos, floor=True, background=("wall",), video=scene_id, seed=seeded(3))]
     if level in CAMERA_RANGES:
         position, rotation, fov = CAMERA_RANGES[level]
         camera = RandomCamera(position=position, rotation_deg=math.degrees(rotation), fov_deg=(-fov, fov), seed=seeded(4))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import mujoco
 import numpy as np
 
 from vigen.transforms.scene import Defaults, SceneHandle, SceneParams, ScenePerturbation
@@ -40,6 +41,10 @@ class RandomLighting(ScenePerturbation):
         moving_axes: the axes a moving light moves along (RL-ViGen's Adroit moves it along y only).
         height: a height to put every light at before the offsets (RL-ViGen's robosuite moving
             light starts at z = 4), or ``None`` to keep the model's.
+        directional: make every light directional (``True``) or a spot light (``False``), or keep
+            each light's type (``None``). A directional light's position does not change the
+            image, so a moving light must not be directional (RL-ViGen's robosuite: ``False``).
+        cast_shadow: turn shadows on or off for every light, or keep them (``None``).
         seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
 
     Examples:
@@ -64,6 +69,8 @@ class RandomLighting(ScenePerturbation):
         position_jitter: tuple[float, float, float] | None = None,
         moving_axes: tuple[int, ...] = (0, 1, 2),
         height: float | None = None,
+        directional: bool | None = None,
+        cast_shadow: bool | None = None,
         seed: int | None = None,
     ) -> None:
         super().__init__(seed=seed)
@@ -74,6 +81,8 @@ class RandomLighting(ScenePerturbation):
         self.position_jitter = tuple(position_jitter) if position_jitter is not None else None
         self.moving_axes = tuple(moving_axes)
         self.height = height
+        self.directional = directional
+        self.cast_shadow = cast_shadow
 
     @classmethod
     def rlvigen(cls, level: str, seed: int | None = None) -> RandomLighting:
@@ -87,8 +96,9 @@ class RandomLighting(ScenePerturbation):
         if model.nlight == 0:
             raise ValueError("RandomLighting needs a scene with at least one light.")
         defaults = {name: getattr(model, name).copy() for name in POSITION_FIELDS}
-        defaults["height"] = np.array(np.nan if self.height is None else self.height)
         defaults["light_diffuse"] = model.light_diffuse.copy()
+        defaults["light_type"] = model.light_type.copy()
+        defaults["light_castshadow"] = model.light_castshadow.copy()
         return defaults
 
     def sample(self, rng: np.random.Generator, defaults: Defaults) -> SceneParams:
@@ -103,15 +113,23 @@ class RandomLighting(ScenePerturbation):
         diffuse = np.zeros(shape)
         if self.diffuse_offset is not None:
             diffuse = rng.uniform(-self.diffuse_offset, self.diffuse_offset, size=shape)
-        return {"position": position, "diffuse": diffuse, "motion": np.zeros(shape), "direction": np.ones(shape), "height": True}
+        return {"position": position, "diffuse": diffuse, "motion": np.zeros(shape), "direction": np.ones(shape), "restyle": True}
 
     def identity_params(self, defaults: Defaults) -> SceneParams:
         zeros = np.zeros_like(defaults["light_pos"])
-        return {"position": zeros, "diffuse": zeros, "motion": zeros, "direction": np.ones_like(zeros)}
+        return {"position": zeros, "diffuse": zeros, "motion": zeros, "direction": np.ones_like(zeros), "restyle": False}
 
     def apply(self, scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
-        _place_lights(scene, defaults, params)
-        scene.model.light_diffuse[:] = defaults["light_diffuse"] + params["diffuse"]
+        model = scene.model
+        self._place(scene, defaults, params)
+        model.light_diffuse[:] = defaults["light_diffuse"] + params["diffuse"]
+        model.light_type[:] = defaults["light_type"]
+        model.light_castshadow[:] = defaults["light_castshadow"]
+        if params["restyle"] and self.directional is not None:
+            kind = mujoco.mjtLightType.mjLIGHT_DIRECTIONAL if self.directional else mujoco.mjtLightType.mjLIGHT_SPOT
+            model.light_type[:] = int(kind)
+        if params["restyle"] and self.cast_shadow is not None:
+            model.light_castshadow[:] = self.cast_shadow
 
     def advance(self, scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
         if self.moving_step is None:
@@ -122,7 +140,16 @@ class RandomLighting(ScenePerturbation):
         outside = np.abs(motion) > self.moving_range
         params["direction"] = np.where(outside, -params["direction"], params["direction"])
         params["motion"] = np.clip(motion, -self.moving_range, self.moving_range)
-        _place_lights(scene, defaults, params)
+        self._place(scene, defaults, params)
+
+    def _place(self, scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
+        """Write default position (at ``height`` when restyled) + episode offset + motion into every position field."""
+        offset = params["position"] + params["motion"]
+        for name in POSITION_FIELDS:
+            start = defaults[name].copy()
+            if params["restyle"] and self.height is not None:
+                start[:, 2] = self.height
+            getattr(scene.model, name)[:] = start + offset
 
     def extra_repr(self) -> str:
         return (
@@ -131,14 +158,6 @@ class RandomLighting(ScenePerturbation):
             + ("" if self.position_jitter is None else f", position_jitter={self.position_jitter}")
             + ("" if self.moving_axes == (0, 1, 2) else f", moving_axes={self.moving_axes}")
             + ("" if self.height is None else f", height={self.height}")
+            + ("" if self.directional is None else f", directional={self.directional}")
+            + ("" if self.cast_shadow is None else f", cast_shadow={self.cast_shadow}")
         )
-
-
-def _place_lights(scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
-    """Write default position + episode offset + motion into every field MuJoCo may read a light's position from."""
-    offset = params["position"] + params["motion"]
-    for name in POSITION_FIELDS:
-        start = defaults[name].copy()
-        if params.get("height") and not np.isnan(defaults["height"]):
-            start[:, 2] = defaults["height"]
-        getattr(scene.model, name)[:] = start + offset

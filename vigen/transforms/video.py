@@ -38,6 +38,8 @@ class VideoBackground(ScenePerturbation):
             procedural videos (10, as DMC-GB's ``video_easy``).
         floor: replace the floor (every ground plane) too.
         background: name prefixes of more geoms to replace, e.g. ``("wall",)``.
+        video: play this video (index into ``videos``, wrapped) in every episode instead of
+            taking them in turn (RL-ViGen's robosuite ``eval-hard``: the scene id).
         seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
 
     Examples:
@@ -52,6 +54,7 @@ class VideoBackground(ScenePerturbation):
         videos: VideoSource | str | os.PathLike | None = None,
         floor: bool = False,
         background: Sequence[str] = (),
+        video: int | None = None,
         seed: int | None = None,
     ) -> None:
         super().__init__(seed=seed)
@@ -61,6 +64,7 @@ class VideoBackground(ScenePerturbation):
         )
         self.floor = floor
         self.background = tuple(background)
+        self.video = video
 
     def read_defaults(self, scene: SceneHandle) -> Defaults:
         model = scene.model
@@ -73,6 +77,8 @@ class VideoBackground(ScenePerturbation):
         return {"is_background": is_background}
 
     def sample(self, rng: np.random.Generator, defaults: Defaults) -> SceneParams:
+        if self.video is not None:
+            return {"video": self.video % len(self.videos), "frame": 0}
         previous = self.params["video"] if self.params is not None else int(rng.integers(len(self.videos))) - 1
         return {"video": (previous + 1) % len(self.videos), "frame": 0}
 
@@ -124,4 +130,5 @@ class VideoBackground(ScenePerturbation):
 
     def extra_repr(self) -> str:
         background = f", background={self.background}" if self.background else ""
-        return f"videos={self.videos}, floor={self.floor}{background}"
+        video = "" if self.video is None else f", video={self.video}"
+        return f"videos={self.videos}, floor={self.floor}{background}{video}"
