@@ -68,6 +68,40 @@ def test_same_seed_same_episode_other_seed_other_start():
     assert not torch.equal(play(3)[0], play(4)[0]), "the door starts elsewhere"
 
 
+def test_dense_reward_is_dapgs():
+    """DAPG's door reward: -0.1·‖palm − handle‖ - 0.1·(q - 1.57)² - 1e-5·Σ qvel² + bonuses (gymnasium-robotics 1.4.2 flips the first sign)."""
+    env = door(action_repeat=1)
+    state = env.reset()
+    action = torch.rand(28, generator=torch.Generator().manual_seed(1)) * 2 - 1
+    reward = env.step(state.set("action", action))["next", "reward"].item()
+    task, data = env.base_env._env, env.base_env._env.data
+    distance = np.linalg.norm(data.site_xpos[task.grasp_site_id] - data.site_xpos[task.handle_site_id])
+    hinge = float(data.qpos[task.door_hinge_addrs])
+    expected = -0.1 * distance - 0.1 * (hinge - 1.57) ** 2 - 1e-5 * np.sum(data.qvel**2)
+    expected += 2 * (hinge > 0.2) + 8 * (hinge > 1.0) + 10 * (hinge > 1.35)
+    assert reward == pytest.approx(expected, rel=1e-5, abs=1e-6)
+
+
+def test_success_after_more_than_25_goal_steps(monkeypatch):
+    """DAPG's criterion (RL-ViGen reports it): the goal must hold on more than 25 simulator steps of the episode."""
+    env = door()
+    task = env.base_env._env
+    state = env.reset()
+    monkeypatch.setattr(task, "step", lambda action: (None, 0.0, False, False, {"success": True}))
+    flags = []
+    for _ in range(15):
+        state = env.step(state.set("action", torch.zeros(28)))["next"]
+        flags.append(bool(state["success"]))
+    assert flags.index(True) == 12 and all(flags[12:]), "2 simulator steps per agent step: 26 > 25 at the 13th"
+    assert adroit.SUCCESS_STEPS == {"door": 25, "hammer": 25, "pen": 20}
+
+
+def test_pen_episodes_are_100_simulator_steps():
+    pen = make_env("adroit/pen", seed=0, image_size=SIZE, render_settings=FAST)
+    assert pen.base_env.episode_length == 100 and door().base_env.episode_length == 200
+    assert pen.rollout(60, break_when_any_done=True).shape == (50,)
+
+
 def test_truncated_after_episode_length_simulator_steps():
     env = door(episode_length=6)
     rollout = env.rollout(10, break_when_any_done=True)

@@ -35,14 +35,22 @@ TASKS = {"door": "AdroitHandDoorEnv", "hammer": "AdroitHandHammerEnv", "pen": "A
 HAND_PARTS = ("C_", "V_", "MatColl", "MatViz", "forearm", "Adroit", "ARM", "arm")
 """Name prefixes of the hand's and arm's geoms and materials, which the colour levels leave alone."""
 
+EPISODE_LENGTHS = {"door": 200, "hammer": 200, "pen": 100}
+"""Simulator steps per episode (DAPG / mj_envs ``max_episode_steps``, as in RL-ViGen)."""
+
+SUCCESS_STEPS = {"door": 25, "hammer": 25, "pen": 20}
+"""An episode succeeds once the goal holds on more than this many simulator steps (DAPG's ``evaluate_success``)."""
+
 TABLE_TEXTURES = ("marble2d", "marblecube")
 """The table top's textures, which the colour and video levels replace (RL-ViGen: one of 10 per level)."""
 
 # name -> (what it shows, where it comes from)
 LEVELS: dict[str, tuple[str, str]] = {
     "train": ("gymnasium-robotics' default scene", "RL-ViGen train"),
-    "color_easy": ("table texture (10 per level), floor and object colours 0.5·default + 0.5·U(0, 1)", "RL-ViGen color-easy"),
-    "color_hard": ("table texture (10 per level), floor and object colours U(0, 1)", "RL-ViGen color-hard"),
+    "color_easy": ("table texture (10 per level), floor and object colours 0.5·default + 0.5·U(0, 1)",
+                   "RL-ViGen color-easy (its parts; vigen's colour ranges)"),
+    "color_hard": ("table texture (10 per level), floor and object colours U(0, 1)",
+                   "RL-ViGen color-hard (its parts; vigen's colour ranges)"),
     "video_easy": ("background and floor replaced by a video; easy colours; light moving 0.04/step within ± 1.2 along y",
                    "RL-ViGen video-easy"),
     "video_hard": ("background and floor replaced by a video; hard colours; light moving 0.12/step within ± 3 along y",
@@ -117,16 +125,22 @@ class AdroitPixelEnv(_EnvWrapper):
     """An Adroit hand task rendered to uint8 HWC frames, with the action repeat under the renderer.
 
     The TorchRL base env of :func:`make_adroit_env`. The action is the hand's (and arm's) joint
-    targets in [-1, 1]; rewards (gymnasium-robotics' dense reward) are summed over repeated steps;
-    an episode ends at ``episode_length`` simulator steps as a truncation (the tasks do not
-    terminate). ``"success"`` is the task's success flag of the agent step (any repeated step).
+    targets in [-1, 1]; rewards (DAPG's dense reward) are summed over repeated steps; an episode
+    ends at ``episode_length`` simulator steps as a truncation (the tasks do not terminate).
+    ``"success"`` follows DAPG's criterion, which RL-ViGen reports: it turns true once the goal
+    has held on more than :data:`SUCCESS_STEPS` simulator steps of the episode (25; 20 for pen),
+    so an episode succeeded if its last step says so.
+
+    gymnasium-robotics 1.2.1–1.4.2 flipped the sign of the reach term of the door and hammer
+    rewards in its ``v1`` envs (``+0.1·‖palm − handle‖``, pushing the hand away); vigen restores
+    DAPG's ``-0.1·‖palm − handle‖``.
 
     Args:
         task: ``"door"``, ``"hammer"`` or ``"pen"``.
         action_repeat: simulator steps per agent step; only the last is rendered.
         image_size: height and width of the rendered frame.
         camera: camera name (``"vil_camera"``, or ``"fixed"`` for a closer view).
-        episode_length: simulator steps per episode (gymnasium-robotics: 200).
+        episode_length: simulator steps per episode; ``None``: :data:`EPISODE_LENGTHS` (200, pen 100).
         render_settings: MuJoCo render quality; ``None`` keeps the model's.
         seed: seeds the first reset (initial door, hammer or pen target); ``None`` draws one.
         device: device of the returned tensors.
@@ -150,12 +164,13 @@ class AdroitPixelEnv(_EnvWrapper):
         action_repeat: int = 2,
         image_size: int = 84,
         camera: str = "vil_camera",
-        episode_length: int = 200,
+        episode_length: int | None = None,
         render_settings: RenderSettings | None = None,
         seed: int | None = None,
         device: torch.device | str = "cpu",
     ) -> None:
         self._next_seed = seed
+        episode_length = EPISODE_LENGTHS.get(task, 1) if episode_length is None else episode_length
         super().__init__(
             task=task, action_repeat=action_repeat, image_size=image_size, camera=camera,
             episode_length=episode_length, render_settings=render_settings, device=device,
@@ -183,7 +198,7 @@ class AdroitPixelEnv(_EnvWrapper):
         self.renderer = mujoco.Renderer(env.model, image_size, image_size)
         self.task, self.camera, self.image_size = task, camera, image_size
         self.action_repeat, self.episode_length = action_repeat, episode_length
-        self._elapsed = 0
+        self._elapsed = self._goal_steps = 0
         return env
 
     def _make_specs(self, env: Any) -> None:
@@ -205,30 +220,45 @@ class AdroitPixelEnv(_EnvWrapper):
         self.renderer.update_scene(self._env.data, camera=self.camera)
         return self.renderer.render()
 
-    def _observation(self, success: bool, done: bool) -> TensorDict:
+    def _observation(self, terminated: bool, truncated: bool) -> TensorDict:
         frame = torch.from_numpy(self.render_frame()).to(self.device)
-        flag = torch.tensor([done], device=self.device)
-        return TensorDict(pixels=frame, success=torch.tensor([success], device=self.device), done=flag,
-                          truncated=flag.clone(), terminated=torch.zeros_like(flag))
+        success = self._goal_steps > SUCCESS_STEPS[self.task]
+
+        def flag(value: bool) -> torch.Tensor:
+            return torch.tensor([value], device=self.device)
+
+        return TensorDict(pixels=frame, success=flag(success), done=flag(terminated or truncated),
+                          terminated=flag(terminated), truncated=flag(truncated and not terminated))
 
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs: Any) -> TensorDictBase:
         self._env.reset(seed=self._next_seed)
-        self._next_seed, self._elapsed = None, 0
+        self._next_seed, self._elapsed, self._goal_steps = None, 0, 0
         return self._observation(False, False)
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         action = tensordict.get("action").detach().cpu().numpy().astype(np.float64)
-        reward, success = 0.0, False
+        reward, terminated = 0.0, False
         for _ in range(self.action_repeat):
-            _, step_reward, _, _, info = self._env.step(action)
-            reward += float(step_reward)
-            success |= bool(info.get("success", False))
+            _, step_reward, terminated, _, info = self._env.step(action)
+            reward += float(step_reward) + self._reach_sign_fix()
+            self._goal_steps += bool(info.get("success", False))
             self._elapsed += 1
-            if self._elapsed >= self.episode_length:
+            if terminated or self._elapsed >= self.episode_length:
                 break
-        result = self._observation(success, self._elapsed >= self.episode_length)
+        result = self._observation(bool(terminated), self._elapsed >= self.episode_length)
         result.set("reward", torch.tensor([reward], dtype=torch.float32, device=self.device))
         return result
+
+    def _reach_sign_fix(self) -> float:
+        """``-0.2·‖palm − target‖``: turns gymnasium-robotics' ``+0.1·d`` reach term back into DAPG's ``-0.1·d``."""
+        env, data = self._env, self._env.data
+        if self.task == "door":
+            distance = np.linalg.norm(data.site_xpos[env.grasp_site_id] - data.site_xpos[env.handle_site_id])
+        elif self.task == "hammer":
+            distance = np.linalg.norm(data.site_xpos[env.S_grasp_site_id] - data.xpos[env.obj_body_id])
+        else:
+            return 0.0
+        return -0.2 * float(distance)
 
     def close(self, *, raise_if_closed: bool = True) -> None:
         renderer = self.__dict__.get("renderer")
@@ -293,7 +323,7 @@ def make_adroit_env(
         seed: seeds the task's first reset and the level's draws.
         level_options: ``{"videos": folder}`` for the video levels (default: procedural videos).
         **env_options: options of :class:`AdroitPixelEnv` (``action_repeat``, ``image_size``,
-            ``camera``, ``episode_length``, ``render_settings``, ``device``).
+            ``camera``, ``episode_length`` (200; pen 100), ``render_settings``, ``device``).
 
     Examples:
         >>> from vigen.envs import make_env
