@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The learning check of docs/learning_check.md: DrQ-v2 and SVEA on cartpole-balance from pixels with the
 # `cpu` preset (the paper's agent, batch 64), 60k frames, seed 1; then the zero-shot report and the curves
-# next to DrQ-v2's published ones. About 75 minutes per algorithm for DrQ-v2 and 3 hours for SVEA on 2 cores.
+# next to DrQ-v2's published ones. About 80 minutes for DrQ-v2 and 3.5 hours for SVEA on 2 idle cores.
 #   bash benchmarks/learning_check.sh [ALGOS...]     (default: drqv2 svea; run from the repository root)
 set -euo pipefail
 python="${VIGEN_VENV:-.venv}/bin/python"
@@ -18,5 +18,5 @@ for algo in "$@"; do
 done
 "$python" examples/evaluate.py "${runs[@]}" --random --levels train color_hard video_easy video_hard camera_easy \
   --episodes 5 --out docs/learning_check_report
-"$python" benchmarks/learning_curves.py "${runs[@]}" --out docs/learning_check \
+"$python" benchmarks/learning_curves.py "${runs[@]}" --out docs/learning_check_curve \
   --published ../shared/data/drqv2_curves/dmc_cartpole_balance.csv

@@ -1,7 +1,7 @@
 """Plot learning curves of examples/train.py runs next to DrQ-v2's published curves, and tabulate them.
 
     python benchmarks/learning_curves.py runs/drqv2-cartpole-balance-s1 runs/svea-cartpole-balance-s1 \\
-        --published ../shared/data/drqv2_curves/dmc_cartpole_balance.csv --out docs/learning_check
+        --published ../shared/data/drqv2_curves/dmc_cartpole_balance.csv --out docs/learning_check_curve
 
 Writes ``<out>.png`` (evaluation return against environment frames; the published curve as its
 seed mean with the min–max band over seeds) and ``<out>.md`` (the same numbers as a table).
@@ -41,7 +41,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("runs", nargs="+", type=Path)
     parser.add_argument("--published", type=Path, default=None, help="a DrQ-v2 curves CSV (optional)")
-    parser.add_argument("--out", type=Path, default=Path("docs/learning_check"))
+    parser.add_argument("--out", type=Path, default=Path("docs/learning_check_curve"))
     args = parser.parse_args()
 
     import matplotlib

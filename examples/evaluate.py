@@ -29,7 +29,7 @@ from vigen.policies import make_policy
 from vigen.rendering import RenderSettings
 
 
-DEFAULT_GROUPS = {"dmc": "dmcgb", "robosuite": "rlvigen"}
+DEFAULT_GROUPS = {"dmc": "dmcgb", "robosuite": "rlvigen", "adroit": "rlvigen"}
 
 
 def parse_args() -> argparse.Namespace:
@@ -37,7 +37,8 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("runs", nargs="+", type=Path, help="run folders or checkpoint files of examples/train.py")
     parser.add_argument("--levels", nargs="+", default=None,
                         help="levels or groups of the runs' suite (dmc: dmcgb, rlvigen, corruptions; robosuite: rlvigen, "
-                             "camera, embodiment); default: train and dmcgb (dmc) or rlvigen (robosuite)")
+                             "camera, embodiment; adroit: rlvigen, camera, light); default: train and the suite's "
+                             "dmcgb (dmc) or rlvigen group")
     parser.add_argument("--episodes", type=int, default=10, help="episodes per level and seed")
     parser.add_argument("--seeds", nargs="+", type=int, default=[0],
                         help="env and level seeds (robosuite: also the scene, seed %% 10; RL-ViGen: --seeds 0 1 ... 9)")
@@ -67,11 +68,11 @@ def main() -> None:
     args = parse_args()
     level_options = {"videos": args.videos} if args.videos else None
     agents = [load_agent(path) for path in args.runs]
-    suites = {config["env"].split("/")[0] for config, _ in agents}
-    levels = args.levels or ["train", *(DEFAULT_GROUPS.get(suite, "all") for suite in suites)]
-    for suite in suites:
+    levels = {}  # env name -> its levels
+    for config, _ in agents:
+        suite = config["env"].split("/")[0]
         try:
-            resolve_levels(levels, suite=suite)
+            levels[config["env"]] = resolve_levels(args.levels or ["train", DEFAULT_GROUPS.get(suite, "all")], suite=suite)
         except ValueError as error:
             raise SystemExit(str(error)) from None
     rows = []
@@ -79,12 +80,12 @@ def main() -> None:
         length = args.episode_length or config.get("episode_length")
         env_options = {"render_settings": RenderSettings.fast(), "level_options": level_options,
                        **({} if length is None else {"episode_length": length})}
-        rows += evaluate(policy, config["env"], levels, episodes=args.episodes, seeds=args.seeds,
+        rows += evaluate(policy, config["env"], levels[config["env"]], episodes=args.episodes, seeds=args.seeds,
                          env_options=env_options,
                          tags={"method": config["algo"], "run": config["seed"], "frames": config["frames"]})
     if args.random:
         for env in dict.fromkeys(row["env"] for row in rows):
-            rows += evaluate(None, env, levels, episodes=args.episodes, seeds=args.seeds,
+            rows += evaluate(None, env, levels[env], episodes=args.episodes, seeds=args.seeds,
                              env_options=env_options, tags={"method": "random", "run": 0})
 
     out = unused_path(args.out)

@@ -41,7 +41,8 @@ def make_env(name: str, **kwargs: Any) -> EnvBase:
         name: ``"<suite>/<env>"``, e.g. ``"dmc/walker-walk"``; :func:`available_envs` lists them.
         **kwargs: forwarded to the suite's builder (for ``dmc/``: :func:`vigen.envs.dmc.make_dmc_env`,
             e.g. ``seed``, ``frame_stack``, ``action_repeat``, ``camera_id``, ``render_settings``; for
-            ``robosuite/``: :func:`vigen.envs.robosuite.make_robosuite_env`).
+            ``robosuite/``: :func:`vigen.envs.robosuite.make_robosuite_env`; for ``adroit/``:
+            :func:`vigen.envs.adroit.make_adroit_env`).
 
     ``make_env`` is a module-level function, so ``functools.partial(make_env, name, ...)`` pickles
     and can be handed to ``ParallelEnv`` and TorchRL's multiprocess collectors.
