@@ -14,6 +14,7 @@ have no ``top`` camera (RL-ViGen's door and hammer view) and no skybox, so every
 
 from __future__ import annotations
 
+import importlib
 import math
 from collections.abc import Sequence
 from typing import Any
@@ -185,8 +186,6 @@ class AdroitPixelEnv(_EnvWrapper):
 
     def _build_env(self, task, action_repeat, image_size, camera, episode_length, render_settings) -> Any:
         try:
-            import importlib
-
             module = importlib.import_module(f"gymnasium_robotics.envs.adroit_hand.adroit_{task}")
         except ImportError as error:
             raise ImportError(f"adroit/ envs need gymnasium-robotics: pip install -e \".[adroit]\" ({error}).") from error
