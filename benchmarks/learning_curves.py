@@ -65,7 +65,7 @@ def main() -> None:
     axes.set_xlabel("environment frames")
     axes.set_ylabel("evaluation return")
     axes.spines[["top", "right"]].set_visible(False)
-    axes.legend(frameon=False, fontsize="small")
+    axes.legend(frameon=False, fontsize="small", loc="upper left")
     figure.tight_layout()
     png = unused_path(args.out.with_suffix(".png"))
     png.parent.mkdir(parents=True, exist_ok=True)
