@@ -69,10 +69,10 @@ def check_pixels(
     Examples:
         >>> import torch
         >>> check_pixels(torch.rand(2, 9, 8, 8), name="Demo")
-        >>> check_pixels(torch.rand(2, 9, 8, 8) * 255, name="Demo")
+        >>> check_pixels(torch.full((2, 9, 8, 8), 200.0), name="Demo")  # doctest: +ELLIPSIS
         Traceback (most recent call last):
         ...
-        ValueError: Demo: float pixels reach 254..., above max_value 1.0 ...
+        ValueError: Demo: float pixels reach 200, above max_value 1; these look like 0–255 pixels: pass max_value=255, ...
     """
     if images.dtype not in PIXEL_DTYPES:
         raise TypeError(f"{name} takes uint8 or floating-point pixels, got {images.dtype}; "
