@@ -1,6 +1,6 @@
 """Zero-shot generalization evaluation: run policies on unseen levels, aggregate, report.
 
-* :func:`evaluate`: one row per episode for each level and seed;
+* :func:`evaluate`: one row per episode for each level and seed (:class:`EvaluationError` keeps them if a level fails);
 * :func:`summarize`, :func:`score_matrix` and the statistics :func:`mean`, :func:`iqm`,
   :func:`stratified_bootstrap_ci` (rliable's conventions) and :func:`rlvigen_mean_std`;
 * :func:`write_csv`, :func:`markdown_table`, :func:`plot_levels`: the report files.
@@ -15,10 +15,11 @@ Examples:
 
 from vigen.evaluation.aggregate import MeanStd, iqm, mean, rlvigen_mean_std, stratified_bootstrap_ci
 from vigen.evaluation.report import markdown_table, plot_levels, write_csv
-from vigen.evaluation.rollout import evaluate
+from vigen.evaluation.rollout import EvaluationError, evaluate
 from vigen.evaluation.summary import score_matrix, summarize
 
 __all__ = [
+    "EvaluationError",
     "MeanStd",
     "evaluate",
     "iqm",

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import csv
+import os
 from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 import torch
@@ -19,6 +22,30 @@ EnvFactory = Callable[[str, int], EnvBase]
 Policy = Callable[[TensorDictBase], TensorDictBase]
 
 
+class EvaluationError(RuntimeError):
+    """An evaluation stopped on an error; the episodes that finished before it are kept in :attr:`rows`.
+
+    Attributes:
+        rows: one row per finished episode, as :func:`evaluate` returns them.
+        level, seed: where the error happened.
+        episode: the episode that was running, or ``None`` if building or closing the env failed.
+
+    The original exception is chained (``__cause__``).
+
+    Examples:
+        >>> error = EvaluationError([{"level": "train", "return": 1.0}], level="video_hard", seed=0, episode=2)
+        >>> print(error)
+        evaluation failed at level 'video_hard', seed 0, episode 2 after 1 finished episode(s); they are in .rows.
+    """
+
+    def __init__(self, rows: list[dict[str, Any]], *, level: str, seed: int, episode: int | None,
+                 rows_path: Path | None = None) -> None:
+        self.rows, self.level, self.seed, self.episode, self.rows_path = rows, level, seed, episode, rows_path
+        where = f"level {level!r}, seed {seed}" + ("" if episode is None else f", episode {episode}")
+        kept = f"they are in .rows{'' if rows_path is None else f' and {rows_path}'}"
+        super().__init__(f"evaluation failed at {where} after {len(rows)} finished episode(s); {kept}.")
+
+
 def evaluate(
     policy: Policy,
     env: str | EnvFactory,
@@ -29,6 +56,7 @@ def evaluate(
     max_steps: int = 100_000,
     env_options: Mapping[str, Any] | None = None,
     tags: Mapping[str, Any] | None = None,
+    rows_path: str | os.PathLike | None = None,
 ) -> list[dict[str, Any]]:
     """Run ``policy`` zero-shot on each level and return one row per episode.
 
@@ -49,6 +77,9 @@ def evaluate(
         max_steps: a cap on agent steps per episode (the env's own time limit usually ends it first).
         env_options: more keyword arguments for :func:`vigen.envs.make_env` (e.g. ``render_settings``).
         tags: constant columns added to every row, e.g. ``{"method": "svea", "run": 1}``.
+        rows_path: a new CSV file that receives each row as soon as its episode ends (flushed to
+            disk), so a crash, a kill or a failing level loses no finished episode. It must not
+            exist yet.
 
     Returns:
         Rows with ``env``, ``level``, ``seed``, ``episode``, ``return``, ``length`` and, where the
@@ -61,11 +92,27 @@ def evaluate(
         [('train', 5), ('color_hard', 5)]
 
     ``policy=None`` plays random actions, a baseline worth reporting next to trained agents.
+
+    If a level fails (a corrupt video, a policy error, ...), :class:`EvaluationError` is raised
+    with the finished episodes in ``.rows``, the failing level, seed and episode in its message,
+    and the original exception as its cause:
+
+        >>> from vigen.evaluation import EvaluationError
+        >>> def factory(level, seed):
+        ...     if level == "broken":
+        ...         raise OSError("corrupt video")
+        ...     return make_env("dmc/cartpole-balance", seed=seed, image_size=16, frame_stack=1)
+        >>> try:
+        ...     evaluate(None, factory, ["train", "broken"], episodes=1, max_steps=2)
+        ... except EvaluationError as error:
+        ...     print(error, [row["level"] for row in error.rows], repr(error.__cause__))
+        evaluation failed at level 'broken', seed 0 after 1 finished episode(s); they are in .rows. ['train'] OSError('corrupt video')
     """
     if episodes < 1:
         raise ValueError(f"episodes must be at least 1, got {episodes}.")
     if not seeds:
         raise ValueError("seeds is empty: give at least one seed, e.g. seeds=[0].")
+    log = None if rows_path is None else _RowLog(Path(rows_path))
     rows: list[dict[str, Any]] = []
     name = env if isinstance(env, str) else getattr(env, "__name__", "env")
     level_names = [levels] if isinstance(levels, str) else list(levels)
@@ -73,19 +120,57 @@ def evaluate(
         level_names = resolve_levels(level_names, suite=env.split("/")[0])
     for level in level_names:
         for seed in seeds:
-            if isinstance(env, str):
-                instance = make_env(env, generalization=level, seed=seed, **dict(env_options or {}))
-            else:
-                instance = env(level, seed)
+            episode: int | None = None
             try:
-                for episode in range(episodes):
-                    rows.append(
-                        {**dict(tags or {}), "env": name, "level": level, "seed": seed, "episode": episode,
-                         **_play(policy, instance, max_steps)}
-                    )
-            finally:
-                instance.close()
+                if isinstance(env, str):
+                    instance = make_env(env, generalization=level, seed=seed, **dict(env_options or {}))
+                else:
+                    instance = env(level, seed)
+                try:
+                    for episode in range(episodes):
+                        row = {**dict(tags or {}), "env": name, "level": level, "seed": seed, "episode": episode,
+                               **_play(policy, instance, max_steps)}
+                        rows.append(row)
+                        if log is not None:
+                            log.append(row)
+                    episode = None
+                finally:
+                    instance.close()
+            except Exception as error:
+                raise EvaluationError(list(rows), level=level, seed=seed, episode=episode,
+                                      rows_path=None if log is None else log.path) from error
     return rows
+
+
+class _RowLog:
+    """A CSV file that grows by one flushed line per row; new columns rewrite it (atomically) with a wider header."""
+
+    def __init__(self, path: Path) -> None:
+        if path.exists():
+            raise FileExistsError(f"rows_path {path} exists and would be overwritten; choose a new file name.")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self.path = path
+        self.columns: list[str] = []
+        self.rows: list[dict[str, Any]] = []
+
+    def append(self, row: dict[str, Any]) -> None:
+        self.rows.append(row)
+        new = [key for key in row if key not in self.columns]
+        if new or not self.path.exists():
+            self.columns += new
+            temporary = self.path.with_name(f".{self.path.name}.tmp")
+            with temporary.open("w", newline="") as file:
+                writer = csv.DictWriter(file, fieldnames=self.columns, restval="")
+                writer.writeheader()
+                writer.writerows(self.rows)
+                file.flush()
+                os.fsync(file.fileno())
+            os.replace(temporary, self.path)
+            return
+        with self.path.open("a", newline="") as file:
+            csv.DictWriter(file, fieldnames=self.columns, restval="").writerow(row)
+            file.flush()
+            os.fsync(file.fileno())
 
 
 def _play(policy: Policy | None, env: EnvBase, max_steps: int) -> dict[str, Any]:
