@@ -13,6 +13,12 @@ import torch.nn.functional as F
 from vigen.transforms.image_bank import IMAGE_SUFFIXES, _procedural_image
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".webm", ".mkv")
+# a decoded frame side outside this range means a broken header, not a background video
+FRAME_SIDE_RANGE = (2, 8192)
+# containers whose frame count comes from an index (exact), unlike the duration-based estimate of webm / mkv
+INDEXED_SUFFIXES = (".mp4", ".mov", ".avi")
+REENCODE_HINT = ("re-encode it (e.g. `ffmpeg -i in.mp4 -c:v libx264 -pix_fmt yuv420p out.mp4`), copy it again, "
+                 "or remove it from the folder")
 
 
 class VideoSource:
@@ -24,6 +30,12 @@ class VideoSource:
     reads the papers' videos from a user folder: video files (DMC-GB's ``video_easy`` /
     ``video_hard`` ``video*.mp4``, RealEstate10K clips) and/or sub-folders of frames (DAVIS
     ``JPEGImages/480p/<video>/*.jpg``), decoded with OpenCV and resized bilinearly.
+
+    User videos are checked when the source is built, before any episode: each file must open,
+    report frames and decode a first frame of a sane size, and each frame folder must start with a
+    readable image; a ``ValueError`` names every file that does not, with the fix. Frames that
+    fail later (a file cut short in the middle) raise an ``OSError`` naming the file when that
+    video is first played, instead of playing a shorter video.
 
     Args:
         paths: video files or frame folders (for :meth:`from_folder`); ``None`` for procedural.
@@ -41,6 +53,10 @@ class VideoSource:
     def __init__(
         self, paths: list[Path] | None = None, count: int = 10, max_frames: int = 500, seed: int = 0, name: str = ""
     ) -> None:
+        if paths is not None:
+            paths = [Path(path) for path in paths]
+            _check_videos(paths, name)
+            count = len(paths)
         self.paths, self.count, self.max_frames, self.seed = paths, count, max_frames, seed
         self.name = name or ("procedural" if paths is None else "custom")
         self._cache: tuple[tuple[int, int, int], torch.Tensor] | None = None
@@ -52,7 +68,7 @@ class VideoSource:
 
     @classmethod
     def from_folder(cls, root: str | os.PathLike, max_frames: int = 500) -> VideoSource:
-        """Every video file and every folder of frames under ``root`` (recursively), in sorted order."""
+        """Every video file and every folder of frames under ``root`` (recursively), in sorted order, each checked."""
         root = Path(root).expanduser()
         if not root.is_dir():
             raise FileNotFoundError(
@@ -63,7 +79,13 @@ class VideoSource:
         frame_dirs = {p.parent for p in root.rglob("*") if p.suffix.lower() in IMAGE_SUFFIXES}
         paths = sorted(videos + list(frame_dirs))
         if not paths:
-            raise FileNotFoundError(f"No videos ({', '.join(VIDEO_SUFFIXES)}) or frame folders found under {root}.")
+            found = sorted(str(p.relative_to(root)) for p in root.rglob("*") if p.is_file())
+            listing = ", ".join(found[:10]) + (f" and {len(found) - 10} more" if len(found) > 10 else "")
+            raise FileNotFoundError(
+                f"No videos ({', '.join(VIDEO_SUFFIXES)}) or frame folders ({', '.join(IMAGE_SUFFIXES)}) found under "
+                f"{root}; it holds {listing or 'no files'}. Point it at DMC-GB's src/env/data/video_hard (video*.mp4) "
+                "or a folder of frame folders (DAVIS/JPEGImages/480p)."
+            )
         return cls(paths, count=len(paths), max_frames=max_frames, name=str(root))
 
     def __len__(self) -> int:
@@ -106,6 +128,60 @@ def _procedural_video(seed: int, length: int, height: int, width: int) -> torch.
     return frames.round_().clamp_(0, 255).to(torch.uint8).permute(0, 2, 3, 1).contiguous()
 
 
+def _check_videos(paths: list[Path], name: str) -> None:
+    """Raise a ValueError naming every path that OpenCV cannot read as a background video."""
+    if not paths:
+        raise ValueError("VideoSource got an empty list of paths; give video files or frame folders, or use procedural().")
+    problems = {path: problem for path in paths if (problem := _video_problem(path)) is not None}
+    if not problems:
+        return
+    lines = "\n".join(f"  {path}: {problem}" for path, problem in problems.items())
+    if len(problems) == len(paths):
+        raise ValueError(
+            f"VideoSource{f' {name}' if name else ''}: none of its {len(paths)} videos is readable:\n{lines}\n"
+            "Give a folder of working videos (e.g. DMC-GB's src/env/data/video_hard) or frame folders."
+        )
+    raise ValueError(
+        f"VideoSource{f' {name}' if name else ''}: {len(problems)} of {len(paths)} videos are unreadable:\n{lines}\n"
+        f"For each: {REENCODE_HINT}."
+    )
+
+
+def _video_problem(path: Path) -> str | None:
+    """What keeps ``path`` (a video file or a folder of frames) from being a background video, or ``None``."""
+    import cv2
+
+    if path.is_dir():
+        images = sorted(p for p in path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+        if not images:
+            return f"the folder holds no images ({', '.join(IMAGE_SUFFIXES)})"
+        first = cv2.imread(str(images[0]), cv2.IMREAD_COLOR)
+        if first is None:
+            return f"its first frame {images[0].name} does not decode"
+        return _frame_problem(first)
+    if not path.is_file():
+        return "it does not exist"
+    capture = cv2.VideoCapture(str(path))
+    try:
+        if not capture.isOpened():
+            return "OpenCV cannot open it as a video (not a video, or cut short: a truncated mp4 loses its index)"
+        if int(capture.get(cv2.CAP_PROP_FRAME_COUNT)) == 0:
+            return "it reports 0 frames"
+        ok, first = capture.read()
+        if not ok or first is None:
+            return "its first frame does not decode"
+        return _frame_problem(first)
+    finally:
+        capture.release()
+
+
+def _frame_problem(frame: np.ndarray) -> str | None:
+    low, high = FRAME_SIDE_RANGE
+    if frame.ndim != 3 or frame.shape[2] != 3 or not all(low <= side <= high for side in frame.shape[:2]):
+        return f"its frames decode as shape {frame.shape}, not a colour image with sides in [{low}, {high}]"
+    return None
+
+
 def _decode(path: Path, max_frames: int, height: int, width: int) -> torch.Tensor:
     import cv2
 
@@ -113,16 +189,24 @@ def _decode(path: Path, max_frames: int, height: int, width: int) -> torch.Tenso
     if path.is_dir():
         for image_path in sorted(p for p in path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)[:max_frames]:
             image = cv2.imread(str(image_path), cv2.IMREAD_COLOR)
-            if image is not None:
-                frames.append(cv2.resize(image, (width, height), interpolation=cv2.INTER_LINEAR))
+            if image is None:
+                raise OSError(f"Frame {image_path} of a background video does not decode; {REENCODE_HINT}.")
+            frames.append(cv2.resize(image, (width, height), interpolation=cv2.INTER_LINEAR))
     else:
         capture = cv2.VideoCapture(str(path))
+        reported = int(capture.get(cv2.CAP_PROP_FRAME_COUNT))
         while len(frames) < max_frames:
             ok, image = capture.read()
             if not ok:
                 break
             frames.append(cv2.resize(image, (width, height), interpolation=cv2.INTER_LINEAR))
         capture.release()
+        expected = min(max_frames, reported)
+        if path.suffix.lower() in INDEXED_SUFFIXES and len(frames) < expected:
+            raise OSError(
+                f"Background video {path} stops after {len(frames)} of its {reported} frames (cut short or corrupt); "
+                f"{REENCODE_HINT}."
+            )
     if not frames:
-        raise OSError(f"OpenCV could not decode any frame of {path}.")
+        raise OSError(f"OpenCV could not decode any frame of {path}; {REENCODE_HINT}.")
     return torch.from_numpy(np.stack(frames)[..., ::-1].copy())
