@@ -3,8 +3,8 @@
     python examples/evaluate.py runs/drqv2-cartpole-balance-s0 runs/svea-cartpole-balance-s0 \\
         --levels train dmcgb --episodes 10 --out reports/cartpole
 
-Each argument is a run folder of ``examples/train.py`` (its latest checkpoint is used) or one
-checkpoint file. Runs of the same algorithm with different seeds are aggregated as runs of one
+Each argument is a run folder of ``examples/train.py`` (its newest checkpoint that loads is used) or
+one checkpoint file. Checkpoints load without running code (``weights_only=True``). Runs of the same algorithm with different seeds are aggregated as runs of one
 method. The report folder (never overwritten: a new name is picked if it exists) holds
 ``episodes.csv`` (one row per episode), ``summary.csv``, ``report.md`` (levels × methods:
 IQM with its 95 % stratified-bootstrap CI, and RL-ViGen's mean ± std over runs) and
@@ -15,12 +15,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
-import torch
 from tensordict.nn import TensorDictModuleBase
 from torchrl.data import Bounded
 
+from vigen.checkpoint import CheckpointError, load_checkpoint, newest_checkpoint
 from vigen.envs.levels import resolve_levels
 from vigen.evaluation import evaluate, markdown_table, plot_levels, summarize, write_csv
 from vigen.io import unused_path
@@ -50,15 +51,23 @@ def parse_args() -> argparse.Namespace:
 
 
 def load_agent(path: Path) -> tuple[dict, TensorDictModuleBase]:
-    """The run's config and its acting policy, with the weights of ``path`` (or the run's latest checkpoint)."""
-    checkpoint_path = path if path.is_file() else max((path / "checkpoints").glob("frames_*.pt"), default=None)
-    if checkpoint_path is None:
-        raise SystemExit(f"{path} has no checkpoints/frames_*.pt; is it a run folder of examples/train.py?")
+    """The run's config and its acting policy, with the weights of ``path`` (or the run's newest checkpoint that loads).
+
+    Checkpoints load with ``weights_only=True``: one holding anything but tensors and plain data is refused.
+    """
+    try:
+        if path.is_file():
+            checkpoint_path, checkpoint = path, load_checkpoint(path)
+        else:
+            checkpoint_path, checkpoint, skipped = newest_checkpoint(path / "checkpoints")
+            for bad, why in skipped:
+                print(f"skipped checkpoint {bad}: {why}", file=sys.stderr)
+    except CheckpointError as error:
+        raise SystemExit(f"{path}: {error} Is it a run folder of examples/train.py?") from None
     config = json.loads((checkpoint_path.parent.parent / "config.json").read_text())
     loss = make_loss(config["algo"], tuple(config["observation_shape"]), config["action_dim"],
                      feature_dim=config["feature_dim"], hidden_dim=config["hidden_dim"])
     loss.make_value_estimator(gamma=config["gamma"])  # its gamma is part of the saved state
-    checkpoint = torch.load(checkpoint_path, weights_only=False)
     loss.load_state_dict(checkpoint["loss"])
     policy = make_policy(loss, Bounded(-1.0, 1.0, shape=(config["action_dim"],)))  # dm_control's action bounds
     return dict(config, frames=checkpoint["frames"]), policy

@@ -3,18 +3,39 @@
     python examples/train.py --algo svea --env dmc/cartpole-balance --preset cpu --frames 20000
     python examples/train.py --resume runs/svea-cartpole-balance-s0 --frames 40000   # continue it
 
-The run folder gets ``config.json``, TorchRL CSV logs (``logs/scalars/*.csv``: train losses,
-``eval/return``), ``checkpoints/frames_XXXXXXXX.pt`` at every evaluation and the replay buffer
-needed to resume. ``--frames`` counts environment frames (agent steps × action repeat), as in
-DrQ-v2's curves. Presets: ``paper`` is DrQ-v2 / RL-ViGen's setup (batch 256, 1M-transition
-buffer, lr 1e-4, 3-step returns, τ = 0.01, 4000 seed frames, an update every 2 agent steps);
-``cpu`` is the same agent with batch 64 and a 100k buffer, to learn easy tasks on a laptop CPU.
+The run folder (printed at start) gets ``config.json``, TorchRL CSV logs (``logs/scalars/*.csv``:
+train losses, ``eval/return``), ``checkpoints/frames_XXXXXXXX.pt`` at every evaluation and the
+replay buffer (memory-mapped in ``replay_buffer/storage``). ``--frames`` counts environment frames
+(agent steps × action repeat), as in DrQ-v2's curves. Presets: ``paper`` is DrQ-v2 / RL-ViGen's
+setup (batch 256, 1M-transition buffer, lr 1e-4, 3-step returns, τ = 0.01, 4000 seed frames, an
+update every 2 agent steps); ``cpu`` is the same agent with batch 64 and a 100k buffer, to learn
+easy tasks on a laptop CPU.
+
+What a run guarantees (``vigen.checkpoint`` does the work):
+
+* Every argument is checked before the first frame, and a failed start leaves no run folder.
+  ``--resume`` refuses flags that contradict the run's ``config.json`` (only ``--frames`` and
+  ``--threads`` may change).
+* Killed at any moment, even while a checkpoint is written, a run resumes exactly: counters,
+  networks, optimizer, every random state, the replay buffer and the CSV logs end as in a run that
+  was never killed. Checkpoints are written atomically and hold only tensors and plain data (loaded
+  with ``weights_only=True``: a checkpoint can never run code); ``--resume`` takes the newest one
+  that loads and prints the ones it skipped. The checkpoint holds the buffer's cursor and length
+  and the n-step window; slots it counts valid are journaled before they are overwritten
+  (``replay_buffer/journal``) and restored on resume; CSV rows logged after it are dropped.
+* Each checkpoint ends a *segment*, in a resumed run and in one never killed alike: the episode in
+  progress is cut there (marked truncated, so its n-step targets bootstrap), the collector is
+  rebuilt and its env reset with seed ``seed + 1000 * agent steps``. With dm_control's defaults
+  (1000-frame episodes, an evaluation every 10k frames) checkpoints fall on episode ends anyway.
+  Not covered: wandb logs are not rewound, and falling back past a checkpoint that does not load
+  keeps the transitions written after it in the overwritten slots (resume says so).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from functools import partial
 from pathlib import Path
@@ -29,9 +50,14 @@ from torchrl.objectives import SoftUpdate
 from torchrl.record.loggers import get_logger
 from tqdm import tqdm
 
-from vigen.envs import make_env
+from vigen.checkpoint import (CheckpointError, ReplayJournal, checkpoint_path, generator_states, multistep_state,
+                              newest_checkpoint, random_states, remove_temporary_files, replay_state, restore_replay,
+                              save_checkpoint, set_generator_states, set_multistep_state, set_random_states,
+                              truncate_csv_logs)
+from vigen.envs import available_envs, make_env
+from vigen.envs.levels import resolve_levels
 from vigen.evaluation import evaluate
-from vigen.io import unused_path
+from vigen.io import atomic_write, unused_path
 from vigen.losses import ALGOS, LinearSchedule, make_loss
 from vigen.policies import make_policy
 from vigen.rendering import RenderSettings
@@ -44,6 +70,8 @@ PRESETS = {
                 gamma=0.99, tau=0.01, seed_frames=4000, update_every=2, std_duration=100_000,
                 eval_every=10_000, eval_episodes=5),
 }
+DEFAULTS = dict(algo="drqv2", env="dmc/cartpole-balance", preset="cpu", seed=0, workers=1, eval_levels=["train"],
+                logger="csv", episode_length=None)  # a new run's values of the flags a resumed run takes from config.json
 
 
 def training_env(name: str, seed: int, episode_length: int | None = None) -> TransformedEnv:
@@ -55,16 +83,16 @@ def training_env(name: str, seed: int, episode_length: int | None = None) -> Tra
 
 def parse_args() -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--algo", choices=list(ALGOS), default="drqv2")
-    parser.add_argument("--env", default="dmc/cartpole-balance")
-    parser.add_argument("--preset", choices=list(PRESETS), default="cpu")
+    parser.add_argument("--algo", choices=list(ALGOS), default=None, help=f"default {DEFAULTS['algo']}")
+    parser.add_argument("--env", default=None, help=f"default {DEFAULTS['env']}")
+    parser.add_argument("--preset", choices=list(PRESETS), default=None, help=f"default {DEFAULTS['preset']}")
     parser.add_argument("--frames", type=int, default=100_000, help="environment frames in all (with action repeat)")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seed", type=int, default=None, help="default 0")
     parser.add_argument("--out", type=Path, default=None, help="run folder (default runs/<algo>-<task>-s<seed>)")
     parser.add_argument("--resume", type=Path, default=None, help="a run folder to continue up to --frames")
-    parser.add_argument("--workers", type=int, default=1, help=">1: a MultiSyncCollector with one env per process")
-    parser.add_argument("--eval-levels", nargs="*", default=["train"], help="levels evaluated at every checkpoint")
-    parser.add_argument("--logger", choices=["csv", "wandb"], default="csv", help="wandb runs offline")
+    parser.add_argument("--workers", type=int, default=None, help=">1: a MultiSyncCollector with one env per process")
+    parser.add_argument("--eval-levels", nargs="+", default=None, help="levels evaluated at every checkpoint (train)")
+    parser.add_argument("--logger", choices=["csv", "wandb"], default=None, help="csv (default) or wandb, offline")
     parser.add_argument("--episode-length", type=int, default=None,
                         help="simulator steps per episode (default: the suite's, dm_control 1000, robosuite 500)")
     parser.add_argument("--threads", type=int, default=None, help="torch threads (default: torch's choice)")
@@ -74,27 +102,57 @@ def parse_args() -> argparse.Namespace:
 
 
 def configure(args: argparse.Namespace) -> dict:
-    """The run's settings: a new run's preset with overrides (in a new folder), or a resumed run's saved config."""
-    if args.resume is not None:
-        config = json.loads((args.resume / "config.json").read_text())
-        config.update(frames=args.frames, run_dir=str(args.resume))
-        return config
-    config = dict(PRESETS[args.preset], algo=args.algo, env=args.env, preset=args.preset, frames=args.frames,
-                  seed=args.seed, workers=args.workers, eval_levels=args.eval_levels, logger=args.logger,
-                  episode_length=args.episode_length)
-    config.update({name: getattr(args, name) for name in PRESETS["paper"] if getattr(args, name) is not None})
-    task = args.env.split("/", 1)[-1]
-    run_dir = unused_path(args.out or Path("runs") / f"{args.algo}-{task}-s{args.seed}")  # never reuse a run folder
-    run_dir.mkdir(parents=True)
-    return dict(config, run_dir=str(run_dir))
+    """The run's settings: a new run's preset with overrides, or a resumed run's saved config (flags may not contradict it)."""
+    given = {name: getattr(args, name) for name in [*DEFAULTS, *PRESETS["paper"]] if getattr(args, name) is not None}
+    if args.resume is None:
+        preset = given.get("preset", DEFAULTS["preset"])
+        return {**DEFAULTS, **PRESETS[preset], **given, "frames": args.frames}
+    if args.out is not None:
+        raise SystemExit("--out and --resume: a resumed run stays in its folder; drop --out.")
+    if not (args.resume / "config.json").is_file():
+        raise SystemExit(f"--resume {args.resume}: no config.json there; pass a run folder of examples/train.py.")
+    config = json.loads((args.resume / "config.json").read_text())
+    conflicts = [f"--{name.replace('_', '-')} {value} (the run has {config.get(name)})"
+                 for name, value in given.items() if config.get(name) != value]
+    if conflicts:
+        raise SystemExit(f"--resume {args.resume}: these flags contradict its config.json: {'; '.join(conflicts)}. "
+                         "Drop them to continue the run as it was, or start a new run.")
+    return dict(config, frames=args.frames)
+
+
+def validate(config: dict, threads: int | None) -> None:
+    """Check every setting before anything runs, so no training is lost to a typo found later."""
+    def positive(*names: str) -> None:
+        for name in names:
+            if not isinstance(config[name], int) or config[name] < 1:
+                raise SystemExit(f"--{name.replace('_', '-')} must be an integer >= 1, got {config[name]}.")
+    positive("batch_size", "buffer_size", "hidden_dim", "feature_dim", "n_step", "update_every", "std_duration",
+             "eval_every", "eval_episodes", "workers")
+    if config["frames"] < 0 or config["seed_frames"] < 0:
+        raise SystemExit(f"--frames and --seed-frames must be >= 0, got {config['frames']} and {config['seed_frames']}.")
+    if config["buffer_size"] < config["batch_size"]:
+        raise SystemExit(f"--buffer-size {config['buffer_size']} is below --batch-size {config['batch_size']}: "
+                         "the buffer could never fill one batch; raise it.")
+    if not (config["lr"] > 0 and 0 < config["gamma"] <= 1 and 0 < config["tau"] <= 1):
+        raise SystemExit(f"--lr must be > 0 and --gamma, --tau in (0, 1], got {config['lr']}, {config['gamma']}, {config['tau']}.")
+    if config["episode_length"] is not None and config["episode_length"] < 1:
+        raise SystemExit(f"--episode-length must be >= 1, got {config['episode_length']}.")
+    if threads is not None and threads < 1:
+        raise SystemExit(f"--threads must be >= 1, got {threads}.")
+    if config["env"] not in available_envs(config["env"].split("/")[0] if "/" in config["env"] else None):
+        make_env(config["env"])  # raises with the valid names and the closest matches
+    try:
+        resolve_levels(config["eval_levels"], suite=config["env"].split("/")[0])
+    except ValueError as error:
+        raise SystemExit(f"--eval-levels: {error}") from None
 
 
 def main() -> None:
     args = parse_args()
+    config = configure(args)
+    validate(config, args.threads)
     if args.threads:
         torch.set_num_threads(args.threads)
-    config = configure(args)
-    run_dir = Path(config["run_dir"])
     torch.manual_seed(config["seed"])
 
     make = partial(training_env, config["env"], episode_length=config["episode_length"])
@@ -103,9 +161,19 @@ def main() -> None:
     observation_shape = tuple(probe.observation_spec["pixels"].shape)
     action_spec = probe.action_spec
     probe.close()
-    if args.resume is None:
-        config.update(observation_shape=observation_shape, action_dim=action_spec.shape[-1])
-        (run_dir / "config.json").write_text(json.dumps({k: v for k, v in config.items() if k != "run_dir"}, indent=2))
+    if config["eval_every"] < action_repeat:
+        raise SystemExit(f"--eval-every {config['eval_every']} is below one agent step ({action_repeat} frames with "
+                         f"{config['env']}'s action repeat); raise it.")
+
+    if args.resume is None:  # the run folder is made only now, after every check passed
+        task = config["env"].split("/", 1)[-1]
+        run_dir = unused_path(args.out or Path("runs") / f"{config['algo']}-{task}-s{config['seed']}")
+        run_dir.mkdir(parents=True)
+        config.update(observation_shape=list(observation_shape), action_dim=action_spec.shape[-1])
+        atomic_write(run_dir / "config.json", json.dumps({k: v for k, v in config.items() if k != "frames"}, indent=2))
+    else:
+        run_dir = args.resume
+    print(f"run folder: {run_dir}", flush=True)
 
     # the agent: a vigen loss on the paper's networks, its acting policy, Adam and the target-critic update
     std = LinearSchedule(1.0, 0.1, config["std_duration"])
@@ -117,91 +185,117 @@ def main() -> None:
     optimizer = torch.optim.Adam(loss.parameters(), lr=config["lr"])
     target_update = SoftUpdate(loss, tau=config["tau"])
 
-    # replay: uint8 transitions memory-mapped in the run folder (saving it for --resume copies nothing),
-    # n-step returns computed as trajectories come in
-    buffer = TensorDictReplayBuffer(
-        storage=LazyMemmapStorage(config["buffer_size"], scratch_dir=run_dir / "replay_buffer" / "storage"),
-        batch_size=config["batch_size"],
-    )
+    # replay: uint8 transitions memory-mapped in the run folder, n-step returns computed as trajectories
+    # come in; the journal keeps what the last checkpoint counts valid until the next checkpoint
+    storage_dir = run_dir / "replay_buffer" / "storage"
+    buffer = TensorDictReplayBuffer(storage=LazyMemmapStorage(config["buffer_size"], scratch_dir=storage_dir),
+                                    batch_size=config["batch_size"])
+    journal = ReplayJournal(run_dir / "replay_buffer" / "journal", buffer)
     n_step = MultiStepTransform(config["n_step"], config["gamma"])  # holds back the last n steps of each batch
     steps, updates = 0, 0  # agent steps collected, gradient updates made
+    logger = get_logger(config["logger"], logger_name=str(run_dir), experiment_name="logs",
+                        **({"offline": True} if config["logger"] == "wandb" else {}))
     if args.resume is not None:
-        checkpoint = torch.load(sorted((run_dir / "checkpoints").glob("frames_*.pt"))[-1], weights_only=False)
+        try:
+            path, checkpoint, skipped = newest_checkpoint(run_dir / "checkpoints")
+        except CheckpointError as error:
+            raise SystemExit(f"--resume {run_dir}: {error}") from None
+        for bad, why in skipped:
+            print(f"skipped checkpoint {bad.name}: {why}", file=sys.stderr)
+        for leftover in remove_temporary_files(run_dir / "checkpoints"):
+            print(f"removed {leftover.name}, left by a run killed while writing a checkpoint", file=sys.stderr)
+        print(f"resuming from {path.name}", flush=True)
         loss.load_state_dict(checkpoint["loss"])
         optimizer.load_state_dict(checkpoint["optimizer"])
         policy.load_state_dict(checkpoint["policy"])
+        set_generator_states(loss, checkpoint["generators"])
+        set_random_states(checkpoint["random"])
+        set_multistep_state(n_step, checkpoint["n_step"])
+        restore_replay(buffer, checkpoint["replay"], storage_dir)
+        for note in journal.rollback(checkpoint["replay"]):
+            print(note, file=sys.stderr)
+        for note in truncate_csv_logs(run_dir / "logs", checkpoint["frames"]):
+            print(f"logs: {note}", file=sys.stderr)
         steps, updates = checkpoint["steps"], checkpoint["updates"]
-        torch.set_rng_state(checkpoint["torch_rng"])
-        buffer.loads(run_dir / "replay_buffer")
 
     total_steps = config["frames"] // action_repeat
     seed_steps = config["seed_frames"] // action_repeat
-    frames_per_batch = 50 * config["update_every"] * max(1, config["workers"])
-    remaining = max(0, total_steps - steps)
-    env_seed = config["seed"] + 1000 * steps  # a resumed run starts fresh episodes, not the first ones again
-    if config["workers"] > 1:
-        collector = MultiSyncCollector([partial(make, seed=env_seed + w) for w in range(config["workers"])], policy,
-                                       frames_per_batch=frames_per_batch, total_frames=remaining,
-                                       init_random_frames=max(0, seed_steps - steps), cat_results="stack",
-                                       auto_register_policy_transforms=False)
-    else:
-        collector = Collector(make(seed=env_seed), policy, frames_per_batch=frames_per_batch, total_frames=remaining,
-                              init_random_frames=max(0, seed_steps - steps), auto_register_policy_transforms=False)
-
-    logger = get_logger(config["logger"], logger_name=str(run_dir), experiment_name="logs",
-                        **({"offline": True} if config["logger"] == "wandb" else {}))
-    progress = tqdm(total=total_steps * action_repeat, initial=steps * action_repeat, unit="frame", dynamic_ncols=True)
     eval_every = config["eval_every"] // action_repeat
-    for batch in collector:
-        transitions = n_step.inv(batch)  # [time] or [workers, time], with n-step rewards and next pixels
-        if transitions is not None:
-            buffer.extend(transitions.reshape(-1))
-        new = batch.numel()
-        steps += new
-        if noise is not None:
-            noise.step(new)  # the exploration noise follows the std schedule (DrQ samples from its policy instead)
-        progress.update(new * action_repeat)
-        episode_ends = batch["next", "done"].squeeze(-1)
-        if episode_ends.any():
-            logger.log_scalar("train/episode_reward", batch["next", "episode_reward"][episode_ends].mean().item(), step=steps * action_repeat)
+    steps_per_batch = 50 * config["update_every"]  # per worker
+    progress = tqdm(total=total_steps * action_repeat, initial=steps * action_repeat, unit="frame", dynamic_ncols=True)
+    while steps < total_steps:  # one segment per checkpoint
+        collector = make_collector(make, policy, config, env_seed=config["seed"] + 1000 * steps,
+                                   steps_per_batch=steps_per_batch,
+                                   batches=segment_batches(steps, total_steps, eval_every, steps_per_batch * config["workers"]),
+                                   random_steps=max(0, seed_steps - steps))
+        for batch in collector:
+            new = batch.numel()
+            steps += new
+            episode_ends = batch["next", "done"].squeeze(-1)
+            if episode_ends.any():
+                logger.log_scalar("train/episode_reward", batch["next", "episode_reward"][episode_ends].mean().item(), step=steps * action_repeat)
+            segment_ends = steps // eval_every > (steps - new) // eval_every or steps >= total_steps
+            if segment_ends:  # the episode in progress ends with the segment: its n-step targets bootstrap there
+                batch["next", "truncated"][..., -1, :] = True
+                batch["next", "done"][..., -1, :] = True
+            transitions = n_step.inv(batch)  # [time] or [workers, time], with n-step rewards and next pixels
+            if transitions is not None:
+                journal.protect(transitions.numel())
+                buffer.extend(transitions.reshape(-1))
+            if noise is not None:
+                noise.step(new)  # the exploration noise follows the std schedule (DrQ samples from its policy instead)
+            progress.update(new * action_repeat)
 
-        due = (steps - seed_steps) // config["update_every"] - updates if steps >= seed_steps else 0
-        started = time.perf_counter()
-        for _ in range(max(0, due)):
-            loss.set_step(steps)
-            out = loss(buffer.sample())
-            optimizer.zero_grad(set_to_none=True)
-            sum(value for key, value in out.items() if key.startswith("loss_")).backward()
-            optimizer.step()
-            target_update.step()
-            updates += 1
-        if due > 0:
-            for key, value in out.items():
-                logger.log_scalar(f"train/{key}", value.item(), step=steps * action_repeat)
-            logger.log_scalar("train/seconds_per_update", (time.perf_counter() - started) / due, step=steps * action_repeat)
-        collector.update_policy_weights_()
+            due = (steps - seed_steps) // config["update_every"] - updates if steps >= seed_steps else 0
+            started = time.perf_counter()
+            for _ in range(max(0, due)):
+                loss.set_step(steps)
+                out = loss(buffer.sample())
+                optimizer.zero_grad(set_to_none=True)
+                sum(value for key, value in out.items() if key.startswith("loss_")).backward()
+                optimizer.step()
+                target_update.step()
+                updates += 1
+            if due > 0:
+                for key, value in out.items():
+                    logger.log_scalar(f"train/{key}", value.item(), step=steps * action_repeat)
+                logger.log_scalar("train/seconds_per_update", (time.perf_counter() - started) / due, step=steps * action_repeat)
+            collector.update_policy_weights_()
+        collector.shutdown()
 
-        if steps // eval_every > (steps - new) // eval_every or steps >= total_steps:
-            length = {} if config["episode_length"] is None else {"episode_length": config["episode_length"]}
-            rows = evaluate(policy, config["env"], config["eval_levels"], episodes=config["eval_episodes"],
-                            seeds=[config["seed"] + 10_000], env_options={"render_settings": RenderSettings.fast(), **length})
-            for level in config["eval_levels"]:
-                returns = [row["return"] for row in rows if row["level"] == level]
-                logger.log_scalar(f"eval/{level}_return", sum(returns) / len(returns), step=steps * action_repeat)
-            progress.set_postfix(eval=round(sum(r["return"] for r in rows if r["level"] == config["eval_levels"][0]) / config["eval_episodes"]))
-            save(run_dir, steps * action_repeat, loss, optimizer, policy, buffer, steps=steps, updates=updates)
-    collector.shutdown()
+        length = {} if config["episode_length"] is None else {"episode_length": config["episode_length"]}
+        rows = evaluate(policy, config["env"], config["eval_levels"], episodes=config["eval_episodes"],
+                        seeds=[config["seed"] + 10_000], env_options={"render_settings": RenderSettings.fast(), **length})
+        for level in config["eval_levels"]:
+            returns = [row["return"] for row in rows if row["level"] == level]
+            logger.log_scalar(f"eval/{level}_return", sum(returns) / len(returns), step=steps * action_repeat)
+        progress.set_postfix(eval=round(sum(r["return"] for r in rows if r["level"] == config["eval_levels"][0]) / config["eval_episodes"]))
+        state = {"loss": loss.state_dict(), "optimizer": optimizer.state_dict(), "policy": policy.state_dict(),
+                 "generators": generator_states(loss), "random": random_states(), "n_step": multistep_state(n_step),
+                 "replay": replay_state(buffer), "frames": steps * action_repeat, "steps": steps, "updates": updates}
+        (run_dir / "checkpoints").mkdir(exist_ok=True)
+        save_checkpoint(checkpoint_path(run_dir / "checkpoints", steps * action_repeat), state)
+        journal.commit(state["replay"])
     progress.close()
 
 
-def save(run_dir: Path, frames: int, loss, optimizer, policy, buffer, **counters: int) -> None:
-    """A checkpoint per evaluation (never overwritten) and the replay buffer to resume from."""
-    checkpoints = run_dir / "checkpoints"
-    checkpoints.mkdir(exist_ok=True)
-    state = {"loss": loss.state_dict(), "optimizer": optimizer.state_dict(), "policy": policy.state_dict(),
-             "torch_rng": torch.get_rng_state(), "frames": frames, **counters}
-    torch.save(state, unused_path(checkpoints / f"frames_{frames:08d}.pt"))
-    buffer.dumps(run_dir / "replay_buffer")
+def segment_batches(steps: int, total_steps: int, eval_every: int, batch_steps: int) -> int:
+    """Collector batches until the next checkpoint: the first batch that crosses a multiple of eval_every or ends the run."""
+    batches = 1
+    while (steps + batches * batch_steps) // eval_every == steps // eval_every and steps + batches * batch_steps < total_steps:
+        batches += 1
+    return batches
+
+
+def make_collector(make, policy, config: dict, *, env_seed: int, steps_per_batch: int, batches: int, random_steps: int):
+    """A collector for one segment, its env(s) freshly reset with ``env_seed`` (+ worker index)."""
+    workers = config["workers"]
+    options = dict(frames_per_batch=steps_per_batch * workers, total_frames=steps_per_batch * workers * batches,
+                   init_random_frames=random_steps, auto_register_policy_transforms=False)
+    if workers > 1:
+        return MultiSyncCollector([partial(make, seed=env_seed + w) for w in range(workers)], policy,
+                                  cat_results="stack", **options)
+    return Collector(make(seed=env_seed), policy, **options)
 
 
 if __name__ == "__main__":

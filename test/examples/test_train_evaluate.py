@@ -38,7 +38,7 @@ def trained(tmp_path_factory) -> Path:
 def test_train_writes_config_logs_and_checkpoints(trained):
     config = json.loads((trained / "config.json").read_text())
     assert config["algo"] == "drqv2" and config["batch_size"] == 8 and config["observation_shape"] == [9, 84, 84]
-    checkpoint = torch.load(trained / "checkpoints" / "frames_00000400.pt", weights_only=False)
+    checkpoint = torch.load(trained / "checkpoints" / "frames_00000400.pt", weights_only=True)
     # 400 frames = 200 agent steps; updates every 2 steps after the 100 seed steps
     assert (checkpoint["steps"], checkpoint["updates"]) == (200, 50)
     assert int(checkpoint["loss"]["schedule_step"]) == 200
@@ -52,13 +52,12 @@ def test_resume_continues_the_counters_and_keeps_earlier_files(trained, tmp_path
     subprocess.run(["cp", "-r", str(trained), str(run_dir)], check=True)
     first = (run_dir / "checkpoints" / "frames_00000400.pt").read_bytes()
     run("train.py", "--resume", run_dir, "--frames", "800")
-    checkpoint = torch.load(run_dir / "checkpoints" / "frames_00000800.pt", weights_only=False)
+    checkpoint = torch.load(run_dir / "checkpoints" / "frames_00000800.pt", weights_only=True)
     assert (checkpoint["steps"], checkpoint["updates"]) == (400, 150), "counters continue from the saved ones"
     assert checkpoint["optimizer"]["state"], "the optimizer state came back"
     assert (run_dir / "checkpoints" / "frames_00000400.pt").read_bytes() == first
     assert [row[0] for row in _eval_log(run_dir)] == ["400", "800"], "logs are appended, not rewritten"
-    metadata = json.loads((run_dir / "replay_buffer" / "storage" / "storage_metadata.json").read_text())
-    assert metadata["len"] >= 390, "the replay buffer holds the transitions of both parts"
+    assert checkpoint["replay"]["len"] >= 390, "the replay buffer holds the transitions of both parts"
 
 
 @pytest.mark.render
@@ -109,10 +108,9 @@ def test_compose_example_trains_and_tests(tmp_path):
 def test_train_with_worker_processes(tmp_path):
     """--workers 2: a MultiSyncCollector; n-step returns per worker, every transition stored once."""
     run("train.py", "--workers", "2", "--frames", "800", "--out", tmp_path / "run", *TINY)
-    checkpoint = torch.load(tmp_path / "run" / "checkpoints" / "frames_00000800.pt", weights_only=False)
+    checkpoint = torch.load(tmp_path / "run" / "checkpoints" / "frames_00000800.pt", weights_only=True)
     assert (checkpoint["steps"], checkpoint["updates"]) == (400, 150)
-    metadata = json.loads((tmp_path / "run" / "replay_buffer" / "storage" / "storage_metadata.json").read_text())
-    assert metadata["len"] == 400 - 2 * 3, "each worker's last 3 steps wait for their n-step window"
+    assert checkpoint["replay"]["len"] == 400 - 2 * 3, "each worker's last 3 steps wait for their n-step window"
 
 
 @pytest.mark.render
@@ -133,3 +131,43 @@ def test_robosuite_train_then_evaluate_reports_success(tmp_path):
     assert [(r["level"], r["seed"]) for r in rows] == [("easy", "0"), ("easy", "1"), ("robot_iiwa", "0"), ("robot_iiwa", "1")]
     assert all(int(r["length"]) == 10 and r["success"] in ("True", "False") for r in rows)
     assert "## Success rate (%)" in (out / "report.md").read_text() and (out / "summary_success.csv").exists()
+
+
+def _fails(*args: str | Path) -> subprocess.CompletedProcess:
+    result = subprocess.run([sys.executable, str(ROOT / "examples" / "train.py"), *map(str, args)],
+                            capture_output=True, text=True, cwd=ROOT)
+    assert result.returncode != 0, result.stdout[-2000:]
+    return result
+
+
+@pytest.mark.render
+@pytest.mark.parametrize("flags, message", [
+    (["--eval-levels", "colour_hard"], "--eval-levels"),
+    (["--eval-every", "1"], "--eval-every 1 is below one agent step"),
+    (["--frames", "-2"], "--frames"),
+    (["--seed-frames", "-1"], "--seed-frames"),
+    (["--buffer-size", "4"], "--buffer-size 4 is below --batch-size 8"),
+    (["--workers", "0"], "--workers must be an integer >= 1"),
+    (["--env", "dmc/cartpole-balanse"], "Unknown env"),
+])
+def test_bad_arguments_stop_the_run_before_it_starts(flags, message, tmp_path):
+    """Each setting is checked before the first frame; the failed start leaves no run folder."""
+    result = _fails("--frames", "400", "--out", tmp_path / "run", *TINY, *flags)
+    assert message in result.stderr
+    assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.render
+def test_resume_refuses_flags_that_contradict_the_run(trained, tmp_path):
+    run_dir = tmp_path / "resumed"
+    subprocess.run(["cp", "-r", str(trained), str(run_dir)], check=True)
+    result = _fails("--resume", run_dir, "--frames", "800", "--algo", "svea", "--batch-size", "16")
+    assert "--algo svea (the run has drqv2)" in result.stderr and "--batch-size 16 (the run has 8)" in result.stderr
+    assert not (run_dir / "checkpoints" / "frames_00000800.pt").exists()
+
+
+@pytest.mark.render
+def test_the_run_folder_used_is_printed(trained):
+    result = run("train.py", "--frames", "0", "--out", trained, *TINY)
+    printed = Path(next(line for line in result.stdout.splitlines() if line.startswith("run folder: "))[12:])
+    assert printed != trained and printed.parent == trained.parent and (printed / "config.json").exists()

@@ -1,0 +1,108 @@
+"""Atomic writes, safe loading, the replay undo journal and log rewinding of vigen.checkpoint / vigen.io."""
+
+from __future__ import annotations
+
+import os
+import pickle
+
+import pytest
+import torch
+from tensordict import TensorDict
+from torchrl.data import LazyMemmapStorage, TensorDictReplayBuffer
+
+from vigen.checkpoint import (CheckpointError, ReplayJournal, load_checkpoint, newest_checkpoint, replay_state,
+                              restore_replay, save_checkpoint, truncate_csv_logs)
+from vigen.io import atomic_write
+
+
+def test_a_failed_atomic_write_keeps_the_old_file_and_no_temporary(tmp_path):
+    path = atomic_write(tmp_path / "state.pt", b"old")
+
+    def explode(file):
+        file.write(b"half")
+        raise RuntimeError("killed")
+
+    with pytest.raises(RuntimeError):
+        atomic_write(path, explode)
+    assert path.read_bytes() == b"old" and [p.name for p in tmp_path.iterdir()] == ["state.pt"]
+
+
+class _Marker:
+    def __init__(self, path):
+        self.path = path
+
+    def __reduce__(self):
+        return (os.system, (f"touch {self.path}",))
+
+
+def test_a_pickle_that_runs_code_is_refused_and_never_run(tmp_path):
+    marker = tmp_path / "marker"
+    path = tmp_path / "frames_00000010.pt"
+    path.write_bytes(pickle.dumps({"loss": _Marker(marker)}, protocol=2))
+    with pytest.raises(CheckpointError, match="refused .*could run code"):
+        load_checkpoint(path)
+    assert not marker.exists()
+
+
+def test_save_refuses_objects_that_would_need_code_to_load(tmp_path):
+    with pytest.raises(TypeError, match=r"state\['rng'\] is a Generator"):
+        save_checkpoint(tmp_path / "frames_00000001.pt", {"rng": torch.Generator()})
+    assert not list(tmp_path.iterdir())
+
+
+def test_newest_checkpoint_falls_back_past_broken_ones(tmp_path):
+    save_checkpoint(tmp_path / "frames_00000100.pt", {"frames": 100})
+    (tmp_path / "frames_00000200.pt").write_bytes(b"")
+    path, state, skipped = newest_checkpoint(tmp_path)
+    assert state["frames"] == 100 and [p.name for p, _ in skipped] == ["frames_00000200.pt"]
+    (tmp_path / "frames_00000100.pt").write_bytes(b"\x80\x02cos\nsystem\n.")
+    with pytest.raises(CheckpointError, match="no checkpoint .* loads"):
+        newest_checkpoint(tmp_path)
+
+
+def _batch(start: int, count: int) -> TensorDict:
+    values = torch.arange(start, start + count)
+    return TensorDict({"x": values, ("next", "x"): values + 1}, batch_size=[count])
+
+
+def test_the_journal_restores_a_wrapped_memmap_buffer_to_the_checkpoint(tmp_path):
+    """A 6-slot buffer checkpointed at 5 items, then extended by 4 + 4 (wrapping twice over valid slots) and killed."""
+    storage_dir = tmp_path / "storage"
+    buffer = TensorDictReplayBuffer(storage=LazyMemmapStorage(6, scratch_dir=storage_dir))
+    journal = ReplayJournal(tmp_path / "journal", buffer)
+    buffer.extend(_batch(0, 5))
+    saved = replay_state(buffer)
+    journal.commit(saved)
+    for start in (100, 200):
+        journal.protect(4)
+        buffer.extend(_batch(start, 4))
+    assert buffer.storage[:]["x"].tolist() != [0, 1, 2, 3, 4, 203]
+
+    resumed = TensorDictReplayBuffer(storage=LazyMemmapStorage(6, scratch_dir=storage_dir))
+    restore_replay(resumed, saved, storage_dir)
+    assert ReplayJournal(tmp_path / "journal", resumed).rollback(saved) == []
+    assert len(resumed) == 5 and replay_state(resumed) == saved
+    assert resumed.storage[:5]["x"].tolist() == [0, 1, 2, 3, 4]
+    assert resumed.storage[:5]["next", "x"].tolist() == [1, 2, 3, 4, 5]
+
+
+def test_a_journal_of_an_older_checkpoint_is_not_applied(tmp_path):
+    buffer = TensorDictReplayBuffer(storage=LazyMemmapStorage(4, scratch_dir=tmp_path / "storage"))
+    journal = ReplayJournal(tmp_path / "journal", buffer)
+    buffer.extend(_batch(0, 4))
+    journal.commit(replay_state(buffer))
+    journal.protect(2)
+    buffer.extend(_batch(10, 2))
+    newer = replay_state(buffer)  # a checkpoint written, killed before its commit() cleared the journal
+    assert journal.rollback(newer) == []
+    assert buffer.storage[:]["x"].tolist() == [10, 11, 2, 3]
+
+
+def test_truncate_csv_logs_keeps_rows_up_to_the_step(tmp_path):
+    (tmp_path / "train").mkdir()
+    (tmp_path / "train" / "loss.csv").write_text("100,1.0\n200,0.5\n300,0.25\n400,0.1\n")
+    (tmp_path / "eval.csv").write_text("200,10\n")
+    notes = truncate_csv_logs(tmp_path, 200)
+    assert (tmp_path / "train" / "loss.csv").read_text() == "100,1.0\n200,0.5\n"
+    assert (tmp_path / "eval.csv").read_text() == "200,10\n"
+    assert notes == ["train/loss.csv: dropped 2 rows logged after step 200"]
