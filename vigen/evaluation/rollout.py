@@ -112,12 +112,12 @@ def evaluate(
         raise ValueError(f"episodes must be at least 1, got {episodes}.")
     if not seeds:
         raise ValueError("seeds is empty: give at least one seed, e.g. seeds=[0].")
-    log = None if rows_path is None else _RowLog(Path(rows_path))
     rows: list[dict[str, Any]] = []
     name = env if isinstance(env, str) else getattr(env, "__name__", "env")
     level_names = [levels] if isinstance(levels, str) else list(levels)
     if isinstance(env, str):
         level_names = resolve_levels(level_names, suite=env.split("/")[0])
+    log = None if rows_path is None else _RowLog(Path(rows_path))
     for level in level_names:
         for seed in seeds:
             episode: int | None = None
