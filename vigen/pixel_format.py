@@ -21,6 +21,8 @@ PIXEL_DTYPES = (torch.uint8, torch.float16, torch.bfloat16, torch.float32, torch
 RGB_CHANNELS = 3
 # how far above max_value a float pixel may be before the scale is judged wrong (rounding slack)
 SCALE_TOLERANCE = 1e-3
+# the largest last dim still taken for a channel count when judging a layout
+MAX_CHANNELS_LAST = 16
 
 
 def white_value(images: Tensor, max_value: float | None = None) -> float:
@@ -39,16 +41,79 @@ def white_value(images: Tensor, max_value: float | None = None) -> float:
 
 
 def looks_channels_last(shape: torch.Size | tuple[int, ...]) -> bool:
-    """Whether ``[..., A, B, C]`` looks like ``[..., H, W, C]``: a small last dim beside a much larger first one.
+    """Whether ``[..., A, B, C]`` looks like ``[..., H, W, C]`` rather than ``[..., C, H, W]``.
 
-    Channels-first stacks have ``C`` at most a few dozen and ``W`` rarely below ``C / 4``; HWC
-    frames (``84 × 84 × 3·k``) have a last dim far below their height.
+    Square channels-first frames (``B == C``) are channels first. Otherwise the shape is judged
+    channels-last when its last dim is a plausible channel count (at most 16) below both others,
+    as in ``84 × 84 × 3·k`` or ``16 × 16 × 9``; a channels-first stack never has fewer columns
+    than channels unless its frames are narrower than they are few.
 
     Examples:
-        >>> looks_channels_last((84, 84, 9)), looks_channels_last((9, 84, 84)), looks_channels_last((9, 8, 8))
-        (True, False, False)
+        >>> looks_channels_last((84, 84, 9)), looks_channels_last((16, 16, 9)), looks_channels_last((64, 96, 3))
+        (True, True, True)
+        >>> looks_channels_last((9, 84, 84)), looks_channels_last((9, 8, 8)), looks_channels_last((3, 64, 96))
+        (False, False, False)
     """
-    return len(shape) >= 3 and shape[-1] <= 16 and shape[-3] >= 4 * shape[-1]
+    if len(shape) < 3:
+        return False
+    first, middle, last = (int(d) for d in shape[-3:])
+    if middle == last:
+        return False
+    return last <= MAX_CHANNELS_LAST and last < first and last < middle
+
+
+def check_pixel_layout(
+    shape: torch.Size | tuple[int, ...],
+    dtype: torch.dtype,
+    *,
+    name: str,
+    max_value: float | None = None,
+    rgb: bool = False,
+) -> None:
+    """Everything :func:`check_pixels` checks without reading a value: dtype, layout, channels, declared scale.
+
+    Use it on a spec (``spec.shape``, ``spec.dtype``) to fail when an env is built rather than at
+    its first step.
+
+    Args:
+        shape: ``[..., C, H, W]``.
+        dtype: the pixels' dtype.
+        name: who checks (a class name), put at the start of the message.
+        max_value: the declared white of float pixels (``None``: 1.0); uint8 pixels are 0–255,
+            so only ``None`` or 255 fit them.
+        rgb: the caller needs RGB frame stacks, ``C = 3·k``.
+
+    Examples:
+        >>> import torch
+        >>> check_pixel_layout((9, 84, 84), torch.uint8, name="Demo", rgb=True)
+        >>> check_pixel_layout((84, 84, 9), torch.uint8, name="Demo")  # doctest: +ELLIPSIS
+        Traceback (most recent call last):
+        ...
+        ValueError: Demo takes channels-first pixels [..., C, H, W], got shape (84, 84, 9), which looks channels-last ...
+    """
+    shape = tuple(shape)
+    if dtype not in PIXEL_DTYPES:
+        raise TypeError(f"{name} takes uint8 or floating-point pixels, got {dtype}; "
+                        "convert them with .to(torch.uint8) (0–255) or .float() / 255 (0–1).")
+    if len(shape) < 3:
+        raise ValueError(f"{name} takes channels-first pixels [..., C, H, W], got shape {shape}.")
+    if looks_channels_last(shape):
+        raise ValueError(
+            f"{name} takes channels-first pixels [..., C, H, W], got shape {shape}, which looks "
+            "channels-last [..., H, W, C]: put TorchRL's ToTensorImage() (or PermuteTransform) before it, "
+            "or call .movedim(-1, -3)."
+        )
+    if rgb and shape[-3] % RGB_CHANNELS:
+        raise ValueError(
+            f"{name} works on RGB colours, so it needs stacks of RGB frames with 3·k channels, got "
+            f"{shape[-3]} channels (shape {shape}). Apply it before GrayScale(), or use an "
+            "augmentation that works on any channel count (RandomShift, RandomCrop, RandomFrequencyMask, noise, blur)."
+        )
+    if not dtype.is_floating_point and max_value is not None and float(max_value) != float(torch.iinfo(dtype).max):
+        raise ValueError(
+            f"{name}: uint8 pixels are always on 0–255, but max_value={max_value} was declared; max_value "
+            "describes float pixels only: leave it None (or 255) for uint8 input."
+        )
 
 
 def check_pixels(
@@ -60,6 +125,9 @@ def check_pixels(
 ) -> None:
     """Raise a ``TypeError``/``ValueError`` naming the fix if ``images`` breaks the pixel contract.
 
+    Checks what :func:`check_pixel_layout` checks, then, for float pixels only, that no value is
+    above ``max_value`` (one ``amax``). Values below 0 are not looked for.
+
     Args:
         images: ``[..., C, H, W]`` pixels.
         name: who checks (a class name), put at the start of the message.
@@ -69,32 +137,18 @@ def check_pixels(
     Examples:
         >>> import torch
         >>> check_pixels(torch.rand(2, 9, 8, 8), name="Demo")
-        >>> check_pixels(torch.full((2, 9, 8, 8), 200.0), name="Demo")  # doctest: +ELLIPSIS
+        >>> check_pixels(torch.rand(2, 9, 8, 8) * 255, name="Demo")  # doctest: +ELLIPSIS
         Traceback (most recent call last):
         ...
-        ValueError: Demo: float pixels reach 200, above max_value 1; these look like 0–255 pixels: pass max_value=255, ...
+        ValueError: Demo: float pixels reach 2..., above max_value 1.0; these look like 0–255 pixels: pass max_value=255, ...
     """
-    if images.dtype not in PIXEL_DTYPES:
-        raise TypeError(f"{name} takes uint8 or floating-point pixels, got {images.dtype}; "
-                        "convert them with .to(torch.uint8) (0–255) or .float() / 255 (0–1).")
-    if images.ndim < 3:
-        raise ValueError(f"{name} takes channels-first pixels [..., C, H, W], got shape {tuple(images.shape)}.")
-    if looks_channels_last(images.shape):
-        raise ValueError(
-            f"{name} takes channels-first pixels [..., C, H, W], got shape {tuple(images.shape)}, which looks "
-            "channels-last [..., H, W, C]: put TorchRL's ToTensorImage() (or PermuteTransform) before it, "
-            "or call .movedim(-1, -3)."
-        )
-    if rgb and images.shape[-3] % RGB_CHANNELS:
-        raise ValueError(
-            f"{name} works on RGB colours, so it needs stacks of RGB frames with 3·k channels, got "
-            f"{images.shape[-3]} channels (shape {tuple(images.shape)}). Apply it before GrayScale(), or use an "
-            "augmentation that works on any channel count (RandomShift, RandomCrop, RandomFrequencyMask, noise, blur)."
-        )
+    if not isinstance(images, Tensor):
+        raise TypeError(f"{name} takes pixels as a torch.Tensor, got {type(images).__name__}.")
+    check_pixel_layout(images.shape, images.dtype, name=name, max_value=max_value, rgb=rgb)
     if images.dtype.is_floating_point and images.numel():
         white = white_value(images, max_value)
         peak = float(images.amax())
         if peak > white * (1 + SCALE_TOLERANCE):
             hint = ("these look like 0–255 pixels: pass max_value=255, or divide them by 255 "
                     "(TorchRL's ToTensorImage() gives 0–1)") if white == 1.0 else "clamp them or declare the right max_value"
-            raise ValueError(f"{name}: float pixels reach {peak:g}, above max_value {white:g}; {hint}.")
+            raise ValueError(f"{name}: float pixels reach {peak:g}, above max_value {white}; {hint}.")
