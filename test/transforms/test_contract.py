@@ -16,7 +16,7 @@ import torch
 from tensordict import TensorDict
 from torch import nn
 from torchrl.data import LazyTensorStorage, ReplayBuffer, TensorDictReplayBuffer
-from torchrl.envs import Compose, ParallelEnv, SerialEnv, TransformedEnv
+from torchrl.envs import ClipTransform, Compose, ParallelEnv, SerialEnv, TransformedEnv
 from torchrl.envs.utils import check_env_specs
 from torchrl.testing.mocking_classes import ContinuousActionConvMockEnv
 
@@ -63,8 +63,10 @@ def out_size(name: str) -> int:
     return CROP if "crop" in name else SIZE
 
 
-def mock_env() -> ContinuousActionConvMockEnv:
-    return ContinuousActionConvMockEnv(pixel_shape=[9, SIZE, SIZE])
+def mock_env() -> TransformedEnv:
+    """TorchRL's pixel mock env, its N(0, 1) pixels clipped to the contract's float range [0, 1]."""
+    env = ContinuousActionConvMockEnv(pixel_shape=[9, SIZE, SIZE])
+    return TransformedEnv(env, ClipTransform(in_keys=["pixels"], low=0.0, high=1.0))
 
 
 def transformed_mock_env(name: str) -> TransformedEnv:

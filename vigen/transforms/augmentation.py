@@ -2,23 +2,66 @@
 
 from __future__ import annotations
 
+import math
+import numbers
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, ClassVar
 
 import torch
 from tensordict import TensorDictBase
 from tensordict.nn import dispatch
 from tensordict.utils import NestedKey
 from torch import Tensor
-from torchrl.data import Composite
+from torchrl.data import Composite, TensorSpec
 from torchrl.data.tensor_specs import ContinuousBox
 from torchrl.envs import Transform
 from torchrl.envs.transforms.utils import _set_missing_tolerance
 
+from vigen.pixel_format import check_pixel_layout, check_pixels, white_value
 from vigen.transforms import functional
-from vigen.transforms.functional import FRAME_CHANNELS
 
 Params = dict[str, Tensor]
+
+
+def check_parameter(
+    owner: str,
+    name: str,
+    value: object,
+    *,
+    low: float | None = None,
+    high: float | None = None,
+    integer: bool = False,
+    hint: str = "",
+) -> None:
+    """Raise if a constructor argument is not a finite number (an int if ``integer``) in ``[low, high]``.
+
+    Args:
+        owner: the class whose argument it is, put at the start of the message.
+        name: the argument's name.
+        value: what was passed.
+        low, high: inclusive bounds (``None``: unbounded on that side).
+        integer: the argument must be an int.
+        hint: appended to the message (e.g. how to pass what was probably meant).
+
+    Examples:
+        >>> check_parameter("Demo", "p", 0.5, low=0, high=1)
+        >>> check_parameter("Demo", "pad", -1, low=0, integer=True)
+        Traceback (most recent call last):
+        ...
+        ValueError: Demo: pad must be an int >= 0, got -1.
+    """
+    kind = "an int" if integer else "a number"
+    if low is not None and high is not None:
+        kind += f" in [{low}, {high}]"
+    elif low is not None:
+        kind += f" >= {low}"
+    elif high is not None:
+        kind += f" <= {high}"
+    wanted = numbers.Integral if integer else numbers.Real
+    if isinstance(value, bool) or not isinstance(value, wanted):
+        raise TypeError(f"{owner}: {name} must be {kind}, got {type(value).__name__} {value!r}.{hint}")
+    if not math.isfinite(value) or (low is not None and value < low) or (high is not None and value > high):
+        raise ValueError(f"{owner}: {name} must be {kind}, got {value!r}.{hint}")
 
 
 class ImageAugmentation(Transform):
@@ -34,15 +77,21 @@ class ImageAugmentation(Transform):
       ``("next", "pixels")`` as ``in_keys``: each key gets its own draw;
     * standalone on a TensorDict, by keyword (``t(pixels=x)``) and inside ``Compose``.
 
-    Images are ``[..., 3·k, H, W]`` (k stacked RGB frames, channels first) with any leading batch
-    dims, uint8 or float; the output has the input's dtype and shape (crops change H and W), and
-    the input is never modified. Values stay in ``[0, max_value]``.
+    Input contract (:mod:`vigen.pixel_format`), checked on every call before any work: images are
+    ``[..., C, H, W]`` channels first, with any leading batch dims, either uint8 on ``[0, 255]``
+    or float on ``[0, max_value]`` (``max_value`` defaults to 1.0, TorchRL's ``ToTensorImage``
+    scale; float images on the 0–255 scale need ``max_value=255``). Channels-last frames, other
+    dtypes and float values above ``max_value`` raise with the fix. Augmentations that mix the
+    colours of a pixel declare ``needs_rgb = True`` and take stacks of k RGB frames,
+    ``C = 3·k``; the others take any channel count (e.g. grayscale stacks). The output has the
+    input's dtype and shape (crops change H and W), values stay in ``[0, max_value]``, the input
+    is never modified, and an empty batch gives an empty output without drawing anything.
 
     Args:
         in_keys: keys to augment; default ``["pixels"]``.
         out_keys: where to write; default: in place of ``in_keys``.
-        max_value: value of a white pixel. ``None``: 255 for integer images, 1.0 for float ones
-            (TorchRL's ``ToTensorImage`` scale); pass 255 for float images on the 0–255 scale.
+        max_value: value of a white float pixel. ``None``: 1.0 (TorchRL's ``ToTensorImage``
+            scale); pass 255 for float images on the 0–255 scale. uint8 images are always 0–255.
         seed: seed of the transform's own ``torch.Generator`` (one per device), so its draws
             are reproducible and independent of the global RNG. ``None`` draws from torch's
             global RNG, which ``ParallelEnv.set_seed`` seeds differently in each worker.
@@ -50,6 +99,7 @@ class ImageAugmentation(Transform):
     Examples:
         >>> import torch
         >>> class RandomInvert(ImageAugmentation):
+        ...     needs_rgb = False  # works on each channel alone
         ...     def make_params(self, images):
         ...         return {"flip": self.rand(images.shape[0], like=images) < 0.5}
         ...     def apply(self, images, params):
@@ -59,6 +109,9 @@ class ImageAugmentation(Transform):
         tensor([1., 0., 1., 1.])
     """
 
+    needs_rgb: ClassVar[bool] = False
+    """Whether the augmentation mixes a pixel's R, G and B, so it needs ``C = 3·k`` channels."""
+
     def __init__(
         self,
         in_keys: Sequence[NestedKey] | NestedKey | None = None,
@@ -67,8 +120,19 @@ class ImageAugmentation(Transform):
         max_value: float | None = None,
         seed: int | None = None,
     ) -> None:
+        name = type(self).__name__
+        if max_value is not None:
+            check_parameter(name, "max_value", max_value, hint=" It is the white of float pixels, e.g. 255 or 1.0.")
+            if max_value <= 0:
+                raise ValueError(f"{name}: max_value must be positive (the white of float pixels), got {max_value!r}.")
+        _check_seed(name, seed)
         in_keys = ["pixels"] if in_keys is None else in_keys
         super().__init__(in_keys=in_keys, out_keys=out_keys if out_keys is not None else in_keys)
+        if len(self.in_keys) != len(self.out_keys):
+            raise ValueError(
+                f"{name}: out_keys must have one key per in_key, got in_keys={self.in_keys} and "
+                f"out_keys={self.out_keys}; leave out_keys None to write in place."
+            )
         self.max_value = max_value
         self.seed = seed
         self._generators: dict[torch.device, torch.Generator] = {}
@@ -83,7 +147,7 @@ class ImageAugmentation(Transform):
         raise NotImplementedError
 
     def augment(self, images: Tensor) -> Tensor:
-        """Draw parameters and apply them to a tensor ``[..., 3·k, H, W]`` (what losses call).
+        """Check the pixel contract, draw parameters and apply them to ``[..., C, H, W]`` (what losses call).
 
         Examples:
             >>> import torch
@@ -104,6 +168,7 @@ class ImageAugmentation(Transform):
     # -- randomness ------------------------------------------------------------------------
     def set_seed(self, seed: int | None) -> None:
         """Re-seed the transform's generator (``None``: use torch's global RNG from now on)."""
+        _check_seed(type(self).__name__, seed)
         self.seed = seed
         self._generators.clear()
 
@@ -129,10 +194,8 @@ class ImageAugmentation(Transform):
         return torch.randn(shape, generator=self.generator(like.device), device=like.device)
 
     def white(self, images: Tensor) -> float:
-        """The value of a white pixel for ``images``."""
-        if self.max_value is not None:
-            return float(self.max_value)
-        return 1.0 if images.dtype.is_floating_point else float(torch.iinfo(images.dtype).max)
+        """The value of a white pixel for ``images`` (see :func:`vigen.pixel_format.white_value`)."""
+        return white_value(images, self.max_value)
 
     # -- TorchRL plumbing ------------------------------------------------------------------
     @dispatch(source="in_keys", dest="out_keys", auto_batch_size=False)
@@ -142,39 +205,45 @@ class ImageAugmentation(Transform):
 
     def _apply_transform(self, pixels: Tensor) -> Tensor:
         images = self._as_batch(pixels)
+        if images.numel() == 0:
+            return pixels.new_empty((*pixels.shape[:-2], *self.output_size(*pixels.shape[-2:])))
         out = self.apply(images, self.make_params(images))
         return out.reshape(*pixels.shape[:-3], *out.shape[-3:])
 
-    def transform_observation_spec(self, observation_spec: Composite) -> Composite:
+    def transform_observation_spec(self, observation_spec: Composite | TensorSpec) -> Composite | TensorSpec:
+        """The spec after augmentation: a ``Composite`` (its ``in_keys`` are mapped) or one pixel spec.
+
+        The pixel specs are checked against the contract (dtype, channels first, channel count),
+        so a misplaced augmentation fails when the env is built.
+        """
+        if not isinstance(observation_spec, Composite):
+            return self._transform_pixel_spec(observation_spec.clone())
         for in_key, out_key in zip(self.in_keys, self.out_keys):
             if in_key not in observation_spec.keys(True, True):
                 continue
-            spec = observation_spec[in_key].clone()
-            *batch, channels, height, width = spec.shape
-            size = self.output_size(height, width)
-            if size != (height, width):
-                if isinstance(spec.space, ContinuousBox):
-                    spec.space.low = functional.center_crop(spec.space.low, *size)
-                    spec.space.high = functional.center_crop(spec.space.high, *size)
-                spec.shape = torch.Size([*batch, channels, *size])
-            elif in_key == out_key:
-                continue
-            observation_spec[out_key] = spec
+            spec = self._transform_pixel_spec(observation_spec[in_key].clone())
+            if in_key != out_key or spec.shape != observation_spec[in_key].shape:
+                observation_spec[out_key] = spec
         return observation_spec
+
+    def _transform_pixel_spec(self, spec: TensorSpec) -> TensorSpec:
+        check_pixel_layout(spec.shape, spec.dtype, name=type(self).__name__, max_value=self.max_value, rgb=self.needs_rgb)
+        *batch, channels, height, width = spec.shape
+        size = self.output_size(height, width)
+        if size != (height, width):
+            if isinstance(getattr(spec, "space", None), ContinuousBox):
+                spec.space.low = functional.center_crop(spec.space.low, *size)
+                spec.space.high = functional.center_crop(spec.space.high, *size)
+            spec.shape = torch.Size([*batch, channels, *size])
+        return spec
 
     def _reset(self, tensordict: TensorDictBase, tensordict_reset: TensorDictBase) -> TensorDictBase:
         with _set_missing_tolerance(self, True):
             return self._call(tensordict_reset)
 
     def _as_batch(self, pixels: Tensor) -> Tensor:
-        name = type(self).__name__
-        if pixels.dtype not in (torch.uint8, torch.float16, torch.bfloat16, torch.float32, torch.float64):
-            raise TypeError(f"{name} takes uint8 or floating-point images, got {pixels.dtype}.")
-        if pixels.ndim < 3 or pixels.shape[-3] % FRAME_CHANNELS:
-            raise ValueError(
-                f"{name} takes channels-first RGB frame stacks [..., 3*k, H, W], got shape {tuple(pixels.shape)}. "
-                "For HWC images from an env, put ToTensorImage() before it."
-            )
+        """``pixels`` checked against the contract (once per call) and flattened to ``[N, C, H, W]``."""
+        check_pixels(pixels, name=type(self).__name__, max_value=self.max_value, rgb=self.needs_rgb)
         return pixels.reshape(-1, *pixels.shape[-3:])
 
     def clone(self) -> ImageAugmentation:
@@ -197,6 +266,11 @@ class ImageAugmentation(Transform):
         extra = self.extra_repr()
         seed = "" if self.seed is None else f", seed={self.seed}"
         return f"{type(self).__name__}({extra + ', ' if extra else ''}{keys}{seed})"
+
+
+def _check_seed(owner: str, seed: object) -> None:
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, numbers.Integral)):
+        raise TypeError(f"{owner}: seed must be an int or None, got {type(seed).__name__} {seed!r}.")
 
 
 def _generators_from_states(states: dict[torch.device, Tensor]) -> dict[torch.device, torch.Generator]:

@@ -8,7 +8,7 @@ from tensordict.utils import NestedKey
 from torch import Tensor
 
 from vigen.transforms import functional
-from vigen.transforms.augmentation import ImageAugmentation, Params
+from vigen.transforms.augmentation import ImageAugmentation, Params, check_parameter
 
 
 class RandomColorJitter(ImageAugmentation):
@@ -19,12 +19,13 @@ class RandomColorJitter(ImageAugmentation):
     :func:`vigen.transforms.functional.color_jitter`). The defaults are those of RL-ViGen's
     ``RandomJitterAug`` (0.4, 0.4, 0.4, 0.5), which RL-ViGen defines but never runs. Unlike
     torchvision's ``ColorJitter`` every sample gets its own factors (one draw per call is wrong
-    for RL batches); the order is fixed rather than shuffled.
+    for RL batches); the order is fixed rather than shuffled. Saturation and hue need a pixel's
+    R, G and B, so inputs are stacks of RGB frames, ``C = 3·k``.
 
     Paper: RL-ViGen, https://arxiv.org/abs/2307.10224 (augmentation suite of its SVEA agent).
 
     Args:
-        brightness, contrast, saturation: jitter strength ``b`` (0 disables that step).
+        brightness, contrast, saturation: jitter strength ``b`` >= 0 (0 disables that step).
         hue: maximum hue shift in turns, in [0, 0.5].
         in_keys, out_keys, max_value, seed: see :class:`~vigen.transforms.ImageAugmentation`.
 
@@ -49,12 +50,12 @@ class RandomColorJitter(ImageAugmentation):
         seed: int | None = None,
     ) -> None:
         for name, value in (("brightness", brightness), ("contrast", contrast), ("saturation", saturation)):
-            if value < 0:
-                raise ValueError(f"{name} must be non-negative, got {value}.")
-        if not 0 <= hue <= 0.5:
-            raise ValueError(f"hue must be in [0, 0.5] turns, got {hue}.")
+            check_parameter(type(self).__name__, name, value, low=0)
+        check_parameter(type(self).__name__, "hue", hue, low=0, high=0.5, hint=" Hue shifts are in turns.")
         super().__init__(in_keys, out_keys, max_value=max_value, seed=seed)
         self.brightness, self.contrast, self.saturation, self.hue = brightness, contrast, saturation, hue
+
+    needs_rgb = True  # saturation and hue mix a pixel's R, G and B
 
     def _factors(self, strength: float, images: Tensor) -> Tensor:
         low = max(0.0, 1.0 - strength)

@@ -12,7 +12,7 @@ class RandomConv(ImageAugmentation):
     """Filter each sample with its own random 3×3 RGB→RGB kernel, then ``sigmoid`` back to the value range.
 
     Kernels are drawn from N(0, 1) per sample (``[3, 3, 3, 3]``, no bias) and applied to every
-    stacked frame of the sample with replicate padding: ``sigmoid(k ∗ x / m) · m`` with ``m`` the
+    stacked RGB frame of the sample (so ``C = 3·k``) with replicate padding: ``sigmoid(k ∗ x / m) · m`` with ``m`` the
     white level. This is DMC-GB's ``random_conv`` (SVEA's default strong augmentation there),
     batched as one grouped convolution instead of a loop over samples.
 
@@ -29,6 +29,8 @@ class RandomConv(ImageAugmentation):
         >>> out.dtype, out.shape
         (torch.uint8, torch.Size([4, 9, 84, 84]))
     """
+
+    needs_rgb = True  # the kernel maps each RGB frame to a new RGB frame
 
     def make_params(self, images: Tensor) -> Params:
         return {"kernels": self.randn(images.shape[0], 3, 3, 3, 3, like=images)}

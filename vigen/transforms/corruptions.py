@@ -11,7 +11,7 @@ from tensordict.utils import NestedKey
 from torch import Tensor
 
 from vigen.transforms import functional
-from vigen.transforms.augmentation import ImageAugmentation, Params
+from vigen.transforms.augmentation import ImageAugmentation, Params, check_parameter
 
 # Severity 1..5 -> parameter, after ImageNet-C (Hendrycks & Dietterich, 2019). Blur sigmas are
 # ImageNet-C's (for 224 px images) scaled by 84/224 so that they blur an 84 px frame alike.
@@ -22,6 +22,8 @@ SEVERITIES: dict[str, tuple[float, ...]] = {
     "contrast": (0.4, 0.3, 0.2, 0.1, 0.05),  # contrast factor
     "brightness": (0.1, 0.2, 0.3, 0.4, 0.5),  # added to HSV value
 }
+# the corruptions that read a pixel's R, G and B together (JPEG's YCbCr, a frame's mean, HSV)
+RGB_CORRUPTIONS = frozenset({"jpeg_compression", "contrast", "brightness"})
 
 
 class PixelCorruption(ImageAugmentation):
@@ -38,13 +40,16 @@ class PixelCorruption(ImageAugmentation):
     ======================  =============================================================
 
     Parameters follow ImageNet-C (values for images in [0, 1]; blur scaled to 84 px frames).
-    Only ``gaussian_noise`` is random (fresh noise per sample and step).
+    Only ``gaussian_noise`` is random (fresh noise per sample and step). Noise and blur act on
+    each channel alone and take any channel count; JPEG, contrast and brightness work on RGB
+    frames and need ``C = 3·k`` (see ``RGB_CORRUPTIONS``). Pixels follow the contract of
+    :class:`~vigen.transforms.ImageAugmentation` (float images on 0–255 need ``max_value=255``).
 
     Paper: ImageNet-C, https://arxiv.org/abs/1903.12261.
 
     Args:
         corruption: one of the names above.
-        severity: 1 to 5.
+        severity: an int from 1 to 5.
         in_keys, out_keys, max_value, seed: see :class:`~vigen.transforms.ImageAugmentation`.
 
     Examples:
@@ -65,15 +70,24 @@ class PixelCorruption(ImageAugmentation):
         max_value: float | None = None,
         seed: int | None = None,
     ) -> None:
+        name = type(self).__name__
+        if not isinstance(corruption, str):
+            raise TypeError(f"{name}: corruption must be a name from {sorted(SEVERITIES)}, got "
+                            f"{type(corruption).__name__} {corruption!r}; pass severity= by keyword.")
         if corruption not in SEVERITIES:
-            raise ValueError(f"Unknown corruption {corruption!r}; choose from {sorted(SEVERITIES)}.")
-        if severity not in range(1, 6):
-            raise ValueError(f"severity must be 1 to 5, got {severity}.")
+            raise ValueError(f"{name}: unknown corruption {corruption!r}; choose from {sorted(SEVERITIES)}.")
+        check_parameter(name, "severity", severity, low=1, high=5, integer=True)
         super().__init__(in_keys, out_keys, max_value=max_value, seed=seed)
-        self.corruption, self.severity = corruption, severity
+        self.corruption, self.severity = corruption, int(severity)
+
+    @property
+    def needs_rgb(self) -> bool:  # type: ignore[override]
+        """Whether this corruption reads RGB frames (``C = 3·k``); noise and blur take any channels."""
+        return self.corruption in RGB_CORRUPTIONS
 
     @property
     def strength(self) -> float:
+        """The corruption's parameter at this severity (see ``SEVERITIES``)."""
         return SEVERITIES[self.corruption][self.severity - 1]
 
     def make_params(self, images: Tensor) -> Params:
@@ -91,13 +105,13 @@ class PixelCorruption(ImageAugmentation):
         elif self.corruption == "gaussian_blur":
             x = _gaussian_blur(x, self.strength)
         elif self.corruption == "contrast":
-            frames = functional._frames(x)
+            frames = functional.split_frames(x)
             mean = frames.mean(dim=(-3, -2, -1), keepdim=True)
             x = torch.lerp(mean, frames, self.strength).reshape(x.shape)
         elif self.corruption == "brightness":
-            hsv = functional._rgb_to_hsv(functional._frames(x))
+            hsv = functional.rgb_to_hsv(functional.split_frames(x))
             hsv = torch.cat((hsv[..., :2, :, :], (hsv[..., 2:, :, :] + self.strength).clamp_(0, 1)), dim=-3)
-            x = functional._hsv_to_rgb(hsv).reshape(x.shape)
+            x = functional.hsv_to_rgb(hsv).reshape(x.shape)
         return functional.to_dtype(x.mul_(white), images, white)
 
     def extra_repr(self) -> str:
@@ -119,7 +133,7 @@ def _gaussian_blur(x: Tensor, sigma: float) -> Tensor:
 def _jpeg(images: Tensor, quality: int, white: float) -> Tensor:
     import cv2
 
-    frames = functional._frames(images).float().div(white).mul(255).round().clamp(0, 255).to(torch.uint8)
+    frames = functional.split_frames(images).float().div(white).mul(255).round().clamp(0, 255).to(torch.uint8)
     out = torch.empty_like(frames)
     for index in np.ndindex(*frames.shape[:2]):
         rgb = frames[index].permute(1, 2, 0).cpu().numpy()

@@ -8,14 +8,18 @@ from tensordict.utils import NestedKey
 from torch import Tensor
 
 from vigen.transforms import functional
-from vigen.transforms.augmentation import ImageAugmentation, Params
+from vigen.transforms.augmentation import ImageAugmentation, Params, check_parameter
 
 
-def _pair(size: int | Sequence[int]) -> tuple[int, int]:
-    height, width = (size, size) if isinstance(size, int) else tuple(size)
-    if height < 1 or width < 1:
-        raise ValueError(f"crop size must be positive, got {size}.")
-    return int(height), int(width)
+def _pair(owner: str, size: int | Sequence[int]) -> tuple[int, int]:
+    if isinstance(size, (str, bytes)) or not isinstance(size, (int, Sequence)) or isinstance(size, bool):
+        raise TypeError(f"{owner}: size must be an int or a (height, width) pair of ints, got {type(size).__name__} {size!r}.")
+    pair = (size, size) if isinstance(size, int) else tuple(size)
+    if len(pair) != 2:
+        raise ValueError(f"{owner}: size must be an int or a (height, width) pair of ints, got {size!r}.")
+    for name, value in zip(("size[0] (height)", "size[1] (width)"), pair):
+        check_parameter(owner, name, value, low=1, integer=True)
+    return int(pair[0]), int(pair[1])
 
 
 class _Crop(ImageAugmentation):
@@ -28,8 +32,8 @@ class _Crop(ImageAugmentation):
         max_value: float | None = None,
         seed: int | None = None,
     ) -> None:
+        self.height, self.width = _pair(type(self).__name__, size)
         super().__init__(in_keys, out_keys, max_value=max_value, seed=seed)
-        self.height, self.width = _pair(size)
 
     def output_size(self, height: int, width: int) -> tuple[int, int]:
         if height < self.height or width < self.width:
@@ -47,13 +51,13 @@ class RandomCrop(_Crop):
     """Cut a window at a random position, the same for all stacked frames of a sample (CURL).
 
     CURL renders 100×100 frames and trains on random 84×84 crops. Positions are uniform over all
-    windows that fit; the output is ``[..., C, size, size]``, and the observation spec of an env
-    with this transform is resized to match.
+    windows that fit; the output is ``[..., C, size, size]`` for any channel count, and the
+    observation spec of an env with this transform is resized to match.
 
     Paper: CURL, https://arxiv.org/abs/2004.04136.
 
     Args:
-        size: output ``(height, width)``, or one int for a square.
+        size: output ``(height, width)``, or one int for a square (positive ints).
         in_keys, out_keys, max_value, seed: see :class:`~vigen.transforms.ImageAugmentation`.
 
     Examples:
@@ -81,7 +85,7 @@ class CenterCrop(_Crop):
     Paper: CURL, https://arxiv.org/abs/2004.04136.
 
     Args:
-        size: output ``(height, width)``, or one int for a square.
+        size: output ``(height, width)``, or one int for a square (positive ints).
         in_keys, out_keys, max_value: see :class:`~vigen.transforms.ImageAugmentation`.
 
     Examples:

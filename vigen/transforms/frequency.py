@@ -10,7 +10,9 @@ from tensordict.utils import NestedKey
 from torch import Tensor
 
 from vigen.transforms import functional
-from vigen.transforms.augmentation import ImageAugmentation, Params
+from vigen.transforms.augmentation import ImageAugmentation, Params, check_parameter
+
+NYQUIST = 0.5  # the highest spatial frequency, in cycles per pixel
 
 
 class RandomFrequencyMask(ImageAugmentation):
@@ -24,7 +26,7 @@ class RandomFrequencyMask(ImageAugmentation):
     SRM paper's form ``F̂ = M·F(o) + (1 − M)·F(Z)``, where the ring takes the coefficients of a
     uniform noise image ``Z`` drawn per sample. Unlike RL-ViGen (which leaves values outside
     [0, 255]), the output is clipped to the value range so that it stays inside the observation
-    spec; uint8 inputs are rounded.
+    spec; uint8 inputs are rounded. Each channel is masked alone, so any channel count works.
 
     Paper: SRM (Huang et al., NeurIPS 2022),
     https://proceedings.neurips.cc/paper_files/paper/2022/hash/802a4350ca4fced76b13b8b320af1543-Abstract-Conference.html;
@@ -32,12 +34,15 @@ class RandomFrequencyMask(ImageAugmentation):
     https://arxiv.org/abs/2307.10224.
 
     Args:
-        p: probability of masking.
-        max_low: upper bound of the ring's inner edge (0.5 is the Nyquist frequency).
-        max_width: upper bound of the ring's width.
+        p: probability of masking, in [0, 1].
+        max_low: upper bound of the ring's inner edge, in [0, 0.5] (0.5 is the Nyquist frequency).
+        max_width: upper bound of the ring's width, >= 0.
         per_sample: one ring per sample instead of one per batch.
         fill: ``"zero"`` or ``"noise"``.
         in_keys, out_keys, max_value, seed: see :class:`~vigen.transforms.ImageAugmentation`.
+
+    All arguments but ``p`` are keyword-only: three numbers in [0, 1] in a row are too easy to
+    swap.
 
     Examples:
         >>> import torch
@@ -50,20 +55,24 @@ class RandomFrequencyMask(ImageAugmentation):
     def __init__(
         self,
         p: float = 0.5,
+        *,
         max_low: float = 0.5,
         max_width: float = 0.05,
         per_sample: bool = False,
         fill: Literal["zero", "noise"] = "zero",
         in_keys: Sequence[NestedKey] | NestedKey | None = None,
         out_keys: Sequence[NestedKey] | NestedKey | None = None,
-        *,
         max_value: float | None = None,
         seed: int | None = None,
     ) -> None:
-        if not 0 <= p <= 1:
-            raise ValueError(f"p must be a probability, got {p}.")
+        name = type(self).__name__
+        check_parameter(name, "p", p, low=0, high=1)
+        check_parameter(name, "max_low", max_low, low=0, high=NYQUIST)
+        check_parameter(name, "max_width", max_width, low=0)
+        if not isinstance(per_sample, bool):
+            raise TypeError(f"{name}: per_sample must be True or False, got {type(per_sample).__name__} {per_sample!r}.")
         if fill not in ("zero", "noise"):
-            raise ValueError(f"fill must be 'zero' (RL-ViGen) or 'noise' (SRM paper), got {fill!r}.")
+            raise ValueError(f"{name}: fill must be 'zero' (RL-ViGen) or 'noise' (SRM paper), got {fill!r}.")
         super().__init__(in_keys, out_keys, max_value=max_value, seed=seed)
         self.p, self.max_low, self.max_width = p, max_low, max_width
         self.per_sample, self.fill = per_sample, fill

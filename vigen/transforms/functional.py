@@ -1,7 +1,9 @@
 """Pure image kernels: apply already-sampled augmentation parameters to a batch of frame stacks.
 
-Every kernel takes images as ``[N, C, H, W]`` with ``C = 3·k`` (k stacked RGB frames, oldest
-first) and per-sample parameters with a leading ``N``. Kernels draw no random numbers and never
+Every kernel takes images as ``[N, C, H, W]`` and per-sample parameters with a leading ``N``.
+:func:`shift`, :func:`crop`, :func:`center_crop` and :func:`mask_frequency` take any channel
+count; the colour kernels (:func:`overlay`, :func:`random_conv`, :func:`color_jitter`) take
+``C = 3·k`` (k stacked RGB frames, oldest first). Kernels draw no random numbers and never
 modify their input, so a draw can be replayed and tested; the ``Random*`` transforms sample the
 parameters and call these. ``max_value`` is the value of a white pixel (255 for uint8 frames).
 Integer images come back rounded and clipped to their dtype; float images keep their dtype.
@@ -16,9 +18,17 @@ from torch import Tensor
 FRAME_CHANNELS = 3
 
 
-def _frames(images: Tensor) -> Tensor:
-    """``[N, 3k, H, W]`` -> ``[N, k, 3, H, W]`` (a view)."""
+def split_frames(images: Tensor) -> Tensor:
+    """``[N, 3k, H, W]`` -> ``[N, k, 3, H, W]`` (a view); raises if ``C`` is not a multiple of 3.
+
+    Examples:
+        >>> import torch
+        >>> split_frames(torch.zeros(2, 9, 4, 4)).shape
+        torch.Size([2, 3, 3, 4, 4])
+    """
     n, c, h, w = images.shape
+    if c % FRAME_CHANNELS:
+        raise ValueError(f"colour kernels take stacks of RGB frames [N, 3·k, H, W], got {c} channels.")
     return images.reshape(n, c // FRAME_CHANNELS, FRAME_CHANNELS, h, w)
 
 
@@ -111,9 +121,9 @@ def overlay(images: Tensor, backgrounds: Tensor, alpha: float, max_value: float)
 def _overlay(images: Tensor, backgrounds: Tensor, alpha: float, max_value: float) -> Tensor:
     if images.dtype == torch.uint8 and backgrounds.dtype == torch.uint8:
         weight = round(alpha * 128)
-        mixed = _frames(images).to(torch.int16) * (128 - weight) + (backgrounds[:, None].to(torch.int16) * weight + 64)
+        mixed = split_frames(images).to(torch.int16) * (128 - weight) + (backgrounds[:, None].to(torch.int16) * weight + 64)
         return (mixed >> 7).to(torch.uint8).reshape(images.shape)
-    mixed = torch.lerp(_frames(images).float(), backgrounds[:, None].float(), alpha)
+    mixed = torch.lerp(split_frames(images).float(), backgrounds[:, None].float(), alpha)
     return to_dtype(mixed.reshape(images.shape), images, max_value)
 
 
@@ -133,7 +143,7 @@ def random_conv(images: Tensor, kernels: Tensor, max_value: float) -> Tensor:
 
 def _random_conv(images: Tensor, kernels: Tensor, max_value: float) -> Tensor:
     n, c, h, w = images.shape
-    frames = c // FRAME_CHANNELS
+    frames = split_frames(images).shape[1]
     x = images.float().div(max_value).reshape(1, n * c, h, w)
     x = F.pad(x, (1, 1, 1, 1), mode="replicate").contiguous(memory_format=torch.channels_last)
     weight = kernels.float().repeat_interleave(frames, dim=0).reshape(n * c, FRAME_CHANNELS, 3, 3)
@@ -188,7 +198,8 @@ def rgb_to_grayscale(frames: Tensor) -> Tensor:
     return (0.299 * r + 0.587 * g + 0.114 * b).unsqueeze(-3)
 
 
-def _rgb_to_hsv(frames: Tensor) -> Tensor:
+def rgb_to_hsv(frames: Tensor) -> Tensor:
+    """HSV (hue in turns, saturation, value) of ``[..., 3, H, W]`` RGB frames on [0, 1]."""
     r, g, b = frames.unbind(-3)
     value, _ = frames.max(-3)
     chroma = value - frames.min(-3).values
@@ -201,7 +212,8 @@ def _rgb_to_hsv(frames: Tensor) -> Tensor:
     return torch.stack((hue, saturation, value), -3)
 
 
-def _hsv_to_rgb(frames: Tensor) -> Tensor:
+def hsv_to_rgb(frames: Tensor) -> Tensor:
+    """The inverse of :func:`rgb_to_hsv`."""
     hue, saturation, value = frames.unbind(-3)
     sector = hue * 6
     k = torch.stack(((5 + sector) % 6, (3 + sector) % 6, (1 + sector) % 6), -3)
@@ -228,12 +240,12 @@ def color_jitter(
     def per_sample(factor: Tensor) -> Tensor:
         return factor.float().reshape(-1, 1, 1, 1, 1)
 
-    x = _frames(images).float() / max_value
+    x = split_frames(images).float() / max_value
     x = (x * per_sample(brightness)).clamp_(0, 1)
     mean = rgb_to_grayscale(x).mean(dim=(-3, -2, -1), keepdim=True)
     x = torch.lerp(mean, x, per_sample(contrast)).clamp_(0, 1)
     x = torch.lerp(rgb_to_grayscale(x), x, per_sample(saturation)).clamp_(0, 1)
-    hsv = _rgb_to_hsv(x)
+    hsv = rgb_to_hsv(x)
     hsv = torch.cat(((hsv[..., :1, :, :] + per_sample(hue)) % 1.0, hsv[..., 1:, :, :]), dim=-3)
-    x = _hsv_to_rgb(hsv).clamp_(0, 1)
+    x = hsv_to_rgb(hsv).clamp_(0, 1)
     return to_dtype(x.mul_(max_value).reshape(images.shape), images, max_value)

@@ -10,7 +10,7 @@ from tensordict.utils import NestedKey
 from torch import Tensor
 
 from vigen.transforms import functional
-from vigen.transforms.augmentation import ImageAugmentation, Params
+from vigen.transforms.augmentation import ImageAugmentation, Params, check_parameter
 from vigen.transforms.image_bank import ImageBank
 
 
@@ -21,14 +21,17 @@ class RandomOverlay(ImageAugmentation):
     and RL-ViGen's ``random_overlay`` (α = 0.5). The bank is loaded once, on first use, and
     resized once per image size. By default it is :meth:`ImageBank.builtin` (no download); pass a
     folder (Places365 in ``ImageFolder`` layout, or any folder of images) for the papers' setting.
-    Unlike DMC-GB, images are not re-cropped (``RandomResizedCrop``) at every draw.
+    Unlike DMC-GB, images are not re-cropped (``RandomResizedCrop``) at every draw. The images
+    are RGB, blended into each RGB frame of a stack, so inputs have ``C = 3·k`` channels.
 
     Paper: SVEA, https://arxiv.org/abs/2107.00644.
 
     Args:
-        alpha: weight of the overlaid image.
+        alpha: weight of the overlaid image, in [0, 1].
         images: an :class:`ImageBank`, a folder of images, or ``None`` for the built-in bank.
         in_keys, out_keys, max_value, seed: see :class:`~vigen.transforms.ImageAugmentation`.
+
+    All arguments but ``alpha`` are keyword-only: a folder goes in ``images=``.
 
     Examples:
         >>> import torch
@@ -41,20 +44,27 @@ class RandomOverlay(ImageAugmentation):
     def __init__(
         self,
         alpha: float = 0.5,
+        *,
         images: ImageBank | str | os.PathLike | None = None,
         in_keys: Sequence[NestedKey] | NestedKey | None = None,
         out_keys: Sequence[NestedKey] | NestedKey | None = None,
-        *,
         max_value: float | None = None,
         seed: int | None = None,
     ) -> None:
-        if not 0 <= alpha <= 1:
-            raise ValueError(f"alpha must be in [0, 1], got {alpha}.")
-        if images is not None and not isinstance(images, ImageBank) and not Path(images).expanduser().is_dir():
-            raise FileNotFoundError(f"Overlay image folder {images} does not exist.")
+        name = type(self).__name__
+        if isinstance(alpha, (str, bytes, os.PathLike, ImageBank)):
+            raise TypeError(f"{name}: alpha is the blend weight, got {type(alpha).__name__} {alpha!r}; "
+                            f"pass images={alpha!r} for the overlay images.")
+        check_parameter(name, "alpha", alpha, low=0, high=1)
+        if images is not None and not isinstance(images, (ImageBank, str, os.PathLike)):
+            raise TypeError(f"{name}: images must be an ImageBank, a folder path or None, got {type(images).__name__}.")
+        if isinstance(images, (str, os.PathLike)) and not Path(images).expanduser().is_dir():
+            raise FileNotFoundError(f"{name}: overlay image folder {images} does not exist.")
         super().__init__(in_keys, out_keys, max_value=max_value, seed=seed)
         self.alpha = alpha
         self._images = images
+
+    needs_rgb = True  # RGB images blended into RGB frames
 
     @property
     def bank(self) -> ImageBank:

@@ -8,21 +8,22 @@ from tensordict.utils import NestedKey
 from torch import Tensor
 
 from vigen.transforms import functional
-from vigen.transforms.augmentation import ImageAugmentation, Params
+from vigen.transforms.augmentation import ImageAugmentation, Params, check_parameter
 
 
 class RandomShift(ImageAugmentation):
     """Random integer translation inside a replicate-padded border (DrQ, DrQ-v2).
 
     Each sample is replicate-padded by ``pad`` pixels and a window of the original size is cut
-    at an offset drawn uniformly from ``{0, ..., 2·pad}²``, the same for all stacked frames of
-    the sample. This is exactly what DrQ-v2's ``RandomShiftsAug`` computes with ``grid_sample``
+    at an offset drawn uniformly from ``{0, ..., 2·pad}²``, the same for all channels (so all
+    stacked frames) of the sample. Any channel count works, e.g. TorchRL's ``GrayScale()`` then
+    ``CatFrames`` (Atari-style DrQ). This is exactly what DrQ-v2's ``RandomShiftsAug`` computes with ``grid_sample``
     for its integer shifts, done as a gather (no float round trip for uint8 frames).
 
     Papers: DrQ, https://arxiv.org/abs/2004.13649; DrQ-v2, https://arxiv.org/abs/2107.09645.
 
     Args:
-        pad: border width in pixels (DrQ-v2: 4 at 84×84).
+        pad: border width in pixels, an int >= 0 (DrQ-v2: 4 at 84×84).
         in_keys, out_keys, max_value, seed: see :class:`~vigen.transforms.ImageAugmentation`.
 
     Examples:
@@ -46,10 +47,9 @@ class RandomShift(ImageAugmentation):
         max_value: float | None = None,
         seed: int | None = None,
     ) -> None:
-        if pad < 0:
-            raise ValueError(f"pad must be non-negative, got {pad}.")
+        check_parameter(type(self).__name__, "pad", pad, low=0, integer=True)
         super().__init__(in_keys, out_keys, max_value=max_value, seed=seed)
-        self.pad = pad
+        self.pad = int(pad)
 
     def make_params(self, images: Tensor) -> Params:
         return {"offsets": self.randint(2 * self.pad + 1, images.shape[0], 2, like=images)}
