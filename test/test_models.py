@@ -30,10 +30,32 @@ def test_layer_counts():
 
 
 def test_pixels_are_scaled_like_drqv2():
+    """uint8 keeps DrQ-v2's exact x / 255 − 0.5; floats are x / max_value − 0.5 (max_value 1.0 unless declared)."""
     encoder = DrQv2Encoder(3)
     x = torch.randint(0, 256, (2, 3, 20, 20), dtype=torch.uint8)
     expected = encoder.convnet(x.float() / 255.0 - 0.5).flatten(1)
-    assert torch.allclose(encoder(x), expected) and torch.allclose(encoder(x.float()), expected)
+    assert torch.equal(encoder(x), expected), "uint8: the same numbers as DrQ-v2"
+    unit = torch.rand(2, 3, 20, 20)  # TorchRL's ToTensorImage() scale
+    assert torch.allclose(encoder(unit), encoder.convnet(unit - 0.5).flatten(1), atol=1e-6)
+    assert torch.allclose(encoder(x.float() / 255), expected, atol=1e-6)
+
+
+@pytest.mark.parametrize("make", [lambda **kw: DrQv2Encoder(3, **kw), lambda **kw: SharedCNN(3, **kw),
+                                  lambda **kw: ProjectedEncoder(3, image_size=44, **kw)])
+def test_encoders_take_the_pixel_contract(make):
+    """Float pixels are 0–max_value (1.0 unless declared): a wrong scale or layout raises instead of encoding."""
+    x = torch.randint(0, 256, (2, 3, 44, 44), dtype=torch.uint8)
+    encoder = make()
+    with pytest.raises(ValueError, match="max_value=255"):
+        encoder(x.float())  # 0–255 floats without saying so would be scaled 255 times too bright
+    with pytest.raises(ValueError, match="channels-first"):
+        encoder(torch.rand(2, 44, 44, 3))
+    declared = make(max_value=255)
+    declared.load_state_dict(encoder.state_dict())
+    assert torch.allclose(declared(x.float()), encoder(x), atol=1e-6)
+    assert torch.equal(declared(x), encoder(x)), "uint8 is 0–255 whatever max_value says"
+    with pytest.raises(ValueError, match="max_value"):
+        make(max_value=0)
 
 
 def test_orthogonal_initialisation():

@@ -1,8 +1,11 @@
 """Networks with the papers' shapes: DrQ-v2's encoder, actor and twin critic, SVEA's 11-layer CNN,
 the CURL/SGQN projection encoder, SGQN's attribution decoder and CURL's bilinear head.
 
-All take frame stacks ``[..., 3·k, H, W]`` (uint8, or float on the 0–255 scale) and scale them
-to ``x / 255 − 0.5`` inside the encoder, as DrQ-v2 does. Weights are initialised as in DrQ-v2's
+The encoders take pixels as :mod:`vigen.pixel_format` defines them: ``[..., C, H, W]``, uint8 on
+0–255 or float on ``[0, max_value]`` (``max_value=None``: 1.0, TorchRL's ``ToTensorImage()`` scale;
+float pixels on the 0–255 scale need ``max_value=255``). They check that contract, then scale the
+pixels to ``x / white − 0.5`` (white: 255 for uint8, ``max_value`` or 1.0 for floats), which is
+DrQ-v2's ``x / 255 − 0.5`` for uint8 frames. Weights are initialised as in DrQ-v2's
 ``utils.weight_init``: orthogonal, gain 1 for linear layers and the ReLU gain for convolutions,
 zero biases.
 """
@@ -12,6 +15,8 @@ from __future__ import annotations
 import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
+
+from vigen.pixel_format import check_pixels, white_value
 
 
 def weight_init(module: nn.Module) -> None:
@@ -25,7 +30,9 @@ def weight_init(module: nn.Module) -> None:
 
 
 class _PixelEncoder(nn.Module):
-    """Scale pixels, run ``self.convnet`` ``chunk_size`` samples at a time, flatten, ``project``.
+    """Check and scale pixels, run ``self.convnet`` ``chunk_size`` samples at a time, flatten, ``project``.
+
+    Pixels are scaled to ``x / white − 0.5`` with ``white = white_value(x, self.max_value)``.
 
     Convolving a large batch in chunks of about 64 samples keeps each chunk's activations in
     cache: the same math, about twice as fast on CPUs at batch 256. ``chunk_size=None`` convolves
@@ -34,12 +41,15 @@ class _PixelEncoder(nn.Module):
 
     convnet: nn.Module
     chunk_size: int | None
+    max_value: float | None
 
     def forward(self, pixels: Tensor) -> Tensor:
+        check_pixels(pixels.detach(), name=type(self).__name__, max_value=self.max_value)
+        white = white_value(pixels, self.max_value)
         batch, image = pixels.shape[:-3], pixels.shape[-3:]
         x = pixels.reshape(-1, *image)
         parts = x.split(self.chunk_size) if self.chunk_size and x.shape[0] > self.chunk_size else (x,)
-        features = [self.convnet(part.float() / 255.0 - 0.5).flatten(1) for part in parts]
+        features = [self.convnet(part.float() / white - 0.5).flatten(1) for part in parts]
         features = features[0] if len(features) == 1 else torch.cat(features)
         return self.project(features).reshape(*batch, -1)
 
@@ -60,15 +70,32 @@ class DrQv2Encoder(_PixelEncoder):
 
     Paper: DrQ-v2, https://arxiv.org/abs/2107.09645.
 
+    Args:
+        in_channels: channels of the frame stack (3·k).
+        channels: channels of every convolution.
+        chunk_size: samples convolved at a time (``None``: the whole batch).
+        max_value: the white of float pixels; ``None`` for 1.0 (TorchRL's ``ToTensorImage()``),
+            255 for float pixels on the 0–255 scale. uint8 pixels are always 0–255.
+
     Examples:
         >>> import torch
-        >>> DrQv2Encoder(9)(torch.zeros(2, 9, 84, 84, dtype=torch.uint8)).shape
+        >>> encoder = DrQv2Encoder(9)
+        >>> pixels = torch.randint(0, 256, (2, 9, 84, 84), dtype=torch.uint8)
+        >>> encoder(pixels).shape
         torch.Size([2, 39200])
+        >>> torch.allclose(encoder(pixels.float() / 255), encoder(pixels))  # ToTensorImage's 0–1 floats
+        True
+        >>> encoder.max_value = 255  # float pixels on the 0–255 scale
+        >>> torch.allclose(encoder(pixels.float()), encoder(pixels))
+        True
     """
 
-    def __init__(self, in_channels: int = 9, channels: int = 32, chunk_size: int | None = 64) -> None:
+    def __init__(
+        self, in_channels: int = 9, channels: int = 32, chunk_size: int | None = 64, *, max_value: float | None = None
+    ) -> None:
         super().__init__()
         self.chunk_size = chunk_size
+        self.max_value = _positive_or_none(max_value, type(self).__name__)
         layers: list[nn.Module] = [nn.Conv2d(in_channels, channels, 3, stride=2), nn.ReLU()]
         for _ in range(3):
             layers += [nn.Conv2d(channels, channels, 3, stride=1), nn.ReLU()]
@@ -82,15 +109,28 @@ class SharedCNN(_PixelEncoder):
 
     Paper: SVEA, https://arxiv.org/abs/2107.00644.
 
+    Args:
+        in_channels, channels, chunk_size, max_value: as in :class:`DrQv2Encoder`.
+        num_layers: number of convolutions.
+
     Examples:
         >>> import torch
         >>> SharedCNN(9)(torch.zeros(2, 9, 84, 84)).shape
         torch.Size([2, 14112])
     """
 
-    def __init__(self, in_channels: int = 9, num_layers: int = 11, channels: int = 32, chunk_size: int | None = 64) -> None:
+    def __init__(
+        self,
+        in_channels: int = 9,
+        num_layers: int = 11,
+        channels: int = 32,
+        chunk_size: int | None = 64,
+        *,
+        max_value: float | None = None,
+    ) -> None:
         super().__init__()
         self.chunk_size = chunk_size
+        self.max_value = _positive_or_none(max_value, type(self).__name__)
         layers: list[nn.Module] = [nn.Conv2d(in_channels, channels, 3, stride=2)]
         for _ in range(num_layers - 1):
             layers += [nn.ReLU(), nn.Conv2d(channels, channels, 3, stride=1)]
@@ -104,22 +144,43 @@ class ProjectedEncoder(_PixelEncoder):
 
     Paper: CURL, https://arxiv.org/abs/2004.04136; SGQN, https://arxiv.org/abs/2209.09203.
 
+    Args:
+        in_channels, chunk_size, max_value: as in :class:`DrQv2Encoder`.
+        image_size: height (= width) of the input frames.
+        out_dim: size of the projection.
+
     Examples:
         >>> import torch
         >>> ProjectedEncoder(9, image_size=84)(torch.zeros(2, 9, 84, 84)).shape
         torch.Size([2, 512])
     """
 
-    def __init__(self, in_channels: int = 9, image_size: int = 84, out_dim: int = 512, chunk_size: int | None = 64) -> None:
+    def __init__(
+        self,
+        in_channels: int = 9,
+        image_size: int = 84,
+        out_dim: int = 512,
+        chunk_size: int | None = 64,
+        *,
+        max_value: float | None = None,
+    ) -> None:
         super().__init__()
         base = DrQv2Encoder(in_channels, chunk_size=chunk_size)
         self.chunk_size = chunk_size
+        self.max_value = _positive_or_none(max_value, type(self).__name__)
         self.convnet = base.convnet
         self.projection = nn.Linear(base.output_dim(in_channels, image_size, image_size), out_dim)
         self.apply(weight_init)
 
     def project(self, features: Tensor) -> Tensor:
         return self.projection(features)
+
+
+def _positive_or_none(max_value: float | None, name: str) -> float | None:
+    if max_value is not None and not max_value > 0:
+        raise ValueError(f"{name}: max_value is the white of float pixels and must be positive (or None for 1.0), "
+                         f"got {max_value!r}; use 255 for float pixels on the 0–255 scale.")
+    return None if max_value is None else float(max_value)
 
 
 def _trunk(repr_dim: int, feature_dim: int) -> nn.Sequential:
