@@ -15,13 +15,14 @@ SIZE, ACTIONS, EMBEDDING = 16, 2, 16
 LOSSES = ["drqv2", "svea", "srm", "sgqn", "curl", "drq"]
 
 
-def make_loss(name: str, **kwargs: Any) -> DrQv2Loss:
-    """A loss of each kind on networks small enough for unit tests."""
+def make_loss(name: str, max_value: float | None = None, **kwargs: Any) -> DrQv2Loss:
+    """A loss of each kind on networks small enough for unit tests (``max_value`` goes to the encoder)."""
     kwargs.setdefault("augmentation", RandomShift(pad=1))
+    scale = {} if max_value is None else {"max_value": max_value}
     if name in ("sgqn", "curl"):
-        encoder = ProjectedEncoder(9, image_size=SIZE, out_dim=EMBEDDING)
+        encoder = ProjectedEncoder(9, image_size=SIZE, out_dim=EMBEDDING, **scale)
     else:
-        encoder = DrQv2Encoder(9)
+        encoder = DrQv2Encoder(9, **scale)
     features = encoder.output_dim(9, SIZE, SIZE)
     critic = Critic(features, ACTIONS, feature_dim=8, hidden_dim=16)
     actor = Actor(features, ACTIONS, feature_dim=8, hidden_dim=16)

@@ -34,7 +34,7 @@ class Invert(ImageAugmentation):
         return {}
 
     def apply(self, images, params):
-        return self.white(images) - images
+        return (self.white(images) - images).to(images.dtype)
 
 
 def _mse_pair(q1, q2, target):
@@ -222,7 +222,7 @@ def test_sgqn_consistency_term_and_saliency():
     assert out["consistency"] > 0
     assert torch.allclose(out["loss_critic"], td + 0.5 * out["consistency"], atol=1e-5)
 
-    pixels = batch["pixels"].float().requires_grad_()
+    pixels = (batch["pixels"].float() / 255).requires_grad_()  # the loss's float pixels: the encoder's 0–1 scale
     guided = GuidedBackprop(loss.encoder, loss.critic)
     with guided.recording():
         q1, _ = loss.critic(loss.encoder(pixels), batch["action"])

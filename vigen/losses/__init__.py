@@ -15,6 +15,11 @@ Each takes plain ``nn.Module`` networks (see :mod:`vigen.models`) and a TensorDi
 TorchRL replay buffer, returns ``loss_*`` entries and detached metrics, and has target critic
 parameters for ``torchrl.objectives.SoftUpdate``. :func:`make_loss` builds one by name with its
 paper's networks.
+
+Before any work a loss checks its batch: the pixels, the action, the next pixels, reward and
+``terminated`` must be there (missing ones are named, with ``set_keys`` as the fix), and the
+pixels must follow :mod:`vigen.pixel_format` at the encoder's ``max_value``. A NaN or inf loss
+raises before it can reach an optimizer (``check_finite=False`` turns that off).
 """
 
 from vigen.losses.curl import CURLLoss

@@ -8,7 +8,7 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from vigen.losses.drqv2 import Augmentations, DrQv2Loss, _module_list
+from vigen.losses.drqv2 import Augmentations, DrQv2Loss
 from vigen.models import CURLHead
 from vigen.transforms import RandomShift
 
@@ -79,7 +79,7 @@ class CURLLoss(DrQv2Loss):
         self.head = head
         if contrastive_augmentation is None:
             contrastive_augmentation = RandomShift(pad=4)
-        self.contrastive_augmentation = _module_list(contrastive_augmentation)
+        self.contrastive_augmentation = self._augmentations(contrastive_augmentation)
         self.key_encoder = key_encoder
         if key_encoder:
             self.convert_to_functional(encoder, "encoder", create_target_params=True)
@@ -88,7 +88,7 @@ class CURLLoss(DrQv2Loss):
         obs = self._augment(self.augmentation, pixels)
         anchor = self._augment(self.contrastive_augmentation, pixels)
         batch = obs.shape[0]
-        if obs.shape == anchor.shape and obs.dtype == anchor.dtype:
+        if obs.shape == anchor.shape:
             hidden, anchor_z = self._encode(torch.cat([obs, anchor])).split(batch)
         else:
             hidden, anchor_z = self._encode(obs), self._encode(anchor)

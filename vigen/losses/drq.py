@@ -40,7 +40,7 @@ class DrQLoss(DrQv2Loss):
         actor: features → (mean, log σ).
         init_temperature: initial α.
         target_entropy: ``"auto"`` for ``−action_dim``, or a number.
-        **kwargs: ``augmentation``, ``channels_last``, ``reduction``
+        **kwargs: ``augmentation``, ``channels_last``, ``reduction``, ``check_finite``
             (see :class:`DrQv2Loss`).
 
     Examples:
@@ -123,5 +123,4 @@ class DrQLoss(DrQv2Loss):
         return {"alpha": self.alpha.detach()}
 
     def _views(self, pixels: Tensor) -> Tensor:
-        shifted = self._augment(self.augmentation, pixels)
-        return torch.cat([pixels, shifted.to(pixels.dtype) if shifted.dtype != pixels.dtype else shifted])
+        return torch.cat([pixels, self._augment(self.augmentation, pixels)])

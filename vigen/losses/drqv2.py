@@ -9,7 +9,7 @@ from typing import Any
 import torch
 from tensordict import TensorDict, TensorDictBase, TensorDictParams
 from tensordict.nn import dispatch
-from tensordict.utils import NestedKey
+from tensordict.utils import NestedKey, unravel_key
 from torch import Tensor, nn
 from torchrl.objectives import LossModule
 from torchrl.objectives.utils import ValueEstimators, dispatch_value_estimator
@@ -17,6 +17,7 @@ from torchrl.objectives.utils import ValueEstimators, dispatch_value_estimator
 from vigen.losses.sampling import clipped_normal_sample
 from vigen.losses.schedule import LinearSchedule
 from vigen.models import weight_init
+from vigen.pixel_format import check_pixels
 from vigen.transforms import ImageAugmentation, RandomShift
 
 Augmentations = ImageAugmentation | Sequence[ImageAugmentation] | None
@@ -49,6 +50,26 @@ class DrQv2Loss(LossModule):
     Subclasses change :meth:`_critic_terms` (the views and the extra loss terms), and may add
     auxiliary losses there.
 
+    The batch (checked before any work, naming every missing key and the fix):
+
+    * ``pixels`` and ``("next", "pixels")``: frame stacks ``[B, 3·k, H, W]`` as
+      :mod:`vigen.pixel_format` defines them, uint8 on 0–255 or float on ``[0, max_value]``. The
+      loss's ``max_value`` is its encoder's (vigen's encoders take ``max_value=``: ``None`` means
+      1.0 for floats, TorchRL's ``ToTensorImage()`` scale; float pixels on 0–255 need
+      ``max_value=255``), so it is set once, on the encoder; a custom encoder without that
+      attribute counts as ``None``. Every augmentation of the loss, default or given, whose
+      ``max_value`` is ``None`` gets the encoder's.
+    * ``action``, ``("next", "reward")`` and ``("next", "terminated")``. ``terminated`` (TorchRL
+      envs write it) tells true terminations from time limits; a batch without it is refused
+      rather than bootstrapping from ``done``. If every ``done`` of your data is a true
+      termination, say so with ``loss.set_keys(terminated="done")``.
+    * optional: ``steps_to_next_obs`` (n-step), ``priority_weight`` (prioritized replay).
+
+    With ``check_finite`` (the default) a non-finite ``loss_*`` raises inside the call, before
+    any optimizer step: a ``ValueError`` naming the batch entries that hold NaN or inf, or a
+    ``FloatingPointError`` naming the non-finite parameters when the batch is finite. The check
+    costs one ``isfinite`` over the few loss values; the batch is only scanned when it fails.
+
     Paper: DrQ-v2, https://arxiv.org/abs/2107.09645.
 
     Args:
@@ -61,6 +82,7 @@ class DrQv2Loss(LossModule):
         std_clip: clip of the noise (0.3).
         channels_last: run the convolutions in channels-last memory layout.
         reduction: ``"mean"`` (DrQ-v2), ``"sum"`` or ``"none"`` (per-sample losses).
+        check_finite: raise when a loss is NaN or inf (see above); ``False`` skips the check.
 
     Examples:
         >>> import torch
@@ -84,6 +106,10 @@ class DrQv2Loss(LossModule):
         >>> sorted(key for key in out.keys() if key.startswith("loss_"))
         ['loss_actor', 'loss_critic']
         >>> sum(out[key] for key in ("loss_actor", "loss_critic")).backward()
+        >>> loss(batch.exclude(("next", "terminated")))
+        Traceback (most recent call last):
+        ...
+        KeyError: "DrQv2Loss: the batch has no ('next', 'terminated')...
     """
 
     @dataclass
@@ -137,19 +163,22 @@ class DrQv2Loss(LossModule):
         std_clip: float | None = 0.3,
         channels_last: bool = True,
         reduction: str = "mean",
+        check_finite: bool = True,
     ) -> None:
         super().__init__()
         if reduction not in ("mean", "sum", "none"):
             raise ValueError(f"reduction must be 'mean', 'sum' or 'none', got {reduction!r}.")
         self._in_keys = None
         self.reduction = reduction
+        self.check_finite = check_finite
+        self.max_value: float | None = getattr(encoder, "max_value", None)
         self.channels_last = channels_last
         if channels_last:
             encoder.to(memory_format=torch.channels_last)
         self.convert_to_functional(encoder, "encoder")
         self.convert_to_functional(actor, "actor")
         self.convert_to_functional(critic, "critic", create_target_params=True)
-        self.augmentation = _module_list(augmentation)
+        self.augmentation = self._augmentations(augmentation)
         self.std_schedule = std
         self.std_clip = std_clip
         self.register_buffer("schedule_step", torch.zeros((), dtype=torch.long))
@@ -219,10 +248,10 @@ class DrQv2Loss(LossModule):
     @dispatch
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         keys = self.tensor_keys
-        pixels = _read(tensordict, keys.pixels, "pixels")
-        action = _read(tensordict, keys.action, "action")
+        self._check_batch(tensordict)
+        pixels, action = tensordict.get(keys.pixels), tensordict.get(keys.action)
         with torch.no_grad():
-            target = self._target(_read(tensordict, ("next", keys.pixels), "pixels"), tensordict)
+            target = self._target(tensordict.get(("next", keys.pixels)), tensordict)
         terms = self._critic_terms(pixels, action, target)
         q1, q2, critic, hidden = (terms.pop(name) for name in ("q1", "q2", "critic", "hidden"))
         actor = self._actor_terms(hidden.detach(), terms)
@@ -236,7 +265,79 @@ class DrQv2Loss(LossModule):
             out[name] = self._reduce_loss(terms.pop(name), tensordict)
         out.update(q_mean=q1.detach().mean(), target_mean=target.mean(), target_std=target.std(), **self._metrics())
         out.update({name: value.detach() for name, value in terms.items()})
+        if self.check_finite:
+            self._check_finite(out, tensordict)
         return TensorDict(out, batch_size=[])
+
+    # -- what the batch must hold ------------------------------------------------------------
+    def _required_keys(self) -> dict[NestedKey, str]:
+        """Batch key → its ``set_keys`` name, for every entry the update cannot do without."""
+        keys = self.tensor_keys
+        return {
+            unravel_key(keys.pixels): "pixels", unravel_key(keys.action): "action",
+            unravel_key(("next", keys.pixels)): "pixels", unravel_key(("next", keys.reward)): "reward",
+            unravel_key(("next", keys.terminated)): "terminated",
+        }
+
+    def _check_batch(self, tensordict: TensorDictBase) -> None:
+        """Raise, before any work, on missing entries and on pixels that break the pixel contract."""
+        name = type(self).__name__
+        required = self._required_keys()
+        missing = [key for key in required if tensordict.get(key, None) is None]
+        if missing:
+            names = sorted({required[key] for key in missing})
+            fix = ", ".join(f"{n}=..." for n in names)
+            message = (
+                f"{name}: the batch has no {', '.join(map(repr, missing))}. Store "
+                f"{'it' if len(missing) == 1 else 'them'} in the replay buffer, or point the loss at your keys "
+                f"with loss.set_keys({fix})."
+            )
+            if "terminated" in names:
+                message += (
+                    " ('next', 'terminated') marks true terminations (no bootstrap) apart from time limits, which "
+                    "bootstrap; TorchRL envs write it. If every done of your data is a true termination, use "
+                    "loss.set_keys(terminated='done')."
+                )
+            present = ", ".join(sorted(map(repr, tensordict.keys(True, True))))
+            raise KeyError(f"{message} The batch has: {present}.")
+        keys = self.tensor_keys
+        for key in (keys.pixels, ("next", keys.pixels)):
+            try:
+                check_pixels(tensordict.get(key), name=f"{name} (batch entry {unravel_key(key)!r})", max_value=self.max_value)
+            except ValueError as error:
+                if "max_value" not in str(error):
+                    raise
+                raise ValueError(f"{error} The loss takes max_value from its encoder: build the encoder with "
+                                 "max_value=... (or make_loss(..., max_value=...)).") from None
+
+    def _check_finite(self, out: dict[str, Tensor], tensordict: TensorDictBase) -> None:
+        """Raise if a ``loss_*`` value is NaN or inf, naming the batch entries (or parameters) to blame."""
+        losses = {key: value for key, value in out.items() if key.startswith("loss_")}
+        if torch.isfinite(torch.cat([value.detach().reshape(-1) for value in losses.values()])).all():
+            return
+        name = type(self).__name__
+        bad = [key for key, value in losses.items() if not torch.isfinite(value.detach()).all()]
+        bad_losses, verb = ", ".join(bad), ("is" if len(bad) == 1 else "are")
+        keys = self.tensor_keys
+        inputs = [*self._required_keys(), unravel_key(keys.steps_to_next_obs), unravel_key(keys.priority_weight)]
+        bad_inputs = []
+        for key in inputs:
+            value = tensordict.get(key, None)
+            if value is not None and value.is_floating_point() and not torch.isfinite(value).all():
+                bad_inputs.append(key)
+        if bad_inputs:
+            raise ValueError(
+                f"{name}: {bad_losses} {verb} NaN or inf because the batch entries {', '.join(map(repr, bad_inputs))} hold "
+                "NaN or inf values; drop or repair those transitions before they reach the replay buffer (a backward "
+                "and an optimizer step would turn every parameter into NaN). Pass check_finite=False to skip this check."
+            )
+        bad_params = [key for key, value in self.named_parameters() if not torch.isfinite(value).all()]
+        where = (f"these parameters are non-finite: {', '.join(bad_params[:8])}" + (" ..." if len(bad_params) > 8 else "")
+                 if bad_params else "the parameters are finite, so the computation overflowed")
+        raise FloatingPointError(
+            f"{name}: {bad_losses} {verb} NaN or inf although the batch is finite; {where}. Training has diverged: "
+            "lower the learning rate, clip gradients or scale the rewards. Pass check_finite=False to skip this check."
+        )
 
     def _target(self, next_pixels: Tensor, tensordict: TensorDictBase) -> Tensor:
         """``y = r + γⁿ·(1 − terminated)·min(Q1', Q2')(h', a')``, shape ``[B, 1]`` (no gradient)."""
@@ -283,34 +384,47 @@ class DrQv2Loss(LossModule):
         with self.critic_params.to_module(self.critic):
             return self.critic(hidden, action)
 
+    def _to_float(self, pixels: Tensor) -> Tensor:
+        """``pixels`` as floats on the encoder's float scale ``[0, max_value or 1]`` (the same features)."""
+        if pixels.is_floating_point():
+            return pixels
+        return pixels.float() / (255.0 / (1.0 if self.max_value is None else self.max_value))
+
     @staticmethod
     def _augment(augmentations: nn.ModuleList, pixels: Tensor) -> Tensor:
         for augmentation in augmentations:
-            pixels = augmentation.augment(pixels)
+            augmented = augmentation.augment(pixels)
+            if augmented.dtype != pixels.dtype:
+                raise TypeError(
+                    f"{type(augmentation).__name__} turned {pixels.dtype} pixels into {augmented.dtype}; the loss "
+                    "cannot tell their scale. Augmentations keep the dtype: end apply() with .to(images.dtype)."
+                )
+            pixels = augmented
         return pixels
 
-
-def _module_list(augmentations: Augmentations) -> nn.ModuleList:
-    if augmentations is None:
-        return nn.ModuleList()
-    if not isinstance(augmentations, Sequence):
-        augmentations = [augmentations]
-    for augmentation in augmentations:
-        if not isinstance(augmentation, ImageAugmentation):
-            raise TypeError(
-                f"Augmentations must be vigen ImageAugmentations (e.g. RandomShift()), got {type(augmentation).__name__}."
-            )
-    return nn.ModuleList([augmentation.clone() for augmentation in augmentations])
-
-
-def _read(tensordict: TensorDictBase, key: NestedKey, name: str) -> Tensor:
-    value = tensordict.get(key, None)
-    if value is None:
-        raise KeyError(
-            f"The batch has no {key!r} entry. Store it in the replay buffer, or point the loss "
-            f"at yours with loss.set_keys({name}=...). The batch has: {sorted(map(str, tensordict.keys(True, True)))}."
-        )
-    return value
+    def _augmentations(self, augmentations: Augmentations) -> nn.ModuleList:
+        """Private copies of ``augmentations``; those without a ``max_value`` get the loss's (its encoder's)."""
+        if augmentations is None:
+            return nn.ModuleList()
+        if not isinstance(augmentations, Sequence):
+            augmentations = [augmentations]
+        copies = []
+        for augmentation in augmentations:
+            if not isinstance(augmentation, ImageAugmentation):
+                raise TypeError(
+                    f"Augmentations must be vigen ImageAugmentations (e.g. RandomShift()), got {type(augmentation).__name__}."
+                )
+            if None not in (augmentation.max_value, self.max_value) and augmentation.max_value != self.max_value:
+                raise ValueError(
+                    f"{type(augmentation).__name__} has max_value={augmentation.max_value} but the encoder's is "
+                    f"{self.max_value}: float pixels have one scale. Leave the augmentation's max_value unset "
+                    "(the loss gives it the encoder's)."
+                )
+            copy = augmentation.clone()
+            if copy.max_value is None:
+                copy.max_value = self.max_value
+            copies.append(copy)
+        return nn.ModuleList(copies)
 
 
 def _reinitialise(module: nn.Module) -> None:

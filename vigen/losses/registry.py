@@ -41,6 +41,7 @@ def make_loss(
     *,
     feature_dim: int = 50,
     hidden_dim: int = 1024,
+    max_value: float | None = None,
     **loss_options: Any,
 ) -> DrQv2Loss:
     """The loss of ``algo`` on fresh networks shaped as in RL-ViGen.
@@ -57,6 +58,9 @@ def make_loss(
         action_dim: size of the action.
         feature_dim: the trunk's output size (50).
         hidden_dim: the MLPs' width (1024).
+        max_value: the white of float pixels, given to the encoder and through it to the loss and
+            its augmentations: ``None`` for uint8 pixels or TorchRL's ``ToTensorImage()`` floats on
+            0–1, 255 for float pixels on the 0–255 scale (see :mod:`vigen.pixel_format`).
         **loss_options: keyword arguments of the loss class (e.g. ``std``, ``strong_augmentation``).
 
     Examples:
@@ -72,11 +76,11 @@ def make_loss(
         raise ValueError(f"vigen's encoders take square images, got {height}×{width}; render at a square size.")
     encoder: nn.Module
     if algo in ("svea", "srm"):
-        encoder = SharedCNN(channels)
+        encoder = SharedCNN(channels, max_value=max_value)
     elif algo in ("sgqn", "curl"):
-        encoder = ProjectedEncoder(channels, image_size=height)
+        encoder = ProjectedEncoder(channels, image_size=height, max_value=max_value)
     else:
-        encoder = DrQv2Encoder(channels)
+        encoder = DrQv2Encoder(channels, max_value=max_value)
     features = encoder.output_dim(channels, height, width)
     critic = Critic(features, action_dim, feature_dim=feature_dim, hidden_dim=hidden_dim)
     if algo == "drq":

@@ -8,7 +8,7 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from vigen.losses.drqv2 import Augmentations, DrQv2Loss, _module_list
+from vigen.losses.drqv2 import Augmentations, DrQv2Loss
 from vigen.losses.saliency import GuidedBackprop, attribution_mask
 from vigen.transforms import RandomOverlay
 
@@ -93,13 +93,13 @@ class SGQNLoss(DrQv2Loss):
         self.register_coeff_buffer("consistency_weight", consistency_weight)
         if attribution_augmentation is None:
             attribution_augmentation = RandomOverlay(alpha=0.5)
-        self.attribution_augmentation = _module_list(attribution_augmentation)
+        self.attribution_augmentation = self._augmentations(attribution_augmentation)
 
     _schedulable_buffers = frozenset({"consistency_weight"})
 
     def _critic_terms(self, pixels: Tensor, action: Tensor, target: Tensor) -> dict[str, Tensor]:
         weak = self._augment(self.augmentation, pixels)
-        obs = weak.float()
+        obs = self._to_float(weak)  # saliency is a gradient with respect to these pixels
         if self.channels_last:
             obs = obs.contiguous(memory_format=torch.channels_last)
         obs.requires_grad_(True)

@@ -7,7 +7,7 @@ from typing import Any
 import torch
 from torch import Tensor, nn
 
-from vigen.losses.drqv2 import Augmentations, DrQv2Loss, _module_list
+from vigen.losses.drqv2 import Augmentations, DrQv2Loss
 from vigen.transforms import RandomOverlay
 
 
@@ -74,7 +74,7 @@ class SVEALoss(DrQv2Loss):
         super().__init__(encoder, actor, critic, **kwargs)
         if strong_augmentation is None:
             strong_augmentation = self._default_strong_augmentation()
-        self.strong_augmentation = _module_list(strong_augmentation)
+        self.strong_augmentation = self._augmentations(strong_augmentation)
         self.register_coeff_buffer("alpha", alpha)
         self.register_coeff_buffer("beta", beta)
 
@@ -87,8 +87,6 @@ class SVEALoss(DrQv2Loss):
     def _critic_terms(self, pixels: Tensor, action: Tensor, target: Tensor) -> dict[str, Tensor]:
         weak = self._augment(self.augmentation, pixels)
         strong = self._augment(self.strong_augmentation, weak)
-        if strong.dtype != weak.dtype:
-            weak, strong = weak.float(), strong.float()
         batch = weak.shape[0]
         hidden = self._encode(torch.cat([weak, strong]))
         q1, q2 = self._q(hidden, action.repeat(2, 1))
