@@ -145,7 +145,7 @@ class TestVideoBackground:
 
     def test_stacked_frames_are_refused(self):
         env = make_env("dmc/walker-walk", image_size=32, render_settings=FAST).append_transform(VideoBackground())
-        with pytest.raises(ValueError, match="before ToTensorImage/CatFrames"):
+        with pytest.raises(ValueError, match=r"after ToTensorImage.*insert_transform\(0, VideoBackground"):
             env.reset()
 
 

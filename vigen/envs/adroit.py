@@ -26,7 +26,7 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.envs import Transform, TransformedEnv
 from torchrl.envs.common import _EnvWrapper
 
-from vigen.envs.pixels import perturbations, set_task_specs, stacked_pixel_env
+from vigen.envs.pixels import PixelEnv, check_env_arguments, perturbations, seed_in_order, set_task_specs, stacked_pixel_env
 from vigen.rendering import RenderSettings
 from vigen.transforms import ImageBank, RandomCamera, RandomLighting, RandomMaterialColors, RandomTextures, VideoBackground
 
@@ -170,6 +170,7 @@ class AdroitPixelEnv(_EnvWrapper):
         seed: int | None = None,
         device: torch.device | str = "cpu",
     ) -> None:
+        check_env_arguments(action_repeat=action_repeat, image_size=image_size, camera=camera, episode_length=episode_length, seed=seed)
         self._next_seed = seed
         episode_length = EPISODE_LENGTHS.get(task, 1) if episode_length is None else episode_length
         super().__init__(
@@ -180,9 +181,6 @@ class AdroitPixelEnv(_EnvWrapper):
     def _check_kwargs(self, kwargs: dict) -> None:
         if kwargs["task"] not in TASKS:
             raise ValueError(f"Unknown Adroit task {kwargs['task']!r}. Valid names: {', '.join(TASKS)}.")
-        for name in ("action_repeat", "episode_length"):
-            if kwargs[name] < 1:
-                raise ValueError(f"{name} must be at least 1, got {kwargs[name]}.")
 
     def _build_env(self, task, action_repeat, image_size, camera, episode_length, render_settings) -> Any:
         try:
@@ -274,33 +272,33 @@ class AdroitPixelEnv(_EnvWrapper):
 
 
 def level_transforms(level: str, seed: int | None = None, videos: Any = None) -> list[Transform]:
-    """The scene transforms of an Adroit ``level``, seeded from ``seed``."""
+    """The scene transforms of an Adroit ``level``, the ``i``-th seeded with :func:`~vigen.envs.pixels.derive_seed` ``(seed, i)``."""
     if level not in LEVELS:
         raise ValueError(f"Unknown Adroit level {level!r}. Levels: {', '.join(LEVELS)}. Groups: {', '.join(GROUPS)}.")
+    return seed_in_order(_level_transforms(level, videos), seed)
 
-    def seeded(index: int) -> int | None:
-        return None if seed is None else seed * 1_000_003 + index
 
+def _level_transforms(level: str, videos: Any) -> list[Transform]:
     kind, _, difficulty = level.partition("_")
     if kind in ("color", "video"):
         tables = ImageBank.procedural(10, size=256, seed=100 + ("easy", "hard").index(difficulty))
         built: list[Transform] = [
-            RandomTextures(TABLE_TEXTURES, images=tables, seed=seeded(0)),
-            RandomMaterialColors(mix=COLOR_MIX[difficulty], exclude=HAND_PARTS, seed=seeded(1)),
+            RandomTextures(TABLE_TEXTURES, images=tables),
+            RandomMaterialColors(mix=COLOR_MIX[difficulty], exclude=HAND_PARTS),
         ]
         if kind == "video":
             step, moving_range = MOVING_LIGHT[difficulty]
             built += [
                 RandomLighting(position_offset=None, diffuse_offset=None, moving_step=step, moving_range=moving_range,
-                               moving_axes=(1,), seed=seeded(2)),
-                VideoBackground(videos, floor=True, seed=seeded(3)),
+                               moving_axes=(1,)),
+                VideoBackground(videos, floor=True),
             ]
         return built
     if kind == "camera":
         position, quaternion, fov = CAMERA[level]
-        return [RandomCamera(position=position, rotation_deg=math.degrees(2 * math.asin(quaternion)), fov_deg=fov, seed=seeded(4))]
+        return [RandomCamera(position=position, rotation_deg=math.degrees(2 * math.asin(quaternion)), fov_deg=fov)]
     if kind == "light":
-        return [RandomLighting(position_offset=None, diffuse_offset=None, position_jitter=LIGHT[level], seed=seeded(5))]
+        return [RandomLighting(position_offset=None, diffuse_offset=None, position_jitter=LIGHT[level])]
     return []
 
 
@@ -312,14 +310,15 @@ def make_adroit_env(
     seed: int | None = None,
     level_options: dict[str, Any] | None = None,
     **env_options: Any,
-) -> TransformedEnv:
+) -> PixelEnv:
     """Build an Adroit task as a TorchRL pixel env (RL-ViGen's frames: 84×84, a stack of 3).
 
     Args:
         task: ``"door"``, ``"hammer"`` or ``"pen"``.
         frame_stack: frames stacked along channels (``"pixels"`` is ``[3·frame_stack, H, W]``).
         generalization: a level name (:data:`LEVELS`) or a list of vigen transforms.
-        seed: seeds the task's first reset and the level's draws.
+        seed: seeds the task's first reset and every perturbation of the env, the ``i``-th with
+            ``derive_seed(seed, i)``, as ``env.set_seed(seed)`` does later.
         level_options: ``{"videos": folder}`` for the video levels (default: procedural videos).
         **env_options: options of :class:`AdroitPixelEnv` (``action_repeat``, ``image_size``,
             ``camera``, ``episode_length`` (200; pen 100), ``render_settings``, ``device``).
@@ -330,5 +329,7 @@ def make_adroit_env(
         >>> env.rollout(2)["pixels"].shape  # doctest: +SKIP
         torch.Size([2, 9, 84, 84])
     """
+    checked = {name: env_options[name] for name in ("action_repeat", "image_size", "camera", "episode_length") if name in env_options}
+    check_env_arguments(frame_stack=frame_stack, seed=seed, **checked)
     transforms = perturbations(generalization, lambda level: level_transforms(level, seed, **(level_options or {})))
-    return stacked_pixel_env(AdroitPixelEnv(task, seed=seed, **env_options), transforms, frame_stack)
+    return stacked_pixel_env(AdroitPixelEnv(task, seed=seed, **env_options), transforms, frame_stack, seed=seed)

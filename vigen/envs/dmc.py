@@ -32,7 +32,7 @@ from torchrl.envs import DoubleToFloat, Transform, TransformedEnv
 from torchrl.envs.libs.dm_control import DMControlWrapper
 
 from vigen.envs.levels import make_perturbations
-from vigen.envs.pixels import stacked_pixel_env
+from vigen.envs.pixels import PixelEnv, check_env_arguments, stacked_pixel_env
 from vigen.rendering import RenderSettings
 
 DOMAIN_ALIASES = {"cup": "ball_in_cup"}
@@ -216,6 +216,9 @@ class DMCPixelEnv(DMControlWrapper):
         seed: int | None = None,
         device: torch.device | str = "cpu",
     ) -> None:
+        check_env_arguments(
+            action_repeat=action_repeat, image_size=image_size, camera_id=camera_id, episode_length=episode_length, seed=seed
+        )
         domain = DOMAIN_ALIASES.get(domain, domain)
         if (domain, task) not in suite.ALL_TASKS:
             raise ValueError(f"Unknown dm_control task {domain}-{task}. Valid names: {', '.join(env_names())}.")
@@ -234,6 +237,15 @@ class DMCPixelEnv(DMControlWrapper):
         super().__init__(rendered, device=device)
         self.domain_name, self.task_name, self.camera_id = domain, task, camera_id
         self.image_size, self.action_repeat, self.episode_length = image_size, action_repeat, episode_length
+
+    def _set_seed(self, seed: int | None) -> None:
+        """Seed the task as ``seed=`` does at build time: the next reset starts the seed's first episode.
+
+        TorchRL's ``DMControlWrapper`` seeds and then resets, which uses up that first episode.
+        """
+        super()._set_seed(seed)
+        if seed is not None:
+            self._env._env.task._random = np.random.RandomState(seed)
 
     @property
     def physics(self) -> Any:
@@ -274,7 +286,7 @@ def make_dmc_env(
     seed: int | None = None,
     level_options: dict[str, Any] | None = None,
     **env_options: Any,
-) -> TransformedEnv:
+) -> PixelEnv:
     """Build a dm_control suite task as a TorchRL pixel env (DrQ-v2's setup by default).
 
     Args:
@@ -286,7 +298,8 @@ def make_dmc_env(
         generalization: a level name (see :mod:`vigen.envs.levels`, e.g. ``"color_hard"``;
             ``None`` or ``"train"`` is the clean scene) or a list of vigen transforms. Scene
             perturbations act on the raw frames, pixel corruptions on each frame before stacking.
-        seed: seeds the task (initial poses and targets) and the level's transforms.
+        seed: seeds the task (initial poses and targets) and every perturbation of the env, the
+            ``i``-th with ``derive_seed(seed, i)``; ``env.set_seed(seed)`` later does the same.
         level_options: passed to the level's transforms that accept them, e.g.
             ``{"videos": "/data/dmcgb/video_hard"}`` or ``{"palette": ".../color_hard.pt"}``.
         **env_options: options of :class:`DMCPixelEnv`: ``action_repeat`` (2), ``image_size``
@@ -295,7 +308,7 @@ def make_dmc_env(
             on CPU-only machines) and ``device``.
 
     Returns:
-        A ``TransformedEnv`` with uint8 ``"pixels"``, float32 ``"action"`` in [-1, 1] (task
+        A :class:`~vigen.envs.pixels.PixelEnv` (a ``TransformedEnv``) with uint8 ``"pixels"``, float32 ``"action"`` in [-1, 1] (task
         bounds) and ``"reward"``, and ``"done"``/``"terminated"``/``"truncated"`` flags.
 
     Examples:
@@ -304,7 +317,8 @@ def make_dmc_env(
         >>> env.rollout(5)["pixels"].shape
         torch.Size([5, 9, 84, 84])
     """
-    if frame_stack < 1:
-        raise ValueError(f"frame_stack must be at least 1, got {frame_stack}.")
+    checked = {name: env_options[name] for name in ("action_repeat", "image_size", "camera_id", "episode_length") if name in env_options}
+    check_env_arguments(frame_stack=frame_stack, seed=seed, **checked)
     perturbations = make_perturbations(generalization, seed, **(level_options or {}))
-    return stacked_pixel_env(DMCPixelEnv(domain, task, seed=seed, **env_options), perturbations, frame_stack, DoubleToFloat())
+    base = DMCPixelEnv(domain, task, seed=seed, **env_options)
+    return stacked_pixel_env(base, perturbations, frame_stack, DoubleToFloat(), seed=seed)

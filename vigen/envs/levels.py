@@ -13,6 +13,7 @@ from typing import Any
 from torchrl.envs import Transform
 
 import vigen.transforms as transforms
+from vigen.envs.pixels import derive_seed
 from vigen.transforms.corruptions import SEVERITIES
 
 CORRUPTION_SOURCE = "ImageNet-C severities (Hendrycks & Dietterich 2019)"
@@ -139,7 +140,7 @@ def resolve_levels(names: str | list[str], suite: str = "dmc") -> list[str]:
 
 
 def level_transforms(level: str, seed: int | None = None, **overrides: Any) -> list[Transform]:
-    """The transforms of ``level``, seeded from ``seed`` (each its own stream).
+    """The transforms of ``level``, the ``i``-th seeded with :func:`~vigen.envs.pixels.derive_seed` ``(seed, i)``.
 
     ``overrides`` are passed to every transform of the level that accepts them, e.g.
     ``videos="/data/dmcgb/video_hard"`` or ``palette=".../color_hard.pt"``.
@@ -151,8 +152,7 @@ def level_transforms(level: str, seed: int | None = None, **overrides: Any) -> l
     for index, (name, parameters) in enumerate(LEVELS[level][2]):
         cls = getattr(transforms, name)
         accepted = {k: v for k, v in overrides.items() if k in cls.__init__.__code__.co_varnames}
-        derived = None if seed is None else seed * 1_000_003 + index
-        built.append(cls(**parameters, **accepted, seed=derived))
+        built.append(cls(**parameters, **accepted, seed=derive_seed(seed, index)))
     return built
 
 

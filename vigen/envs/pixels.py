@@ -1,23 +1,126 @@
-"""What every vigen pixel env shares: its specs, and the transform chain from raw frames to stacked pixels."""
+"""What every vigen pixel env shares: argument checks, seeds, specs, and the transform chain from raw frames to stacked pixels."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import numbers
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any
 
 import torch
 from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import CatFrames, Compose, EnvBase, ToTensorImage, Transform, TransformedEnv
 
+from vigen.transforms.augmentation import ImageAugmentation
 from vigen.transforms.scene import ScenePerturbation
+
+SEED_LIMIT = 2**32
+"""Env seeds lie in ``[0, 2**32)``: the range of NumPy's ``RandomState`` (dm_control) and of ``ParallelEnv``'s worker seeds."""
+
+DERIVED_SEED_LIMIT = 2**63
+"""Derived seeds are taken modulo this, so that they fit a ``torch.Generator`` and NumPy's generators."""
+
+SEED_STRIDE = 1_000_003
+"""A prime: ``derive_seed(seed, i)`` gives distinct streams for distinct seeds and indices."""
+
+POSITIVE_ARGUMENTS = {
+    "image_size": "pixels per side of the rendered frame, e.g. image_size=84",
+    "frame_stack": "frames stacked along channels, e.g. frame_stack=3 (1: no stacking)",
+    "action_repeat": "simulator steps per agent step, e.g. action_repeat=2 (1: no repeat)",
+    "episode_length": "simulator steps per episode, e.g. episode_length=1000",
+    "control_freq": "control steps per simulated second, e.g. control_freq=20",
+}
+"""Env arguments that must be ints > 0, with what they mean."""
+
+
+def check_env_arguments(**arguments: Any) -> None:
+    """Raise a clear error for an env argument of the wrong type or value, before anything is built.
+
+    ``image_size``, ``frame_stack``, ``action_repeat``, ``episode_length`` and ``control_freq``
+    must be ints > 0 (``episode_length=None`` keeps a suite's default); ``seed`` an int in
+    ``[0, 2**32)`` or ``None``; ``camera_id`` an int >= 0 or ``None``; ``camera`` a camera name.
+    Bools are refused where ints are wanted. Arguments left out are not checked.
+
+    Examples:
+        >>> check_env_arguments(image_size=84, frame_stack=3, seed=None)
+        >>> check_env_arguments(image_size=84.0)
+        Traceback (most recent call last):
+        ...
+        TypeError: image_size must be an int > 0, got 84.0 (float). image_size is pixels per side of the rendered frame, e.g. image_size=84.
+    """
+    for name, value in arguments.items():
+        if name in POSITIVE_ARGUMENTS:
+            if name == "episode_length" and value is None:
+                continue
+            _check_int(name, value, 1, f"{name} is {POSITIVE_ARGUMENTS[name]}.")
+        elif name == "seed":
+            if value is not None:
+                _check_int(name, value, 0, "Pass seed=None to draw one.", high=SEED_LIMIT - 1)
+        elif name == "camera_id":
+            if value is not None:
+                _check_int(name, value, 0, "camera_id indexes the model's cameras; None picks the suite's default.")
+        elif name == "camera":
+            if not isinstance(value, str):
+                raise TypeError(f"camera must be a camera name (str), got {value!r} ({type(value).__name__}).")
+        else:
+            raise ValueError(f"check_env_arguments has no rule for {name!r}; known: {', '.join([*POSITIVE_ARGUMENTS, 'seed', 'camera_id', 'camera'])}.")
+
+
+def _check_int(name: str, value: Any, low: int, hint: str, high: int | None = None) -> None:
+    wanted = f"an int > {low - 1}" if high is None else f"an int in [{low}, {high}]"
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name} must be {wanted}, got {value!r} ({type(value).__name__}). {hint}")
+    if value < low or (high is not None and value > high):
+        raise ValueError(f"{name} must be {wanted}, got {value}. {hint}")
+
+
+def derive_seed(seed: int | None, *path: int) -> int | None:
+    """The seed of one stream below ``seed``: ``path`` names it (e.g. a transform's index in its env).
+
+    Each step folds one index in as ``seed * 1_000_003 + index`` (modulo ``2**63``), so distinct
+    seeds and paths give distinct streams and one index reproduces what vigen has always drawn.
+    ``None`` stays ``None`` (unseeded: the global RNG decides).
+
+    Examples:
+        >>> derive_seed(0, 1), derive_seed(2, 0), derive_seed(None, 3)
+        (1, 2000006, None)
+    """
+    if seed is None:
+        return None
+    for index in path:
+        seed = (seed * SEED_STRIDE + index) % DERIVED_SEED_LIMIT
+    return seed
+
+
+def flatten_transforms(transforms: Sequence[Transform]) -> list[Transform]:
+    """``transforms`` with every ``Compose`` replaced by its transforms (recursively), in order.
+
+    Examples:
+        >>> from torchrl.envs import Compose, StepCounter
+        >>> from vigen.transforms import RandomShift
+        >>> [type(t).__name__ for t in flatten_transforms([Compose(RandomShift(), Compose(StepCounter()))])]
+        ['RandomShift', 'StepCounter']
+    """
+    flat: list[Transform] = []
+    for transform in transforms:
+        if isinstance(transform, Compose):
+            inner = flatten_transforms(list(transform.transforms))
+            for child in inner:
+                child.reset_parent()  # the Compose is dissolved: each child joins the env's chain on its own
+            flat += inner
+        else:
+            flat.append(transform)
+    return flat
 
 
 def check_transforms(transforms: Sequence[Transform] | None) -> list[Transform]:
-    """``generalization`` given as transforms: a list of TorchRL ``Transform``s (``None`` is none)."""
+    """``generalization`` given as transforms: a list of TorchRL ``Transform``s (``None`` is none), ``Compose`` flattened."""
+    if isinstance(transforms, Transform):
+        transforms = [transforms]
     built = list(transforms or [])
     for transform in built:
         if not isinstance(transform, Transform):
             raise TypeError(f"generalization takes a level name or a list of TorchRL transforms, got {transform!r}.")
-    return built
+    return flatten_transforms(built)
 
 
 def perturbations(
@@ -29,21 +132,81 @@ def perturbations(
     return check_transforms(generalization)
 
 
-def stacked_pixel_env(base: EnvBase, transforms: Sequence[Transform], frame_stack: int, *extra: Transform) -> TransformedEnv:
+def seeded_transforms(transform: Transform) -> Iterator[Transform]:
+    """The transforms of a chain that draw from their own seed (scene perturbations, image augmentations), in chain order."""
+    if isinstance(transform, Compose):
+        for child in transform.transforms:
+            yield from seeded_transforms(child)
+    elif isinstance(transform, (ScenePerturbation, ImageAugmentation)):
+        yield transform
+
+
+class PixelEnv(TransformedEnv):
+    """A vigen pixel env: a ``TransformedEnv`` whose ``set_seed`` also reseeds its perturbations.
+
+    TorchRL's ``TransformedEnv.set_seed`` seeds the base env only. Here ``set_seed(s)`` seeds the
+    base env with ``s`` and then every scene perturbation and image augmentation of the chain,
+    the ``i``-th (in chain order) with :func:`derive_seed` ``(s, i)``, which is what
+    ``make_env(..., seed=s)`` does at build time, so ``make_env(name, generalization=level).set_seed(s)``
+    and ``make_env(name, generalization=level, seed=s)`` give the same episodes. ``ParallelEnv.set_seed``
+    reaches it in each worker. ``set_seed(None)`` changes nothing.
+
+    Examples:
+        >>> from vigen.envs import make_env
+        >>> env = make_env("dmc/walker-walk", generalization="color_hard", image_size=32)
+        >>> _ = env.set_seed(3)
+        >>> [t.seed for t in env.transform if hasattr(t, "seed")]
+        [3000009]
+    """
+
+    def set_seed(self, seed: int | None = None, static_seed: bool = False) -> int | None:
+        """Seed the base env and every perturbation of the chain from ``seed``; returns the next seed (TorchRL's rule)."""
+        check_env_arguments(seed=seed)
+        next_seed = self.base_env.set_seed(seed, static_seed=static_seed)
+        if seed is not None:
+            self.seed_transforms(seed)
+        return next_seed
+
+    def seed_transforms(self, seed: int) -> None:
+        """Reseed the chain's scene perturbations and image augmentations from ``seed``, the ``i``-th with ``derive_seed(seed, i)``."""
+        seed_in_order(list(seeded_transforms(self.transform)), seed)
+
+
+def seed_in_order(transforms: Sequence[Transform], seed: int | None) -> list[Transform]:
+    """Give the ``i``-th transform the seed ``derive_seed(seed, i)`` (``seed=None``: leave them as they are); returns them.
+
+    Examples:
+        >>> from vigen.transforms import RandomConv, RandomShift
+        >>> [t.seed for t in seed_in_order([RandomShift(), RandomConv()], 1)]
+        [1000003, 1000004]
+    """
+    if seed is not None:
+        for index, transform in enumerate(transforms):
+            transform.set_seed(derive_seed(seed, index))
+    return list(transforms)
+
+
+def stacked_pixel_env(
+    base: EnvBase, transforms: Sequence[Transform], frame_stack: int, *extra: Transform, seed: int | None = None
+) -> PixelEnv:
     """``base`` (uint8 HWC ``"pixels"``) with its perturbations, channel-first frames and a stack of ``frame_stack``.
 
     Scene perturbations come first (they edit the model and may composite raw frames), then
     ``ToTensorImage`` (HWC → CHW, uint8 kept), then pixel perturbations on each frame, then
-    ``CatFrames`` along channels, then ``extra`` transforms.
+    ``CatFrames`` along channels, then ``extra`` transforms. With a ``seed``, the perturbations
+    are seeded as :meth:`PixelEnv.set_seed` seeds them (the base env is seeded by its builder).
     """
-    if frame_stack < 1:
-        raise ValueError(f"frame_stack must be at least 1, got {frame_stack}.")
+    check_env_arguments(frame_stack=frame_stack)
+    transforms = check_transforms(transforms)
     chain = [t for t in transforms if isinstance(t, ScenePerturbation)]
     chain.append(ToTensorImage(in_keys=["pixels"], from_int=False, dtype=torch.uint8))
     chain += [t for t in transforms if not isinstance(t, ScenePerturbation)]
     if frame_stack > 1:
         chain.append(CatFrames(N=frame_stack, dim=-3, in_keys=["pixels"]))
-    return TransformedEnv(base, Compose(*chain, *extra))
+    env = PixelEnv(base, Compose(*chain, *extra))
+    if seed is not None:
+        env.seed_transforms(seed)
+    return env
 
 
 def set_task_specs(env: EnvBase, low: object, high: object, image_size: int) -> None:

@@ -27,7 +27,7 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.envs import Transform, TransformedEnv
 from torchrl.envs.common import _EnvWrapper
 
-from vigen.envs.pixels import perturbations, set_task_specs, stacked_pixel_env
+from vigen.envs.pixels import PixelEnv, check_env_arguments, perturbations, seed_in_order, set_task_specs, stacked_pixel_env
 from vigen.rendering import RenderSettings
 from vigen.transforms import (
     ImageBank,
@@ -218,8 +218,7 @@ class RobosuitePixelEnv(_EnvWrapper):
             raise ValueError(f"Unknown robosuite task {kwargs['task']!r}. Valid names: {', '.join(TASKS)}.")
         if kwargs["robot"] not in ROBOTS:
             raise ValueError(f"Unknown robot {kwargs['robot']!r}. Robots with the Panda's action space: {', '.join(ROBOTS)}.")
-        if kwargs["episode_length"] < 1:
-            raise ValueError(f"episode_length must be at least 1 step, got {kwargs['episode_length']}.")
+        check_env_arguments(**{name: kwargs[name] for name in ("image_size", "camera", "episode_length", "control_freq", "seed")})
 
     def _build_env(self, task, robot, image_size, camera, episode_length, control_freq, reward_shaping, render_settings, seed) -> Any:
         try:
@@ -246,6 +245,7 @@ class RobosuitePixelEnv(_EnvWrapper):
         self.task, self.robot, self.camera, self.image_size, self.episode_length = task, robot, camera, image_size, episode_length
         self.action_repeat = 1
         self._camera_id = env.sim.model.camera_name2id(camera)
+        self._build_seed = seed
         return env
 
     def _make_specs(self, env: Any) -> None:
@@ -253,6 +253,8 @@ class RobosuitePixelEnv(_EnvWrapper):
 
     def _init_env(self) -> None:
         self._env.reset()
+        if self._build_seed is not None:  # the first episode is the seed's first draw, as after set_seed(seed)
+            self._set_seed(self._build_seed)
 
     def _set_seed(self, seed: int | None) -> None:
         rng = np.random.default_rng(seed)
@@ -322,31 +324,32 @@ def level_transforms(task: str, level: str, scene_id: int = 0, seed: int | None 
 
     Textures come from the level's set (robosuite's texture files and generated stand-ins for
     SECANT's), one image per textured material, fixed by ``scene_id``; colours, lights and
-    cameras are drawn per episode from ``seed``.
+    cameras are drawn per episode from ``seed``, the ``i``-th transform with
+    :func:`~vigen.envs.pixels.derive_seed` ``(seed, i)``.
     """
     if level not in LEVELS:
         raise ValueError(f"Unknown robosuite level {level!r}. Levels: {', '.join(LEVELS)}. Groups: {', '.join(GROUPS)}.")
     if not 0 <= scene_id < SCENES:
         raise ValueError(f"scene_id selects one of RL-ViGen's {SCENES} scenes per level: 0..{SCENES - 1}, got {scene_id}.")
+    return seed_in_order(_level_transforms(task, level, scene_id, videos), seed)
 
-    def seeded(index: int) -> int | None:
-        return None if seed is None else seed * 1_000_003 + index
 
-    local_colors = RandomMaterialColors(mix=0.2, exclude=ROBOT_PARTS, seed=seeded(0))
+def _level_transforms(task: str, level: str, scene_id: int, videos: Any) -> list[Transform]:
+    local_colors = RandomMaterialColors(mix=0.2, exclude=ROBOT_PARTS)
     moving_light = RandomLighting(position_offset=None, diffuse_offset=None, moving_step=0.03, moving_range=3.0,
-                                  height=4.0, directional=False, cast_shadow=True, seed=seeded(1))
+                                  height=4.0, directional=False, cast_shadow=True)
     if level in ("easy", "medium", "hard"):
         textures = [name for name in TEXTURES[task] if level != "hard" or name not in BACKGROUND_TEXTURES]
         built = [RandomTextures(textures, images=functools.partial(texture_bank, level), scene_id=SCENES * ("easy", "medium", "hard").index(level) + scene_id)]
         if level == "easy":
             return built + [local_colors]
         if level == "medium":
-            robot = RandomMaterialColors(mix=1.0, include=ROBOT_PARTS[:2], shared=True, seed=seeded(2))
+            robot = RandomMaterialColors(mix=1.0, include=ROBOT_PARTS[:2], shared=True)
             return built + [local_colors, robot, moving_light]
-        return built + [local_colors, moving_light, VideoBackground(videos, floor=True, background=("wall",), video=scene_id, seed=seeded(3))]
+        return built + [local_colors, moving_light, VideoBackground(videos, floor=True, background=("wall",), video=scene_id)]
     if level in CAMERA_RANGES:
         position, rotation, fov = CAMERA_RANGES[level]
-        camera = RandomCamera(position=position, rotation_deg=math.degrees(rotation), fov_deg=(-fov, fov), seed=seeded(4))
+        camera = RandomCamera(position=position, rotation_deg=math.degrees(rotation), fov_deg=(-fov, fov))
         return [local_colors, camera]
     return []
 
@@ -373,7 +376,7 @@ def make_robosuite_env(
     level_options: dict[str, Any] | None = None,
     robot: str | None = None,
     **env_options: Any,
-) -> TransformedEnv:
+) -> PixelEnv:
     """Build a robosuite task as a TorchRL pixel env (RL-ViGen's setup by default).
 
     Args:
@@ -384,7 +387,9 @@ def make_robosuite_env(
         scene_id: which of the level's 10 scenes (RL-ViGen's ``scene_id``); ``None`` uses
             ``seed % 10`` (0 without a seed), so ``seeds=range(10)`` in
             :func:`vigen.evaluation.evaluate` is RL-ViGen's 10 scenes.
-        seed: seeds robosuite (initial joints and object placement) and the level's draws.
+        seed: seeds robosuite (initial joints and object placement) and every perturbation of the
+            env, the ``i``-th with ``derive_seed(seed, i)``, as ``env.set_seed(seed)`` does later
+            (which keeps the ``scene_id`` chosen at build time).
         level_options: ``{"videos": folder}`` for the ``hard`` level's video background
             (default: procedural videos).
         robot: the arm; a ``robot_*`` level sets it. Default ``"Panda"``.
@@ -392,7 +397,7 @@ def make_robosuite_env(
             ``episode_length``, ``control_freq``, ``reward_shaping``, ``render_settings``, ``device``).
 
     Returns:
-        A ``TransformedEnv`` with uint8 ``"pixels"`` ``[3·frame_stack, H, W]``, float32
+        A :class:`~vigen.envs.pixels.PixelEnv` with uint8 ``"pixels"`` ``[3·frame_stack, H, W]``, float32
         ``"action"`` and ``"reward"``, ``"success"`` and the done flags.
 
     Examples:
@@ -401,6 +406,8 @@ def make_robosuite_env(
         >>> env.rollout(2)["pixels"].shape  # doctest: +SKIP
         torch.Size([2, 9, 84, 84])
     """
+    checked = {name: env_options[name] for name in ("image_size", "camera", "episode_length", "control_freq") if name in env_options}
+    check_env_arguments(frame_stack=frame_stack, seed=seed, **checked)
     scene_id = (0 if seed is None else seed % SCENES) if scene_id is None else scene_id
     if isinstance(generalization, str) and generalization.startswith("robot_") and generalization in LEVELS:
         level_robot = next(r for r in ROBOTS if r.lower() == generalization[len("robot_"):])
@@ -408,4 +415,4 @@ def make_robosuite_env(
             raise ValueError(f"Level {generalization!r} uses the {level_robot} arm, but robot={robot!r} was given.")
         robot = level_robot
     transforms = perturbations(generalization, lambda level: level_transforms(task, level, scene_id, seed, **(level_options or {})))
-    return stacked_pixel_env(RobosuitePixelEnv(task, robot=robot or "Panda", seed=seed, **env_options), transforms, frame_stack)
+    return stacked_pixel_env(RobosuitePixelEnv(task, robot=robot or "Panda", seed=seed, **env_options), transforms, frame_stack, seed=seed)

@@ -96,9 +96,14 @@ class ScenePerturbation(Transform):
 
     # -- machinery ---------------------------------------------------------------------------
     def set_seed(self, seed: int | None) -> None:
-        """Restart the draws from ``seed`` (``None``: a seed from torch's global RNG at the next reset)."""
+        """Restart the draws from ``seed`` (``None``: a seed from torch's global RNG at the next reset).
+
+        The next reset then draws what a new transform built with ``seed`` would draw: the
+        current episode's parameters are forgotten (they take effect again from that reset).
+        """
         self.seed = seed
         self._rng = None
+        self.params = None
 
     @property
     def scene(self) -> SceneHandle:

@@ -31,8 +31,9 @@ class RandomTextures(ScenePerturbation):
 
     Args:
         textures: name or names of the textures to replace (dm_control's floor: ``"grid"``).
-        images: an :class:`ImageBank`, a folder of images, a function that returns a bank (called
-            at the first reset), or ``None`` for the built-in bank.
+        images: an :class:`ImageBank`, a folder of images (which must exist; its images are read
+            at the first reset), a function that returns a bank (called at the first reset), or
+            ``None`` for the built-in bank.
         scene_id: a scene id that fixes the draw for every episode, or ``None`` to draw per episode.
         seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
 
@@ -51,6 +52,12 @@ class RandomTextures(ScenePerturbation):
         seed: int | None = None,
     ) -> None:
         super().__init__(seed=seed)
+        if isinstance(images, (str, os.PathLike)) and not os.path.isdir(os.path.expanduser(images)):
+            # checked here, not at the first reset: inside a ParallelEnv worker that error would only kill the worker
+            raise FileNotFoundError(
+                f"RandomTextures: images={os.fspath(images)!r} is not a folder. Pass a folder of .jpg/.png images, an "
+                "ImageBank, or None for the built-in bank."
+            )
         self._images = images
         self.textures = (textures,) if isinstance(textures, str) else tuple(textures)
         self.scene_id = scene_id

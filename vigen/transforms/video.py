@@ -27,9 +27,11 @@ class VideoBackground(ScenePerturbation):
     order, one per episode (DMC-GB), starting from a seeded index; the frame advances every step
     and wraps.
 
-    The transform edits the env's raw HWC frames, so it must come before frame stacking:
-    ``make_env(..., generalization="video_hard")`` puts it there, or build the env with
-    ``frame_stack=1`` and append ``CatFrames`` after it.
+    The transform composites the env's raw ``[H, W, 3]`` frames, so it must sit before
+    ``ToTensorImage`` (and frame stacking): ``make_env(..., generalization="video_hard")`` or
+    ``generalization=[VideoBackground(...)]`` put it there, and so does
+    ``env.insert_transform(0, VideoBackground(...))`` on a built env; ``append_transform`` puts it
+    after the channel-first frames and is refused at the first reset.
 
     Paper: DMC-GB / SODA, https://arxiv.org/abs/2011.13389.
 
@@ -102,10 +104,12 @@ class VideoBackground(ScenePerturbation):
         if self.params is None or self.params["video"] < 0:
             return tensordict
         pixels: Tensor = tensordict.get("pixels")
-        if pixels.shape[-1] != 3:
+        if pixels.ndim < 3 or pixels.shape[-1] != 3:
             raise ValueError(
-                f"VideoBackground composites raw HWC RGB frames, got pixels of shape {tuple(pixels.shape)}. Put it "
-                "before ToTensorImage/CatFrames (make_env(..., generalization=...) does), or use frame_stack=1."
+                f"VideoBackground composites the env's raw [H, W, 3] frames, but its 'pixels' have shape "
+                f"{tuple(pixels.shape)}: it sits after ToTensorImage, which makes frames channel-first (with any "
+                "frame_stack). Pass it to the builder, make_env(..., generalization=[VideoBackground(...)]), or insert it "
+                "at the start of a built env's chain: env.insert_transform(0, VideoBackground(...))."
             )
         scene = self.scene
         height, width = pixels.shape[-3:-1]
