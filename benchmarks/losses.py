@@ -110,12 +110,24 @@ def guided_backprop(encoder: nn.Module, critic: nn.Module, obs: Tensor, action: 
     return grad
 
 
+class RLViGenEncoder(nn.Module):
+    """A vigen encoder's layers called as RL-ViGen calls its encoder: ``obs / 255 − 0.5`` on float 0–255
+    views, unchecked (RL-ViGen's float views, e.g. its frequency mask, overshoot 255)."""
+
+    def __init__(self, encoder: nn.Module) -> None:
+        super().__init__()
+        self.encoder = encoder
+
+    def forward(self, obs: Tensor) -> Tensor:
+        return self.encoder.project(self.encoder.convnet(obs.float() / 255.0 - 0.5).flatten(1))
+
+
 class Reference:
     """One RL-ViGen-style agent: three Adam optimizers, sequential critic → actor → aux steps."""
 
     def __init__(self, algo: str, nets: dict[str, nn.Module], overlay_images: Tensor) -> None:
         self.algo = algo
-        self.encoder, self.actor, self.critic = nets["encoder"], nets["actor"], nets["critic"]
+        self.encoder, self.actor, self.critic = RLViGenEncoder(nets["encoder"]), nets["actor"], nets["critic"]
         self.critic_target = copy.deepcopy(self.critic)
         self.images = overlay_images
         self.encoder_opt = torch.optim.Adam(self.encoder.parameters(), lr=LR)
