@@ -14,6 +14,8 @@ channels-last images turn into white frames or silently wrong features.
 
 from __future__ import annotations
 
+import math
+
 import torch
 from torch import Tensor
 
@@ -147,7 +149,9 @@ def check_pixels(
     check_pixel_layout(images.shape, images.dtype, name=name, max_value=max_value, rgb=rgb)
     if images.dtype.is_floating_point and images.numel():
         white = white_value(images, max_value)
-        peak = float(images.amax())
+        peak = float(images.detach().amax())
+        if not math.isfinite(peak):
+            raise ValueError(f"{name}: float pixels hold NaN or inf values; check the env or buffer that made them.")
         if peak > white * (1 + SCALE_TOLERANCE):
             hint = ("these look like 0–255 pixels: pass max_value=255, or divide them by 255 "
                     "(TorchRL's ToTensorImage() gives 0–1)") if white == 1.0 else "clamp them or declare the right max_value"

@@ -241,3 +241,11 @@ def test_leaf_observation_spec_is_accepted_like_torchrl_image_transforms(name):
     assert out.is_in(torch.zeros(out.shape, dtype=torch.uint8))
     unbounded = build(name).transform_observation_spec(Unbounded(shape=(9, SIZE, SIZE)))
     assert unbounded.shape == (9, out_size(name), out_size(name))
+
+
+@pytest.mark.parametrize("value", [float("nan"), float("inf")])
+def test_non_finite_float_pixels_are_named_as_such(value):
+    x = torch.rand(2, 9, SIZE, SIZE)
+    x[1, 4, 2, 3] = value
+    with pytest.raises(ValueError, match="NaN or inf"):
+        RandomShift(seed=0)(pixels=x)
