@@ -165,3 +165,40 @@ def test_bad_names_say_what_is_valid():
     with pytest.raises(ValueError, match="No camera 'top'"):
         make_env("adroit/door", camera="top")
     assert resolve_levels(["rlvigen"], suite="adroit") == ["color_easy", "color_hard", "video_easy", "video_hard"]
+
+
+# set_seed(s) and make_env(..., seed=s) give the same episodes (Adroit levels have no scene id).
+ONE_LEVEL_PER_GROUP = ["train", "video_hard", "camera_hard", "light_hard"]  # all, rlvigen (textures, colours, video), camera, light
+
+
+def small_door(level=None, **kwargs):
+    return make_env("adroit/door", generalization=level, image_size=24, frame_stack=1, render_settings=FAST,
+                    episode_length=10, **kwargs)
+
+
+def episode(env, steps: int = 2) -> tuple[torch.Tensor, torch.Tensor]:
+    """The pixels of a reset and of ``steps`` fixed actions, and the rewards."""
+    dim = env.action_spec.shape[-1]
+    actions = iter(torch.linspace(-1, 1, steps * dim).reshape(steps, dim))
+    data = env.rollout(steps, lambda td: td.set("action", next(actions)), break_when_any_done=False)
+    return torch.cat([data["pixels"], data["next", "pixels"][-1:]]), data["next", "reward"]
+
+
+def check_set_seed_equals_seed_at_build(level):
+    expected = episode(small_door(level, seed=13))
+    later = small_door(level)
+    episode(later)  # used first: set_seed must start over
+    later.set_seed(13)
+    got = episode(later)
+    assert torch.equal(got[0], expected[0]) and torch.equal(got[1], expected[1])
+
+
+@pytest.mark.parametrize("level", ONE_LEVEL_PER_GROUP)
+def test_set_seed_equals_seed_at_build(level):
+    check_set_seed_equals_seed_at_build(level)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("level", [level for level in adroit.LEVELS if level not in ONE_LEVEL_PER_GROUP])
+def test_set_seed_equals_seed_at_build_every_level(level):
+    check_set_seed_equals_seed_at_build(level)

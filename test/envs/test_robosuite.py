@@ -195,3 +195,82 @@ def test_bad_names_say_what_is_valid():
     with pytest.raises(ValueError, match="uses the IIWA arm"):
         make_env("robosuite/door", generalization="robot_iiwa", robot="Sawyer")
     assert resolve_levels(["train", "rlvigen"], suite="robosuite") == ["train", "easy", "medium", "hard"]
+
+
+# set_seed(s) and make_env(..., seed=s) give the same episodes, the scene (seed % 10) included.
+SEED = 13  # scene 3: not the scene 0 an env without a seed is built with, and seed % 10 != seed
+ONE_LEVEL_PER_GROUP = ["train", "hard", "camera_hard", "robot_iiwa"]  # train, rlvigen (textures and video), camera, embodiment
+OTHER_LEVELS = [level for level in suite.LEVELS if level not in ONE_LEVEL_PER_GROUP]
+
+
+def door(level=None, **kwargs):
+    return make_env("robosuite/door", generalization=level, image_size=24, frame_stack=1, render_settings=FAST,
+                    episode_length=10, **kwargs)
+
+
+def episode(env, steps: int = 2) -> tuple[torch.Tensor, torch.Tensor]:
+    """The pixels of a reset and of ``steps`` fixed actions, and the rewards."""
+    actions = iter(torch.linspace(-1, 1, steps * 7).reshape(steps, 7))
+    data = env.rollout(steps, lambda td: td.set("action", next(actions)), break_when_any_done=False)
+    return torch.cat([data["pixels"], data["next", "pixels"][-1:]]), data["next", "reward"]
+
+
+def scene_parameters(env) -> list[tuple[str, int]]:
+    """What fixes the scene: the texture draw's scene id and the video played."""
+    return [(type(t).__name__, t.scene_id if isinstance(t, vigen.transforms.RandomTextures) else t.video)
+            for t in env.transform if isinstance(t, (vigen.transforms.RandomTextures, vigen.transforms.VideoBackground))]
+
+
+def check_set_seed_equals_seed_at_build(level):
+    seeded = door(level, seed=SEED)
+    later = door(level)
+    episode(later)  # used first: set_seed must start over, scene included
+    later.set_seed(SEED)
+    expected, got = episode(seeded), episode(later)
+    assert torch.equal(got[0], expected[0]) and torch.equal(got[1], expected[1])
+    assert scene_parameters(later) == scene_parameters(seeded)
+    if level in suite.SCENE_LEVELS:
+        assert scene_parameters(later) == [("RandomTextures", suite.SCENES * suite.SCENE_LEVELS.index(level) + 3)] + (
+            [("VideoBackground", 3)] if level == "hard" else [])
+    assert later.scene_id == seeded.scene_id == SEED % suite.SCENES
+
+
+@pytest.mark.parametrize("level", ONE_LEVEL_PER_GROUP)
+def test_set_seed_equals_seed_at_build_scene_included(level):
+    check_set_seed_equals_seed_at_build(level)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("level", OTHER_LEVELS)
+def test_set_seed_equals_seed_at_build_every_level(level):
+    check_set_seed_equals_seed_at_build(level)
+
+
+def test_set_seed_moves_the_level_to_the_seeds_scene():
+    """Seeds 13 and 14 show scenes 3 and 4, whose textures differ even with the same task episode and colours."""
+    three, four = door("easy"), door("easy")
+    three.set_seed(SEED)
+    four.set_seed(SEED + 1)
+    assert scene_parameters(three) == [("RandomTextures", 3)] and scene_parameters(four) == [("RandomTextures", 4)]
+    four.set_seed(SEED)
+    four.set_scene(4)  # seed 13's episode and draws, scene 4's textures
+    assert four.scene_id == 4 and scene_parameters(four) == [("RandomTextures", 4)]
+    assert not torch.equal(episode(three)[0][0], episode(four)[0][0])
+
+
+def test_an_explicit_scene_id_stays_through_set_seed():
+    fixed = door("hard", scene_id=5)
+    fixed.set_seed(SEED)
+    assert fixed.scene_id == 5 and scene_parameters(fixed) == [("RandomTextures", 25), ("VideoBackground", 5)]
+    expected = episode(door("hard", scene_id=5, seed=SEED))
+    got = episode(fixed)
+    assert torch.equal(got[0], expected[0]) and torch.equal(got[1], expected[1])
+
+
+def test_bad_scene_ids_are_refused_before_building():
+    with pytest.raises(TypeError, match=r"^scene_id must be an int in 0..9"):
+        make_env("robosuite/door", generalization="easy", scene_id=3.0)
+    with pytest.raises(TypeError, match=r"^scene_id must be an int in 0..9"):
+        make_env("robosuite/door", generalization="easy", scene_id=True)
+    with pytest.raises(ValueError, match="scene_id selects one of RL-ViGen's 10 scenes"):
+        suite.select_scene([], "easy", -1)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import functools
 import math
+import numbers
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -59,6 +60,9 @@ BACKGROUND_TEXTURES = ("texplane", "tex-light-gray-plaster")
 
 SCENES = 10
 """Scene presets per level (RL-ViGen's ``scene_id`` 0..9)."""
+
+SCENE_LEVELS = ("easy", "medium", "hard")
+"""The levels whose textures (and ``hard``'s video) depend on the scene id."""
 
 ROBOSUITE_TEXTURES = {
     "easy": ("green-wood", "red-wood", "blue-wood", "gray-woodgrain", "gray-felt", "dirt"),
@@ -300,6 +304,62 @@ class RobosuitePixelEnv(_EnvWrapper):
         )
 
 
+class RobosuiteEnv(PixelEnv):
+    """The env of :func:`make_robosuite_env`: a :class:`~vigen.envs.pixels.PixelEnv` whose level shows one of 10 scenes.
+
+    ``scene_id`` is the scene the level's textures (and the ``hard`` level's video) show. Built
+    without an explicit ``scene_id``, the scene follows the seed: ``set_seed(s)`` moves it to
+    ``s % 10``, the scene ``make_robosuite_env(..., seed=s)`` builds, so the two give the same
+    episodes. A ``scene_id`` given at build stays through ``set_seed``; :meth:`set_scene`
+    changes it either way. Levels without scenes (``train``, camera, robot) and user transforms
+    are not touched.
+
+    Args:
+        base_env: the :class:`RobosuitePixelEnv`.
+        transform: its transform chain.
+        level: the level name, or ``None`` for user transforms.
+        level_transforms: the level's transforms (in ``transform``) that :func:`select_scene` sets.
+        scene_id: the scene they show now.
+        scene_follows_seed: whether ``set_seed(s)`` moves them to scene ``s % 10``.
+
+    Examples:
+        >>> from vigen.envs import make_env
+        >>> env = make_env("robosuite/lift", generalization="easy", image_size=32)  # doctest: +SKIP
+        >>> _ = env.set_seed(13)  # doctest: +SKIP
+        >>> env.scene_id  # doctest: +SKIP
+        3
+    """
+
+    def __init__(
+        self,
+        base_env: RobosuitePixelEnv,
+        transform: Transform,
+        *,
+        level: str | None = None,
+        level_transforms: Sequence[Transform] = (),
+        scene_id: int = 0,
+        scene_follows_seed: bool = True,
+    ) -> None:
+        _check_scene_id(scene_id)
+        super().__init__(base_env, transform)
+        self.level, self.scene_id, self.scene_follows_seed = level, int(scene_id), scene_follows_seed
+        self._scene_transforms = list(level_transforms)
+
+    def set_seed(self, seed: int | None = None, static_seed: bool = False) -> int | None:
+        """Seed the env as :meth:`PixelEnv.set_seed` does and, if the scene follows the seed, move the level to scene ``seed % 10``."""
+        check_env_arguments(seed=seed)
+        if seed is not None and self.scene_follows_seed:
+            self.set_scene(seed % SCENES)
+        return super().set_seed(seed, static_seed=static_seed)
+
+    def set_scene(self, scene_id: int) -> None:
+        """Show the level's scene ``scene_id`` (0..9) from the next reset on."""
+        _check_scene_id(scene_id)
+        if self.level is not None:
+            select_scene(self._scene_transforms, self.level, scene_id)
+        self.scene_id = int(scene_id)
+
+
 @functools.cache
 def _render_context_class(base: type) -> type:
     """robosuite's render context, freed in its own GL context.
@@ -323,30 +383,62 @@ def level_transforms(task: str, level: str, scene_id: int = 0, seed: int | None 
     """The scene transforms of a robosuite ``level`` for ``task`` and one of its 10 scenes.
 
     Textures come from the level's set (robosuite's texture files and generated stand-ins for
-    SECANT's), one image per textured material, fixed by ``scene_id``; colours, lights and
-    cameras are drawn per episode from ``seed``, the ``i``-th transform with
-    :func:`~vigen.envs.pixels.derive_seed` ``(seed, i)``.
+    SECANT's), one image per textured material, fixed by ``scene_id``, as is the ``hard`` level's
+    video; colours, lights and cameras are drawn per episode from ``seed``, the ``i``-th transform
+    with :func:`~vigen.envs.pixels.derive_seed` ``(seed, i)``. :func:`select_scene` moves them to
+    another scene.
     """
     if level not in LEVELS:
         raise ValueError(f"Unknown robosuite level {level!r}. Levels: {', '.join(LEVELS)}. Groups: {', '.join(GROUPS)}.")
+    _check_scene_id(scene_id)
+    return seed_in_order(select_scene(_level_transforms(task, level, videos), level, scene_id), seed)
+
+
+def select_scene(transforms: Sequence[Transform], level: str, scene_id: int) -> list[Transform]:
+    """Set ``level``'s transforms to its scene ``scene_id`` (0..9): the texture draw and the ``hard`` video; returns them.
+
+    The change takes effect at the next reset; other transforms are left as they are.
+
+    Examples:
+        >>> from vigen.envs.robosuite import select_scene
+        >>> from vigen.transforms import RandomTextures, VideoBackground
+        >>> textures, video = select_scene([RandomTextures(), VideoBackground()], "hard", 4)
+        >>> textures.scene_id, video.video
+        (24, 4)
+    """
+    _check_scene_id(scene_id)
+    if level not in SCENE_LEVELS:
+        return list(transforms)
+    for transform in transforms:
+        if isinstance(transform, RandomTextures):
+            transform.scene_id = SCENES * SCENE_LEVELS.index(level) + int(scene_id)
+        elif isinstance(transform, VideoBackground):
+            transform.video = int(scene_id)
+    return list(transforms)
+
+
+def _check_scene_id(scene_id: int) -> None:
+    if isinstance(scene_id, bool) or not isinstance(scene_id, numbers.Integral):
+        raise TypeError(
+            f"scene_id must be an int in 0..{SCENES - 1} (or None: seed % {SCENES}), got {scene_id!r} ({type(scene_id).__name__})."
+        )
     if not 0 <= scene_id < SCENES:
         raise ValueError(f"scene_id selects one of RL-ViGen's {SCENES} scenes per level: 0..{SCENES - 1}, got {scene_id}.")
-    return seed_in_order(_level_transforms(task, level, scene_id, videos), seed)
 
 
-def _level_transforms(task: str, level: str, scene_id: int, videos: Any) -> list[Transform]:
+def _level_transforms(task: str, level: str, videos: Any) -> list[Transform]:
     local_colors = RandomMaterialColors(mix=0.2, exclude=ROBOT_PARTS)
     moving_light = RandomLighting(position_offset=None, diffuse_offset=None, moving_step=0.03, moving_range=3.0,
                                   height=4.0, directional=False, cast_shadow=True)
-    if level in ("easy", "medium", "hard"):
+    if level in SCENE_LEVELS:
         textures = [name for name in TEXTURES[task] if level != "hard" or name not in BACKGROUND_TEXTURES]
-        built = [RandomTextures(textures, images=functools.partial(texture_bank, level), scene_id=SCENES * ("easy", "medium", "hard").index(level) + scene_id)]
+        built = [RandomTextures(textures, images=functools.partial(texture_bank, level))]
         if level == "easy":
             return built + [local_colors]
         if level == "medium":
             robot = RandomMaterialColors(mix=1.0, include=ROBOT_PARTS[:2], shared=True)
             return built + [local_colors, robot, moving_light]
-        return built + [local_colors, moving_light, VideoBackground(videos, floor=True, background=("wall",), video=scene_id)]
+        return built + [local_colors, moving_light, VideoBackground(videos, floor=True, background=("wall",))]
     if level in CAMERA_RANGES:
         position, rotation, fov = CAMERA_RANGES[level]
         camera = RandomCamera(position=position, rotation_deg=math.degrees(rotation), fov_deg=(-fov, fov))
@@ -359,7 +451,7 @@ def texture_bank(level: str) -> ImageBank:
     import robosuite
 
     folder = Path(robosuite.__file__).parent / "models" / "assets" / "textures"
-    generated = ImageBank.procedural(GENERATED_TEXTURES[level], size=256, seed=("easy", "medium", "hard").index(level))
+    generated = ImageBank.procedural(GENERATED_TEXTURES[level], size=256, seed=SCENE_LEVELS.index(level))
     files = ROBOSUITE_TEXTURES[level]
     if not files:
         return generated
@@ -376,7 +468,7 @@ def make_robosuite_env(
     level_options: dict[str, Any] | None = None,
     robot: str | None = None,
     **env_options: Any,
-) -> PixelEnv:
+) -> RobosuiteEnv:
     """Build a robosuite task as a TorchRL pixel env (RL-ViGen's setup by default).
 
     Args:
@@ -384,12 +476,13 @@ def make_robosuite_env(
         frame_stack: frames stacked along channels (``"pixels"`` is ``[3·frame_stack, H, W]``).
         generalization: a level name (:data:`LEVELS`: ``train``, ``easy``, ``medium``, ``hard``,
             ``camera_easy``, ``camera_hard``, ``robot_iiwa``, ...) or a list of vigen transforms.
-        scene_id: which of the level's 10 scenes (RL-ViGen's ``scene_id``); ``None`` uses
-            ``seed % 10`` (0 without a seed), so ``seeds=range(10)`` in
+        scene_id: which of the level's 10 scenes (RL-ViGen's ``scene_id``), fixed for the env's
+            life, through ``set_seed`` too. ``None``: the scene follows the seed, ``seed % 10`` (0
+            without a seed) here and after every ``env.set_seed(seed)``, so ``seeds=range(10)`` in
             :func:`vigen.evaluation.evaluate` is RL-ViGen's 10 scenes.
         seed: seeds robosuite (initial joints and object placement) and every perturbation of the
-            env, the ``i``-th with ``derive_seed(seed, i)``, as ``env.set_seed(seed)`` does later
-            (which keeps the ``scene_id`` chosen at build time).
+            env, the ``i``-th with ``derive_seed(seed, i)``, and picks the scene (see ``scene_id``):
+            ``env.set_seed(seed)`` later does all of it, so the two give the same episodes.
         level_options: ``{"videos": folder}`` for the ``hard`` level's video background
             (default: procedural videos).
         robot: the arm; a ``robot_*`` level sets it. Default ``"Panda"``.
@@ -397,7 +490,7 @@ def make_robosuite_env(
             ``episode_length``, ``control_freq``, ``reward_shaping``, ``render_settings``, ``device``).
 
     Returns:
-        A :class:`~vigen.envs.pixels.PixelEnv` with uint8 ``"pixels"`` ``[3·frame_stack, H, W]``, float32
+        A :class:`RobosuiteEnv` with uint8 ``"pixels"`` ``[3·frame_stack, H, W]``, float32
         ``"action"`` and ``"reward"``, ``"success"`` and the done flags.
 
     Examples:
@@ -408,11 +501,16 @@ def make_robosuite_env(
     """
     checked = {name: env_options[name] for name in ("image_size", "camera", "episode_length", "control_freq") if name in env_options}
     check_env_arguments(frame_stack=frame_stack, seed=seed, **checked)
-    scene_id = (0 if seed is None else seed % SCENES) if scene_id is None else scene_id
+    if scene_id is not None:
+        _check_scene_id(scene_id)
+    scene = (0 if seed is None else seed % SCENES) if scene_id is None else scene_id
     if isinstance(generalization, str) and generalization.startswith("robot_") and generalization in LEVELS:
         level_robot = next(r for r in ROBOTS if r.lower() == generalization[len("robot_"):])
         if robot is not None and robot != level_robot:
             raise ValueError(f"Level {generalization!r} uses the {level_robot} arm, but robot={robot!r} was given.")
         robot = level_robot
-    transforms = perturbations(generalization, lambda level: level_transforms(task, level, scene_id, seed, **(level_options or {})))
-    return stacked_pixel_env(RobosuitePixelEnv(task, robot=robot or "Panda", seed=seed, **env_options), transforms, frame_stack, seed=seed)
+    transforms = perturbations(generalization, lambda level: level_transforms(task, level, scene, seed, **(level_options or {})))
+    env = stacked_pixel_env(RobosuitePixelEnv(task, robot=robot or "Panda", seed=seed, **env_options), transforms, frame_stack, seed=seed)
+    # stacked_pixel_env orders and seeds the chain; RobosuiteEnv takes it over to add the scene to set_seed
+    return RobosuiteEnv(env.base_env, env.transform, level=generalization if isinstance(generalization, str) else None,
+                        level_transforms=transforms, scene_id=scene, scene_follows_seed=scene_id is None)
