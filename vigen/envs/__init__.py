@@ -7,6 +7,7 @@ Examples:
     torch.Size([100, 9, 84, 84])
 """
 
+from vigen.envs.parallel import ParallelEnv, WorkerError
 from vigen.envs.registry import SUITES, available_envs, make_env
 
-__all__ = ["SUITES", "available_envs", "make_env"]
+__all__ = ["SUITES", "ParallelEnv", "WorkerError", "available_envs", "make_env"]

@@ -7,9 +7,11 @@ from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 import torch
+from tensordict import TensorDictBase
 from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import CatFrames, Compose, EnvBase, ToTensorImage, Transform, TransformedEnv
 
+from vigen.envs.parallel import record_failure
 from vigen.transforms.augmentation import ImageAugmentation
 from vigen.transforms.scene import ScenePerturbation
 
@@ -151,6 +153,10 @@ class PixelEnv(TransformedEnv):
     and ``make_env(name, generalization=level, seed=s)`` give the same episodes. ``ParallelEnv.set_seed``
     reaches it in each worker. ``set_seed(None)`` changes nothing.
 
+    With a ``failure_report`` path (:class:`vigen.envs.ParallelEnv` sets one in each worker),
+    an exception raised by a step, a reset or ``set_seed`` first writes its traceback there,
+    then propagates unchanged, so the parent process can show it.
+
     Examples:
         >>> from vigen.envs import make_env
         >>> env = make_env("dmc/walker-walk", generalization="color_hard", image_size=32)
@@ -159,13 +165,34 @@ class PixelEnv(TransformedEnv):
         [3000009]
     """
 
+    failure_report: str | None = None
+    """The file a failure of a step, reset or ``set_seed`` is written to (``None``: not written)."""
+
     def set_seed(self, seed: int | None = None, static_seed: bool = False) -> int | None:
         """Seed the base env and every perturbation of the chain from ``seed``; returns the next seed (TorchRL's rule)."""
-        check_env_arguments(seed=seed)
-        next_seed = self.base_env.set_seed(seed, static_seed=static_seed)
-        if seed is not None:
-            self.seed_transforms(seed)
-        return next_seed
+        try:
+            check_env_arguments(seed=seed)
+            next_seed = self.base_env.set_seed(seed, static_seed=static_seed)
+            if seed is not None:
+                self.seed_transforms(seed)
+            return next_seed
+        except Exception:
+            record_failure(self.failure_report)
+            raise
+
+    def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
+        try:
+            return super()._step(tensordict)
+        except Exception:
+            record_failure(self.failure_report)
+            raise
+
+    def _reset(self, tensordict: TensorDictBase | None = None, **kwargs: Any) -> TensorDictBase:
+        try:
+            return super()._reset(tensordict, **kwargs)
+        except Exception:
+            record_failure(self.failure_report)
+            raise
 
     def seed_transforms(self, seed: int) -> None:
         """Reseed the chain's scene perturbations and image augmentations from ``seed``, the ``i``-th with ``derive_seed(seed, i)``."""
