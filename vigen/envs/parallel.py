@@ -55,6 +55,29 @@ def record_failure(report: str | Path | None) -> None:
             atomic_write(report, traceback.format_exc())
 
 
+@contextmanager
+def failures_recorded(report: str | Path | None) -> Iterator[None]:
+    """Run the block; if it raises, :func:`record_failure` to ``report`` and let the exception propagate unchanged.
+
+    Examples:
+        >>> import tempfile
+        >>> from pathlib import Path
+        >>> report = Path(tempfile.mkdtemp()) / "worker-0.txt"
+        >>> try:
+        ...     with failures_recorded(report):
+        ...         raise KeyError("pixels")
+        ... except KeyError:
+        ...     pass
+        >>> report.read_text().splitlines()[-1]
+        "KeyError: 'pixels'"
+    """
+    try:
+        yield
+    except Exception:
+        record_failure(report)
+        raise
+
+
 def build_reporting_env(
     create_env_fn: Callable[..., EnvBase], vigen_failure_report: str | None = None, **kwargs: Any
 ) -> EnvBase:
@@ -70,13 +93,10 @@ def build_reporting_env(
         >>> env.failure_report
         '/tmp/report.txt'
     """
-    from vigen.envs.pixels import PixelEnv  # pixels.py imports record_failure from here
+    from vigen.envs.pixels import PixelEnv  # pixels.py imports failures_recorded from here
 
-    try:
+    with failures_recorded(vigen_failure_report):
         env = create_env_fn(**kwargs)
-    except Exception:
-        record_failure(vigen_failure_report)
-        raise
     link = env
     while isinstance(link, TransformedEnv):
         if isinstance(link, PixelEnv):

@@ -11,7 +11,7 @@ from tensordict import TensorDictBase
 from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import CatFrames, Compose, EnvBase, ToTensorImage, Transform, TransformedEnv
 
-from vigen.envs.parallel import record_failure
+from vigen.envs.parallel import failures_recorded
 from vigen.transforms.augmentation import ImageAugmentation
 from vigen.transforms.scene import ScenePerturbation
 
@@ -170,29 +170,20 @@ class PixelEnv(TransformedEnv):
 
     def set_seed(self, seed: int | None = None, static_seed: bool = False) -> int | None:
         """Seed the base env and every perturbation of the chain from ``seed``; returns the next seed (TorchRL's rule)."""
-        try:
+        with failures_recorded(self.failure_report):
             check_env_arguments(seed=seed)
             next_seed = self.base_env.set_seed(seed, static_seed=static_seed)
             if seed is not None:
                 self.seed_transforms(seed)
             return next_seed
-        except Exception:
-            record_failure(self.failure_report)
-            raise
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
-        try:
+        with failures_recorded(self.failure_report):
             return super()._step(tensordict)
-        except Exception:
-            record_failure(self.failure_report)
-            raise
 
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs: Any) -> TensorDictBase:
-        try:
+        with failures_recorded(self.failure_report):
             return super()._reset(tensordict, **kwargs)
-        except Exception:
-            record_failure(self.failure_report)
-            raise
 
     def seed_transforms(self, seed: int) -> None:
         """Reseed the chain's scene perturbations and image augmentations from ``seed``, the ``i``-th with ``derive_seed(seed, i)``."""
@@ -214,7 +205,13 @@ def seed_in_order(transforms: Sequence[Transform], seed: int | None) -> list[Tra
 
 
 def stacked_pixel_env(
-    base: EnvBase, transforms: Sequence[Transform], frame_stack: int, *extra: Transform, seed: int | None = None
+    base: EnvBase,
+    transforms: Sequence[Transform],
+    frame_stack: int,
+    *extra: Transform,
+    seed: int | None = None,
+    env_class: type[PixelEnv] = PixelEnv,
+    **env_options: Any,
 ) -> PixelEnv:
     """``base`` (uint8 HWC ``"pixels"``) with its perturbations, channel-first frames and a stack of ``frame_stack``.
 
@@ -222,6 +219,7 @@ def stacked_pixel_env(
     ``ToTensorImage`` (HWC → CHW, uint8 kept), then pixel perturbations on each frame, then
     ``CatFrames`` along channels, then ``extra`` transforms. With a ``seed``, the perturbations
     are seeded as :meth:`PixelEnv.set_seed` seeds them (the base env is seeded by its builder).
+    The env is an ``env_class`` (a :class:`PixelEnv` subclass of a suite) built with ``env_options``.
     """
     check_env_arguments(frame_stack=frame_stack)
     transforms = check_transforms(transforms)
@@ -230,7 +228,7 @@ def stacked_pixel_env(
     chain += [t for t in transforms if not isinstance(t, ScenePerturbation)]
     if frame_stack > 1:
         chain.append(CatFrames(N=frame_stack, dim=-3, in_keys=["pixels"]))
-    env = PixelEnv(base, Compose(*chain, *extra))
+    env = env_class(base, Compose(*chain, *extra), **env_options)
     if seed is not None:
         env.seed_transforms(seed)
     return env

@@ -510,7 +510,7 @@ def make_robosuite_env(
             raise ValueError(f"Level {generalization!r} uses the {level_robot} arm, but robot={robot!r} was given.")
         robot = level_robot
     transforms = perturbations(generalization, lambda level: level_transforms(task, level, scene, seed, **(level_options or {})))
-    env = stacked_pixel_env(RobosuitePixelEnv(task, robot=robot or "Panda", seed=seed, **env_options), transforms, frame_stack, seed=seed)
-    # stacked_pixel_env orders and seeds the chain; RobosuiteEnv takes it over to add the scene to set_seed
-    return RobosuiteEnv(env.base_env, env.transform, level=generalization if isinstance(generalization, str) else None,
-                        level_transforms=transforms, scene_id=scene, scene_follows_seed=scene_id is None)
+    return stacked_pixel_env(RobosuitePixelEnv(task, robot=robot or "Panda", seed=seed, **env_options), transforms,
+                             frame_stack, seed=seed, env_class=RobosuiteEnv,
+                             level=generalization if isinstance(generalization, str) else None,
+                             level_transforms=transforms, scene_id=scene, scene_follows_seed=scene_id is None)
