@@ -24,7 +24,6 @@ from __future__ import annotations
 import csv
 import io
 import json
-import os
 import pickle
 import random
 import re
@@ -38,7 +37,7 @@ from torch import Tensor, nn
 from torchrl.data import ReplayBuffer
 from torchrl.envs.transforms import MultiStepTransform
 
-from vigen.io import atomic_write, fsync_folder
+from vigen.io import atomic_write, fsync_path
 from vigen.transforms import ImageAugmentation
 
 CHECKPOINT_NAME = re.compile(r"^frames_(\d+)\.pt$")
@@ -376,11 +375,7 @@ def replay_state(buffer: ReplayBuffer) -> dict[str, int]:
     if scratch is not None and Path(scratch).is_dir():
         for path in sorted(Path(scratch).rglob("*")):
             if path.is_file():
-                descriptor = os.open(path, os.O_RDONLY)
-                try:
-                    os.fsync(descriptor)
-                finally:
-                    os.close(descriptor)
+                fsync_path(path)
     return {"cursor": int(writer["_cursor"]), "write_count": int(writer["_write_count"]), "len": len(buffer.storage)}
 
 
@@ -449,7 +444,7 @@ class ReplayJournal:
         """A checkpoint holding replay ``state`` is on disk: forget older pre-images, protect this state from now on."""
         for path in self.records():
             path.unlink()
-        fsync_folder(self.folder)
+        fsync_path(self.folder)
         self.base = dict(state)
 
     def protect(self, count: int) -> None:

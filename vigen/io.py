@@ -36,15 +36,15 @@ def temporary_path(path: str | Path) -> Path:
     return path.with_name(f".{path.name}.tmp-{os.getpid()}")
 
 
-def fsync_folder(folder: str | Path) -> None:
-    """Make the entries of ``folder`` (new, renamed or removed files) durable.
+def fsync_path(path: str | Path) -> None:
+    """Make a file's data, or a folder's entries (new, renamed or removed files), durable.
 
     Examples:
         >>> import tempfile
-        >>> from vigen.io import fsync_folder
-        >>> fsync_folder(tempfile.gettempdir())
+        >>> from vigen.io import fsync_path
+        >>> fsync_path(tempfile.gettempdir())
     """
-    descriptor = os.open(folder, os.O_RDONLY)
+    descriptor = os.open(path, os.O_RDONLY)
     try:
         os.fsync(descriptor)
     finally:
@@ -93,5 +93,5 @@ def atomic_write(path: str | Path, write: bytes | str | Callable[[BinaryIO], obj
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise
-    fsync_folder(path.parent)
+    fsync_path(path.parent)
     return path
