@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import io
 import os
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -15,6 +16,7 @@ from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from vigen.envs import make_env
 from vigen.envs.levels import resolve_levels
+from vigen.io import atomic_write
 
 EnvFactory = Callable[[str, int], EnvBase]
 """``(level, seed) -> env``: how :func:`evaluate` builds an env when a name is not enough."""
@@ -158,14 +160,11 @@ class _RowLog:
         new = [key for key in row if key not in self.columns]
         if new or not self.path.exists():
             self.columns += new
-            temporary = self.path.with_name(f".{self.path.name}.tmp")
-            with temporary.open("w", newline="") as file:
-                writer = csv.DictWriter(file, fieldnames=self.columns, restval="")
-                writer.writeheader()
-                writer.writerows(self.rows)
-                file.flush()
-                os.fsync(file.fileno())
-            os.replace(temporary, self.path)
+            text = io.StringIO()
+            writer = csv.DictWriter(text, fieldnames=self.columns, restval="")
+            writer.writeheader()
+            writer.writerows(self.rows)
+            atomic_write(self.path, text.getvalue())
             return
         with self.path.open("a", newline="") as file:
             csv.DictWriter(file, fieldnames=self.columns, restval="").writerow(row)
