@@ -8,7 +8,7 @@ import pytest
 import torch
 import torch.nn.functional as F
 
-from vigen.transforms import functional
+from vigen.transforms.augmentations import functional
 from vigen.transforms import RandomFrequencyMask, RandomOverlay, RandomShift, ImageBank
 
 

@@ -12,8 +12,8 @@ from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import CatFrames, Compose, EnvBase, ToTensorImage, Transform, TransformedEnv
 
 from vigen.envs.parallel import failures_recorded
-from vigen.transforms.augmentation import ImageAugmentation
-from vigen.transforms.scene import ScenePerturbation
+from vigen.transforms.augmentations.base import ImageAugmentation
+from vigen.transforms.scene import SceneTransform
 
 SEED_LIMIT = 2**32
 """Env seeds lie in ``[0, 2**32)``: the range of NumPy's ``RandomState`` (dm_control) and of ``ParallelEnv``'s worker seeds."""
@@ -139,7 +139,7 @@ def seeded_transforms(transform: Transform) -> Iterator[Transform]:
     if isinstance(transform, Compose):
         for child in transform.transforms:
             yield from seeded_transforms(child)
-    elif isinstance(transform, (ScenePerturbation, ImageAugmentation)):
+    elif isinstance(transform, (SceneTransform, ImageAugmentation)):
         yield transform
 
 
@@ -223,9 +223,9 @@ def stacked_pixel_env(
     """
     check_env_arguments(frame_stack=frame_stack)
     transforms = check_transforms(transforms)
-    chain = [t for t in transforms if isinstance(t, ScenePerturbation)]
+    chain = [t for t in transforms if isinstance(t, SceneTransform)]
     chain.append(ToTensorImage(in_keys=["pixels"], from_int=False, dtype=torch.uint8))
-    chain += [t for t in transforms if not isinstance(t, ScenePerturbation)]
+    chain += [t for t in transforms if not isinstance(t, SceneTransform)]
     if frame_stack > 1:
         chain.append(CatFrames(N=frame_stack, dim=-3, in_keys=["pixels"]))
     env = env_class(base, Compose(*chain, *extra), **env_options)

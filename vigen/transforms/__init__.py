@@ -2,11 +2,13 @@
 
 Scene perturbations (``RandomSceneColors``, ``RandomMaterialColors``, ``RandomTextures``,
 ``RandomLighting``, ``RandomCamera``, ``VideoBackground``) edit the live MuJoCo model of the env
-they sit in, once per episode (see :mod:`vigen.transforms.scene`); ``PixelCorruption`` corrupts
-the pixels of any env.
+they sit in, once per episode (see :mod:`vigen.transforms.scene`; ``VideoBackground`` composites frames by segmentation); ``PixelCorruption`` corrupts
+the pixels of any env. The sub-packages: :mod:`vigen.transforms.augmentations` (training time),
+:mod:`vigen.transforms.scene` (evaluation time, MuJoCo scenes); images and videos come from
+:mod:`vigen.assets`.
 
 Augmentations sample per-sample parameters (``make_params``) apart from applying them
-(``apply``, backed by the pure kernels of :mod:`vigen.transforms.functional`):
+(``apply``, backed by the pure kernels of :mod:`vigen.transforms.augmentations.functional`):
 
 ========================  ==========================================================  ==========
 transform                 what it does                                                paper
@@ -24,23 +26,29 @@ This room may import torch, torchrl, tensordict, numpy, OpenCV (image decoding) 
 (scene edits only), never ``vigen.envs`` or ``vigen.losses``.
 """
 
-from vigen.transforms.augmentation import ImageAugmentation
-from vigen.transforms.camera import RandomCamera
-from vigen.transforms.color_jitter import RandomColorJitter
-from vigen.transforms.conv import RandomConv
+from vigen.assets import ImageBank, VideoSource, load_dmcgb_palette
+from vigen.transforms.augmentations import (
+    CenterCrop,
+    ImageAugmentation,
+    RandomColorJitter,
+    RandomConv,
+    RandomCrop,
+    RandomFrequencyMask,
+    RandomOverlay,
+    RandomShift,
+)
 from vigen.transforms.corruptions import PixelCorruption
-from vigen.transforms.crop import CenterCrop, RandomCrop
-from vigen.transforms.frequency import RandomFrequencyMask
-from vigen.transforms.image_bank import ImageBank
-from vigen.transforms.lighting import RandomLighting
-from vigen.transforms.material_colors import RandomMaterialColors
-from vigen.transforms.overlay import RandomOverlay
-from vigen.transforms.scene import ScenePerturbation, SceneHandle
-from vigen.transforms.scene_colors import RandomSceneColors, load_dmcgb_palette
-from vigen.transforms.shift import RandomShift
-from vigen.transforms.textures import RandomTextures
-from vigen.transforms.video import VideoBackground
-from vigen.transforms.video_source import VideoSource
+from vigen.transforms.scene import (
+    RandomCamera,
+    RandomLighting,
+    RandomMaterialColors,
+    RandomSceneColors,
+    RandomTextures,
+    SceneHandle,
+    ScenePerturbation,
+    SceneTransform,
+    VideoBackground,
+)
 
 __all__ = [
     "CenterCrop",
@@ -57,6 +65,7 @@ __all__ = [
     "RandomMaterialColors",
     "RandomSceneColors",
     "SceneHandle",
+    "SceneTransform",
     "ScenePerturbation",
     "load_dmcgb_palette",
     "PixelCorruption",

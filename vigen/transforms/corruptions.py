@@ -10,8 +10,8 @@ import torch.nn.functional as F
 from tensordict.utils import NestedKey
 from torch import Tensor
 
-from vigen.transforms import functional
-from vigen.transforms.augmentation import ImageAugmentation, Params, check_parameter
+from vigen.transforms.augmentations import functional
+from vigen.transforms.augmentations.base import ImageAugmentation, Params, check_parameter
 
 # Severity 1..5 -> parameter, after ImageNet-C (Hendrycks & Dietterich, 2019). Blur sigmas are
 # ImageNet-C's (for 224 px images) scaled by 84/224 so that they blur an 84 px frame alike.

@@ -10,7 +10,8 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from vigen.transforms.image_bank import IMAGE_SUFFIXES, _procedural_image
+from vigen.assets.image_bank import IMAGE_SUFFIXES
+from vigen.assets.procedural import procedural_video
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".webm", ".mkv")
 # a decoded frame side outside this range means a broken header, not a background video
@@ -96,7 +97,7 @@ class VideoSource:
         key = (index, height, width)
         if self._cache is None or self._cache[0] != key:
             if self.paths is None:
-                frames = _procedural_video(self.seed * 100_003 + index, self.max_frames, height, width)
+                frames = procedural_video(self.seed * 100_003 + index, self.max_frames, height, width)
             else:
                 frames = _decode(self.paths[index], self.max_frames, height, width)
             self._cache = (key, frames)
@@ -107,25 +108,6 @@ class VideoSource:
 
     def __repr__(self) -> str:
         return f"VideoSource({self.name})"
-
-
-def _procedural_video(seed: int, length: int, height: int, width: int) -> torch.Tensor:
-    generator = torch.Generator().manual_seed(seed)
-    side = 2 * max(height, width)
-    texture = _procedural_image(kind=seed % 4, size=side, generator=generator).float()[None]
-    angle0, turn, radius = (torch.rand(3, generator=generator) * torch.tensor([2 * math.pi, 0.02, 0.25])).tolist()
-    time = torch.arange(length, dtype=torch.float32)
-    cx = 0.5 * side + radius * side * torch.cos(angle0 + 2 * math.pi * time / length)
-    cy = 0.5 * side + radius * side * torch.sin(angle0 + 2 * math.pi * time / length)
-    angle = angle0 + turn * time
-    ys, xs = torch.meshgrid(torch.linspace(-0.5, 0.5, height), torch.linspace(-0.5, 0.5, width), indexing="ij")
-    span = 0.45 * side
-    cos, sin = torch.cos(angle)[:, None, None], torch.sin(angle)[:, None, None]
-    px = cx[:, None, None] + span * (cos * xs - sin * ys)
-    py = cy[:, None, None] + span * (sin * xs + cos * ys)
-    grid = torch.stack((px / (side - 1) * 2 - 1, py / (side - 1) * 2 - 1), dim=-1)
-    frames = F.grid_sample(texture.expand(length, -1, -1, -1), grid, mode="bilinear", padding_mode="reflection", align_corners=True)
-    return frames.round_().clamp_(0, 255).to(torch.uint8).permute(0, 2, 3, 1).contiguous()
 
 
 def _check_videos(paths: list[Path], name: str) -> None:

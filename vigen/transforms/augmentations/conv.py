@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from torch import Tensor
 
-from vigen.transforms import functional
-from vigen.transforms.augmentation import ImageAugmentation, Params
+from vigen.transforms.augmentations import functional
+from vigen.transforms.augmentations.base import ImageAugmentation, Params
 
 
 class RandomConv(ImageAugmentation):

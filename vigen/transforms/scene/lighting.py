@@ -5,7 +5,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from vigen.transforms.scene import Defaults, SceneHandle, SceneParams, ScenePerturbation
+from vigen.transforms.scene.base import Defaults, SceneHandle, SceneParams, ScenePerturbation
 
 # MuJoCo reads a light's position from a different field per mode (fixed, track, trackcom...).
 POSITION_FIELDS = ("light_pos", "light_pos0", "light_poscom0")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from vigen.transforms.scene import Defaults, SceneHandle, SceneParams, ScenePerturbation
+from vigen.transforms.scene.base import Defaults, SceneHandle, SceneParams, ScenePerturbation
 
 # MuJoCo reads a camera's pose from a different field per mode (fixed, track, trackcom...).
 POSITION_FIELDS = ("cam_pos", "cam_pos0", "cam_poscom0")

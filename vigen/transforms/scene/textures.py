@@ -11,9 +11,9 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from vigen.transforms.image_bank import ImageBank
-from vigen.transforms.scene import Defaults, SceneHandle, SceneParams, ScenePerturbation
-from vigen.transforms.scene_colors import _named_id, _texture
+from vigen.assets.image_bank import ImageBank
+from vigen.transforms.scene.base import Defaults, SceneHandle, SceneParams, ScenePerturbation
+from vigen.transforms.scene.mujoco import named_id, texture_pixels
 
 
 class RandomTextures(ScenePerturbation):
@@ -70,12 +70,12 @@ class RandomTextures(ScenePerturbation):
 
     def read_defaults(self, scene: SceneHandle) -> Defaults:
         model = scene.model
-        ids = np.array([_named_id(model, mujoco.mjtObj.mjOBJ_TEXTURE, name) for name in self.textures])
+        ids = np.array([named_id(model, mujoco.mjtObj.mjOBJ_TEXTURE, name) for name in self.textures])
         for name, texture in zip(self.textures, ids):
             if model.tex_nchannel[texture] not in (3, 4):
                 raise ValueError(f"RandomTextures writes RGB(A) textures; {name!r} has {model.tex_nchannel[texture]} channels.")
         self._pixels = {}
-        return {"textures": ids, **{f"original_{i}": _texture(model, t).copy() for i, t in enumerate(ids)}}
+        return {"textures": ids, **{f"original_{i}": texture_pixels(model, t).copy() for i, t in enumerate(ids)}}
 
     def sample(self, rng: np.random.Generator, defaults: Defaults) -> SceneParams:
         if self.scene_id is not None:
@@ -89,7 +89,7 @@ class RandomTextures(ScenePerturbation):
         for index, (texture, image) in enumerate(zip(defaults["textures"], params["images"])):
             texture, image = int(texture), int(image)
             pixels = defaults[f"original_{index}"] if image < 0 else self._texture_pixels(scene.model, texture, image)
-            _texture(scene.model, texture)[:] = pixels
+            texture_pixels(scene.model, texture)[:] = pixels
             scene.upload_texture(texture)
 
     def _texture_pixels(self, model: object, texture: int, image: int) -> np.ndarray:

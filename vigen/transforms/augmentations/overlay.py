@@ -9,9 +9,9 @@ from pathlib import Path
 from tensordict.utils import NestedKey
 from torch import Tensor
 
-from vigen.transforms import functional
-from vigen.transforms.augmentation import ImageAugmentation, Params, check_parameter
-from vigen.transforms.image_bank import ImageBank
+from vigen.transforms.augmentations import functional
+from vigen.transforms.augmentations.base import ImageAugmentation, Params, check_parameter
+from vigen.assets.image_bank import ImageBank
 
 
 class RandomOverlay(ImageAugmentation):

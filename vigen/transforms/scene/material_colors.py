@@ -7,7 +7,7 @@ from collections.abc import Sequence
 import mujoco
 import numpy as np
 
-from vigen.transforms.scene import Defaults, SceneHandle, SceneParams, ScenePerturbation
+from vigen.transforms.scene.base import Defaults, SceneHandle, SceneParams, ScenePerturbation
 
 
 class RandomMaterialColors(ScenePerturbation):

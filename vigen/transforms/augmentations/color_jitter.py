@@ -7,8 +7,8 @@ from collections.abc import Sequence
 from tensordict.utils import NestedKey
 from torch import Tensor
 
-from vigen.transforms import functional
-from vigen.transforms.augmentation import ImageAugmentation, Params, check_parameter
+from vigen.transforms.augmentations import functional
+from vigen.transforms.augmentations.base import ImageAugmentation, Params, check_parameter
 
 
 class RandomColorJitter(ImageAugmentation):
@@ -16,7 +16,7 @@ class RandomColorJitter(ImageAugmentation):
 
     Factors are uniform in ``[max(0, 1 - b), 1 + b]`` for brightness, contrast and saturation,
     and the hue shift is uniform in ``[-h, h]`` turns; they are applied in that order (see
-    :func:`vigen.transforms.functional.color_jitter`). The defaults are those of RL-ViGen's
+    :func:`vigen.transforms.augmentations.functional.color_jitter`). The defaults are those of RL-ViGen's
     ``RandomJitterAug`` (0.4, 0.4, 0.4, 0.5), which RL-ViGen defines but never runs. Unlike
     torchvision's ``ColorJitter`` every sample gets its own factors (one draw per call is wrong
     for RL batches); the order is fixed rather than shuffled. Saturation and hue need a pixel's

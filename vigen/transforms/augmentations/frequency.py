@@ -9,8 +9,8 @@ import torch
 from tensordict.utils import NestedKey
 from torch import Tensor
 
-from vigen.transforms import functional
-from vigen.transforms.augmentation import ImageAugmentation, Params, check_parameter
+from vigen.transforms.augmentations import functional
+from vigen.transforms.augmentations.base import ImageAugmentation, Params, check_parameter
 
 NYQUIST = 0.5  # the highest spatial frequency, in cycles per pixel
 

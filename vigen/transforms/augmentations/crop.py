@@ -7,8 +7,8 @@ from collections.abc import Sequence
 from tensordict.utils import NestedKey
 from torch import Tensor
 
-from vigen.transforms import functional
-from vigen.transforms.augmentation import ImageAugmentation, Params, check_parameter
+from vigen.transforms.augmentations import functional
+from vigen.transforms.augmentations.base import ImageAugmentation, Params, check_parameter
 
 
 def _pair(owner: str, size: int | Sequence[int]) -> tuple[int, int]:

@@ -14,6 +14,8 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor
 
+from vigen.assets.procedural import procedural_image
+
 IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png", ".bmp", ".webp")
 
 
@@ -51,7 +53,7 @@ class ImageBank:
         """labmaze's textures (89 with dm-control 1.0.41) plus ``procedural`` generated images."""
         textures = _load_images(_labmaze_textures(), size)
         generator = torch.Generator().manual_seed(seed)
-        generated = [_procedural_image(kind=i % 4, size=size, generator=generator) for i in range(procedural)]
+        generated = [procedural_image(kind=i % 4, size=size, generator=generator) for i in range(procedural)]
         images = torch.stack([*textures, *generated])
         return cls(images, name=f"builtin({len(textures)} labmaze textures + {procedural} procedural)")
 
@@ -59,7 +61,7 @@ class ImageBank:
     def procedural(cls, count: int, size: int = 128, seed: int = 0) -> ImageBank:
         """``count`` generated images (fractal noise, Voronoi cells, plaids, colour blobs, in turn), the same for a seed."""
         generator = torch.Generator().manual_seed(seed)
-        images = torch.stack([_procedural_image(kind=i % 4, size=size, generator=generator) for i in range(count)])
+        images = torch.stack([procedural_image(kind=i % 4, size=size, generator=generator) for i in range(count)])
         return cls(images, name=f"procedural({count}, seed={seed})")
 
     @classmethod
@@ -154,38 +156,3 @@ def _load_image(path: Path, size: int) -> Tensor:
     top, left = (h - side) // 2, (w - side) // 2
     image = cv2.resize(image[top : top + side, left : left + side], (size, size), interpolation=cv2.INTER_AREA)
     return torch.from_numpy(np.ascontiguousarray(image[..., ::-1])).permute(2, 0, 1).contiguous()
-
-
-def _procedural_image(kind: int, size: int, generator: torch.Generator) -> Tensor:
-    """One generated RGB image, uint8 ``[3, size, size]``: fractal noise, Voronoi, plaid or blobs."""
-
-    def rand(*shape: int) -> Tensor:
-        return torch.rand(shape, generator=generator)
-
-    y, x = torch.meshgrid(torch.linspace(0, 1, size), torch.linspace(0, 1, size), indexing="ij")
-    if kind == 0:  # 1/f^beta noise, each channel its own field
-        beta = 1.0 + 1.5 * rand(1)
-        fy, fx = torch.fft.fftfreq(size), torch.fft.rfftfreq(size)
-        radius = torch.sqrt(fy[:, None] ** 2 + fx[None, :] ** 2).clamp_min(1.0 / size)
-        spectrum = torch.fft.rfft2(torch.randn((3, size, size), generator=generator)) / radius**beta
-        field = torch.fft.irfft2(spectrum, s=(size, size))
-        low, high = field.amin(dim=(1, 2), keepdim=True), field.amax(dim=(1, 2), keepdim=True)
-        image = (field - low) / (high - low)
-    elif kind == 1:  # Voronoi cells with random colours
-        cells = 8 + int(32 * rand(1))
-        centers, colors = rand(cells, 2), rand(cells, 3)
-        distance = (y[..., None] - centers[:, 0]) ** 2 + (x[..., None] - centers[:, 1]) ** 2
-        image = colors[distance.argmin(-1)].permute(2, 0, 1)
-    elif kind == 2:  # plaid: a few coloured gratings
-        image = torch.zeros(3, size, size)
-        for _ in range(3):
-            angle, frequency, phase = math.pi * rand(1), 2 + 14 * rand(1), 2 * math.pi * rand(1)
-            wave = 0.5 + 0.5 * torch.sin(2 * math.pi * frequency * (x * torch.cos(angle) + y * torch.sin(angle)) + phase)
-            image += rand(3, 1, 1) * wave / 3
-    else:  # soft colour blobs over a gradient
-        image = torch.lerp(rand(3, 1, 1), rand(3, 1, 1), y[None])
-        for _ in range(5 + int(15 * rand(1))):
-            center, width = rand(2), 0.03 + 0.2 * rand(1)
-            weight = torch.exp(-((y - center[0]) ** 2 + (x - center[1]) ** 2) / (2 * width**2))
-            image = torch.lerp(image, rand(3, 1, 1), weight[None])
-    return (image.clamp(0, 1) * 255).round().to(torch.uint8)

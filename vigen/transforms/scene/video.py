@@ -1,4 +1,4 @@
-"""DMC-GB's video backgrounds: a new video frame behind the agent at every step, keyed by segmentation."""
+"""DMC-GB's video backgrounds: a new video frame behind the agent at every step, keyed by the scene's segmentation."""
 
 from __future__ import annotations
 
@@ -11,12 +11,17 @@ import torch
 from tensordict import TensorDictBase
 from torch import Tensor
 
-from vigen.transforms.scene import Defaults, SceneHandle, SceneParams, ScenePerturbation
-from vigen.transforms.video_source import VideoSource
+from vigen.assets.video_source import VideoSource
+from vigen.transforms.scene.base import SceneHandle, SceneParams, SceneTransform
 
 
-class VideoBackground(ScenePerturbation):
+class VideoBackground(SceneTransform):
     """Replace the background of every frame with the current frame of a video (DMC-GB ``video_easy/hard``).
+
+    A pixel compositor, not a model edit: the MuJoCo scene is left as it is, and each rendered
+    frame is rewritten where the scene's own segmentation of the same camera view shows
+    background. It draws one video per episode (at reset, from its seed) and moves one frame
+    forward per step.
 
     ``floor=False`` (``video_easy``) replaces the sky only; ``floor=True`` (``video_hard``) also
     the floor, so only the agent (and task objects) remain; ``background`` adds geoms by name
@@ -42,7 +47,7 @@ class VideoBackground(ScenePerturbation):
         background: name prefixes of more geoms to replace, e.g. ``("wall",)``.
         video: play this video (index into ``videos``, wrapped) in every episode instead of
             taking them in turn (RL-ViGen's robosuite ``eval-hard``: the scene id).
-        seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
+        seed: see :class:`~vigen.transforms.scene.SceneTransform`.
 
     Examples:
         >>> from vigen.envs import make_env
@@ -59,8 +64,7 @@ class VideoBackground(ScenePerturbation):
         video: int | None = None,
         seed: int | None = None,
     ) -> None:
-        super().__init__(seed=seed)
-        self.in_keys = self.out_keys = ["pixels"]
+        super().__init__(seed=seed, in_keys=["pixels"])
         self.videos = videos if isinstance(videos, VideoSource) else (
             VideoSource.procedural() if videos is None else VideoSource.from_folder(videos)
         )
@@ -68,34 +72,31 @@ class VideoBackground(ScenePerturbation):
         self.background = tuple(background)
         self.video = video
 
-    def read_defaults(self, scene: SceneHandle) -> Defaults:
-        model = scene.model
-        is_background = np.zeros(model.ngeom, dtype=bool)
-        if self.floor:
-            is_background |= model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE
-        if self.background:
-            names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, i) or "" for i in range(model.ngeom)]
-            is_background |= np.array([name.startswith(self.background) for name in names])
-        return {"is_background": is_background}
+    def background_geoms(self, model: mujoco.MjModel) -> np.ndarray:
+        """``[ngeom]`` True for the geoms that count as background: ground planes with ``floor``, and ``background`` names."""
+        if getattr(self, "_geoms_model", None) is not model:
+            is_background = np.zeros(model.ngeom, dtype=bool)
+            if self.floor:
+                is_background |= model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE
+            if self.background:
+                names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, i) or "" for i in range(model.ngeom)]
+                is_background |= np.array([name.startswith(self.background) for name in names])
+            self._geoms_model, self._geoms = model, is_background
+        return self._geoms
 
-    def sample(self, rng: np.random.Generator, defaults: Defaults) -> SceneParams:
+    def sample(self, rng: np.random.Generator) -> SceneParams:
+        """The episode's video (the next in order, the first one drawn from ``rng``; or the fixed ``video``) from its first frame."""
         if self.video is not None:
             return {"video": self.video % len(self.videos), "frame": 0}
         previous = self.params["video"] if self.params is not None else int(rng.integers(len(self.videos))) - 1
         return {"video": (previous + 1) % len(self.videos), "frame": 0}
-
-    def identity_params(self, defaults: Defaults) -> SceneParams:
-        return {"video": -1, "frame": 0}
-
-    def apply(self, scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
-        """Nothing to write into the model: the frames are composited after rendering."""
 
     def background_mask(self, scene: SceneHandle) -> np.ndarray:
         """``[H, W]`` True where the camera sees the sky (and, with ``floor``, a ground plane, or a ``background`` geom)."""
         segmentation = scene.segmentation()
         ids, types = segmentation[..., 0], segmentation[..., 1]
         mask = ids < 0
-        is_background = self.defaults(scene)["is_background"]
+        is_background = self.background_geoms(scene.model)
         if is_background.any():
             mask |= (types == int(mujoco.mjtObj.mjOBJ_GEOM)) & is_background[np.maximum(ids, 0)]
         return mask
@@ -120,6 +121,10 @@ class VideoBackground(ScenePerturbation):
         self.params["frame"] += 1
         return tensordict
 
+    def _reset_env_preprocess(self, tensordict: TensorDictBase | None) -> TensorDictBase | None:
+        self.params = self.sample(self.generator())
+        return tensordict
+
     def _reset(self, tensordict: TensorDictBase, tensordict_reset: TensorDictBase) -> TensorDictBase:
         return self._composite(tensordict_reset)
 
@@ -129,8 +134,14 @@ class VideoBackground(ScenePerturbation):
     def transform_observation_spec(self, observation_spec):
         return observation_spec
 
-    def restore(self) -> None:
-        self.params = None
+    def _call(self, next_tensordict: TensorDictBase) -> TensorDictBase:
+        return next_tensordict
+
+    def __getstate__(self) -> dict:
+        state = super().__getstate__()
+        state.pop("_geoms_model", None)  # MuJoCo handles stay in their process
+        state.pop("_geoms", None)
+        return state
 
     def extra_repr(self) -> str:
         background = f", background={self.background}" if self.background else ""

@@ -18,7 +18,7 @@ from torchrl.envs import Transform
 from torchrl.envs.transforms.utils import _set_missing_tolerance
 
 from vigen.pixel_format import check_pixel_layout, check_pixels, white_value
-from vigen.transforms import functional
+from vigen.transforms.augmentations import functional
 
 Params = dict[str, Tensor]
 

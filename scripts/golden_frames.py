@@ -1,0 +1,96 @@
+"""Golden frames: a small, exact record of what every named level renders at a fixed seed.
+
+For each suite, task and level, the env is built at ``seed=3`` with 48×48 frames and the fast
+render settings, and played for two short episodes (reset, 2 zero-action steps; reset, 1 step).
+The newest frame of each observation is kept: its SHA-256 (exact) and an 8×8 thumbnail of block
+means (for a readable report when the hash changes).
+
+    python scripts/golden_frames.py --out test/data/golden_frames.json               # every suite
+    python scripts/golden_frames.py --out /tmp/after.json --frames /tmp/after.npz    # also the full frames
+
+``test/envs/test_golden_frames.py`` renders the same frames and compares them with the file, so
+a change of any level's pixels is caught. Regenerate it only when a level is meant to change.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+from pathlib import Path
+from typing import Any
+
+import vigen  # noqa: F401  (selects the EGL backend before mujoco is imported)
+import numpy as np
+import torch
+from vigen.io import atomic_write
+from vigen.rendering import RenderSettings
+
+SEED = 3
+IMAGE_SIZE = 48
+THUMBNAIL = 8
+PLAY = (2, 1)
+"""Zero-action steps in each of the two episodes."""
+
+
+def cases() -> list[tuple[str, str]]:
+    """(env name, level) for every named level of every suite; robosuite and Adroit on each of their tasks."""
+    from vigen.envs.levels import suite_levels
+    from vigen.envs.registry import available_envs
+
+    found = []
+    for suite in ("dmc", "robosuite", "adroit"):
+        levels, _ = suite_levels(suite)
+        names = ["dmc/walker-walk"] if suite == "dmc" else available_envs(suite)
+        found += [(name, level) for name in names for level in levels]
+    return found
+
+
+def play(env_name: str, level: str) -> np.ndarray:
+    """The newest RGB frame of every observation of the two short episodes, ``[frames, H, W, 3]`` uint8."""
+    from vigen.envs import make_env
+
+    env = make_env(env_name, generalization=level, seed=SEED, image_size=IMAGE_SIZE, render_settings=RenderSettings.fast())
+    frames = []
+    action = torch.zeros(env.action_spec.shape)
+    for steps in PLAY:
+        state = env.reset()
+        frames.append(state["pixels"][-3:])
+        for _ in range(steps):
+            state = env.step(state.set("action", action))["next"]
+            frames.append(state["pixels"][-3:])
+    env.close()
+    return torch.stack(frames).permute(0, 2, 3, 1).numpy()
+
+
+def record(frames: np.ndarray) -> dict[str, Any]:
+    """SHA-256 of the frames and their 8×8 block-mean thumbnails (rounded to 0.1)."""
+    count, height, width, _ = frames.shape
+    blocks = frames.reshape(count, THUMBNAIL, height // THUMBNAIL, THUMBNAIL, width // THUMBNAIL, 3).mean(axis=(2, 4))
+    return {"sha256": hashlib.sha256(np.ascontiguousarray(frames).tobytes()).hexdigest(),
+            "thumbnails": np.round(blocks, 1).tolist()}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, required=True, help="JSON file to write (replaced atomically)")
+    parser.add_argument("--frames", type=Path, help="also save every full frame to this .npz file")
+    parser.add_argument("--suites", nargs="+", help="only these suites (dmc, robosuite, adroit)")
+    args = parser.parse_args()
+
+    results, full = {}, {}
+    for env_name, level in cases():
+        if args.suites and env_name.split("/")[0] not in args.suites:
+            continue
+        frames = play(env_name, level)
+        results[f"{env_name}:{level}"] = record(frames)
+        full[f"{env_name}:{level}"] = frames
+        print(f"{env_name:32s} {level:24s} {results[f'{env_name}:{level}']['sha256'][:12]}", flush=True)
+    payload = {"seed": SEED, "image_size": IMAGE_SIZE, "play": list(PLAY), "levels": results}
+    atomic_write(args.out, json.dumps(payload, indent=0) + "\n")
+    if args.frames:
+        np.savez_compressed(args.frames, **full)
+
+
+if __name__ == "__main__":
+    main()
