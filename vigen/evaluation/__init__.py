@@ -1,9 +1,10 @@
 """Zero-shot generalization evaluation: run policies on unseen levels, aggregate, report.
 
 * :func:`evaluate`: one row per episode for each level and seed (:class:`EvaluationError` keeps them if a level fails);
+* :func:`sweep`: one factor at several intensities, as levels for :func:`evaluate`;
 * :func:`summarize`, :func:`score_matrix` and the statistics :func:`mean`, :func:`iqm`,
   :func:`stratified_bootstrap_ci` (rliable's conventions) and :func:`rlvigen_mean_std`;
-* :func:`write_csv`, :func:`markdown_table`, :func:`plot_levels`: the report files.
+* :func:`write_csv`, :func:`markdown_table`, :func:`plot_levels`, :func:`plot_intensity`: the report files.
 
 Examples:
     >>> from vigen.evaluation import evaluate, summarize, markdown_table
@@ -14,21 +15,26 @@ Examples:
 """
 
 from vigen.evaluation.aggregate import MeanStd, iqm, mean, rlvigen_mean_std, stratified_bootstrap_ci
-from vigen.evaluation.report import markdown_table, plot_levels, write_csv
+from vigen.evaluation.report import markdown_table, plot_intensity, plot_levels, write_csv
 from vigen.evaluation.rollout import EvaluationError, evaluate
 from vigen.evaluation.summary import score_matrix, summarize
+from vigen.evaluation.sweep import DCS_INTENSITIES, SweepPoint, sweep
 
 __all__ = [
+    "DCS_INTENSITIES",
     "EvaluationError",
     "MeanStd",
+    "SweepPoint",
     "evaluate",
     "iqm",
     "markdown_table",
     "mean",
+    "plot_intensity",
     "plot_levels",
     "rlvigen_mean_std",
     "score_matrix",
     "stratified_bootstrap_ci",
     "summarize",
+    "sweep",
     "write_csv",
 ]

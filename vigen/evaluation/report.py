@@ -1,4 +1,4 @@
-"""Writers for an evaluation: raw rows as CSV, the summary as a markdown table, bar plots as PNG.
+"""Writers for an evaluation: raw rows as CSV, the summary as a markdown table, bar plots and robustness curves as PNG.
 
 None of them overwrites a file: an existing path raises ``FileExistsError`` (pick a new folder,
 e.g. with :func:`vigen.io.unused_path`).
@@ -126,6 +126,99 @@ def plot_levels(
     axes.spines[["top", "right"]].set_visible(False)
     if len(methods) > 1:
         axes.legend(frameon=False, fontsize="small")
+    figure.tight_layout()
+    figure.savefig(path, dpi=120)
+    plt.close(figure)
+    return path
+
+
+def _band(line: Mapping[str, Any], statistic: str) -> tuple[float, float] | None:
+    """The interval drawn around ``statistic``: its bootstrap CI, or ± the std over runs for ``rlvigen_mean``."""
+    if statistic == "rlvigen_mean":
+        spread = _number(line.get("rlvigen_std"))
+        centre = _number(line[statistic])
+        return None if spread is None or centre is None else (centre - spread, centre + spread)
+    low, high = _number(line.get(f"{statistic}_low")), _number(line.get(f"{statistic}_high"))
+    return None if low is None or high is None else (low, high)
+
+
+def _number(value: Any) -> float | None:
+    """``value`` as a finite float; ``None`` for blanks (e.g. a CSV's empty cell), missing values and NaN."""
+    if value is None or value == "":
+        return None
+    number = float(value)
+    return number if math.isfinite(number) else None
+
+
+def plot_intensity(
+    lines: Sequence[Mapping[str, Any]],
+    path: str | Path,
+    *,
+    factor: str,
+    statistic: str = "iqm",
+    title: str | None = None,
+    ylabel: str = "episode return",
+) -> Path:
+    """Robustness curve: ``statistic`` against the intensity of ``factor``, one line per method, with its 95 % CI band.
+
+    This is the Distracting Control Suite's figure (Stone et al. 2021, https://arxiv.org/abs/2101.02722):
+    return as a distraction grows. ``lines`` are :func:`~vigen.evaluation.summarize` lines or the
+    rows of :func:`~vigen.evaluation.evaluate` (summarized here), either read back from CSV or not;
+    the points are the lines whose ``factor`` column is ``factor`` (the levels of
+    :func:`~vigen.evaluation.sweep`). A sweep with ``fixed`` factors is its own curve, labelled
+    with them. ``statistic`` is ``"iqm"`` or ``"mean"`` (band: the stratified-bootstrap CI) or
+    ``"rlvigen_mean"`` (band: ± the std over runs); the band is left out where it is unknown.
+
+    Examples:
+        >>> import tempfile, pathlib
+        >>> from vigen.evaluation import plot_intensity
+        >>> lines = [{"method": "drqv2", "level": f"camera_rotation={x:g}", "factor": "camera_rotation", "intensity": x,
+        ...           "iqm": r, "iqm_low": r - 30, "iqm_high": r + 30} for x, r in [(0.0, 900.0), (0.1, 600.0), (0.3, 250.0)]]
+        >>> plot_intensity(lines, pathlib.Path(tempfile.mkdtemp()) / "camera_rotation.png", factor="camera_rotation").suffix
+        '.png'
+    """
+    if statistic not in ("iqm", "mean", "rlvigen_mean"):
+        raise ValueError(f"statistic must be 'iqm', 'mean' or 'rlvigen_mean', got {statistic!r}.")
+    if not lines:
+        raise ValueError("lines is empty: pass the summary lines (or rows) of an evaluation that ran a sweep.")
+    if statistic not in lines[0] and "return" in lines[0]:
+        from vigen.evaluation.summary import summarize
+
+        lines = summarize(lines)
+    swept = [line for line in lines if line.get("factor") == factor and _number(line.get("intensity")) is not None]
+    if not swept:
+        found = sorted({str(line["factor"]) for line in lines if _number(line.get("intensity")) is not None})
+        raise ValueError(f"no line sweeps factor {factor!r}; the swept factors are {found or 'none'}. Evaluate "
+                         f"levels=sweep({factor!r}, [...]) first, or pass factor= one of those.")
+    missing = [line.get("level") for line in swept if statistic not in line]
+    if missing:
+        raise ValueError(f"lines of levels {missing} have no {statistic!r} column; pass summarize() lines or statistic=.")
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = _new_file(path)
+    curves: dict[str, list[Mapping[str, Any]]] = {}
+    for line in swept:
+        method, fixed = str(line.get("method", "agent")), str(line.get("fixed") or "")
+        curves.setdefault(f"{method} ({fixed})" if fixed else method, []).append(line)
+    figure, axes = plt.subplots(figsize=(5.0, 3.4))
+    for label, members in curves.items():
+        members = sorted(members, key=lambda line: float(line["intensity"]))
+        xs = [float(line["intensity"]) for line in members]
+        (drawn,) = axes.plot(xs, [float(line[statistic]) for line in members], marker="o", label=label)
+        bands = [_band(line, statistic) for line in members]
+        if all(band is not None for band in bands):
+            axes.fill_between(xs, [band[0] for band in bands], [band[1] for band in bands], color=drawn.get_color(),
+                              alpha=0.2, linewidth=0)
+    axes.set_xlabel(f"{factor} intensity")
+    axes.set_ylabel(ylabel)
+    band = "± std over runs" if statistic == "rlvigen_mean" else "95 % CI"
+    axes.set_title(title or f"robustness to {factor}: {statistic.replace('_', ' ')} ({band})", fontsize="medium")
+    axes.spines[["top", "right"]].set_visible(False)
+    axes.legend(frameon=False, fontsize="small")
     figure.tight_layout()
     figure.savefig(path, dpi=120)
     plt.close(figure)

@@ -14,11 +14,15 @@ from tensordict import TensorDictBase
 from torchrl.envs import EnvBase
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-from vigen.envs import make_env
+from vigen.envs import factors, level_label, make_env
 from vigen.envs.levels import resolve_levels
+from vigen.evaluation.sweep import check_factor_intensity, level_columns
 from vigen.io import atomic_write
 
-EnvFactory = Callable[[str, int], EnvBase]
+Level = str | Mapping[str, float]
+"""A level name (or group name), or a generalization dict ``{factor: intensity}`` (see :func:`~vigen.evaluation.sweep`)."""
+
+EnvFactory = Callable[[Level, int], EnvBase]
 """``(level, seed) -> env``: how :func:`evaluate` builds an env when a name is not enough."""
 
 Policy = Callable[[TensorDictBase], TensorDictBase]
@@ -51,7 +55,7 @@ class EvaluationError(RuntimeError):
 def evaluate(
     policy: Policy,
     env: str | EnvFactory,
-    levels: str | Sequence[str] = "train",
+    levels: Level | Sequence[Level] = "train",
     *,
     episodes: int = 10,
     seeds: Sequence[int] = (0,),
@@ -72,8 +76,9 @@ def evaluate(
         policy: a TorchRL policy (``TensorDictModule`` or any callable on a TensorDict) that reads
             the env's observation keys and writes ``"action"``.
         env: a vigen env name such as ``"dmc/walker-walk"``, or a factory ``(level, seed) -> env``.
-        levels: level or group names (:func:`vigen.envs.levels.resolve_levels`), e.g.
-            ``["train", "dmcgb"]``; with a factory, any labels the factory understands.
+        levels: level or group names (:func:`vigen.envs.levels.resolve_levels`) and generalization
+            dicts ``{factor: intensity}``, e.g. ``["train", "dmcgb", *sweep("camera_rotation", [0.1, 0.3])]``;
+            with a factory, any levels the factory understands. Repeated levels run once.
         episodes: episodes per level and seed.
         seeds: the env and level seeds.
         max_steps: a cap on agent steps per episode (the env's own time limit usually ends it first).
@@ -84,14 +89,24 @@ def evaluate(
             exist yet.
 
     Returns:
-        Rows with ``env``, ``level``, ``seed``, ``episode``, ``return``, ``length`` and, where the
-        task reports one, ``success`` (whether the episode ever succeeded), after the ``tags``.
+        Rows with ``env``, ``level`` (the level's label, :func:`vigen.envs.level_label`), ``seed``,
+        ``episode``, ``return``, ``length`` and, where the task reports one, ``success`` (whether
+        the episode ever succeeded), after the ``tags``. Rows of a generalization dict also carry
+        ``factor`` and ``intensity`` after ``level`` (:func:`~vigen.evaluation.sweep.level_columns`).
 
     Examples:
         >>> from vigen.evaluation import evaluate
         >>> rows = evaluate(None, "dmc/cartpole-balance", ["train", "color_hard"], episodes=1, max_steps=5)
         >>> [(row["level"], row["length"]) for row in rows]
         [('train', 5), ('color_hard', 5)]
+
+    A sweep adds one level per intensity, labelled by factor and intensity:
+
+        >>> from vigen.evaluation import sweep
+        >>> rows = evaluate(None, "dmc/cartpole-balance", ["train", *sweep("camera_rotation", [0, 0.3])], episodes=1,
+        ...                 max_steps=5)
+        >>> [(row["level"], row.get("factor"), row.get("intensity")) for row in rows]
+        [('train', None, None), ('camera_rotation=0', 'camera_rotation', 0.0), ('camera_rotation=0.3', 'camera_rotation', 0.3)]
 
     ``policy=None`` plays random actions, a baseline worth reporting next to trained agents.
 
@@ -116,11 +131,10 @@ def evaluate(
         raise ValueError("seeds is empty: give at least one seed, e.g. seeds=[0].")
     rows: list[dict[str, Any]] = []
     name = env if isinstance(env, str) else getattr(env, "__name__", "env")
-    level_names = [levels] if isinstance(levels, str) else list(levels)
-    if isinstance(env, str):
-        level_names = resolve_levels(level_names, suite=env.split("/")[0])
+    todo = _check_levels(levels, env)
     log = None if rows_path is None else _RowLog(Path(rows_path))
-    for level in level_names:
+    for label, level in todo.items():
+        columns = level_columns(level)
         for seed in seeds:
             episode: int | None = None
             try:
@@ -130,8 +144,8 @@ def evaluate(
                     instance = env(level, seed)
                 try:
                     for episode in range(episodes):
-                        row = {**dict(tags or {}), "env": name, "level": level, "seed": seed, "episode": episode,
-                               **_play(policy, instance, max_steps)}
+                        row = {**dict(tags or {}), "env": name, "level": label, **columns, "seed": seed,
+                               "episode": episode, **_play(policy, instance, max_steps)}
                         rows.append(row)
                         if log is not None:
                             log.append(row)
@@ -139,9 +153,41 @@ def evaluate(
                 finally:
                     instance.close()
             except Exception as error:
-                raise EvaluationError(list(rows), level=level, seed=seed, episode=episode,
+                raise EvaluationError(list(rows), level=label, seed=seed, episode=episode,
                                       rows_path=None if log is None else log.path) from error
     return rows
+
+
+def _check_levels(levels: Level | Sequence[Level], env: str | EnvFactory) -> dict[str, Level]:
+    """Label -> level, groups expanded and repeats dropped; for an env name, dicts checked against its factors."""
+    if isinstance(levels, (str, Mapping)):
+        levels = [levels]
+    if not isinstance(levels, Sequence):
+        raise TypeError(f"levels must be a level name, a generalization dict or a list of them, got {levels!r}.")
+    suite = env.split("/")[0] if isinstance(env, str) else None
+    valid = None
+    checked: dict[str, Level] = {}
+    for level in levels:
+        if isinstance(level, str):
+            for resolved in (resolve_levels([level], suite=suite) if suite is not None else [level]):
+                checked.setdefault(resolved, resolved)
+            continue
+        if not isinstance(level, Mapping):
+            raise TypeError(f"levels: each level must be a name or a dict {{factor: intensity}}, got {level!r} "
+                            f"({type(level).__name__}).")
+        if not level:
+            raise ValueError("levels: an empty generalization dict names no factor; use 'train' for the clean scene.")
+        for factor, intensity in level.items():
+            if not isinstance(factor, str):
+                raise TypeError(f"levels: factor names are strings such as 'camera_rotation', got {factor!r}.")
+            check_factor_intensity(factor, intensity, argument="levels")
+        if isinstance(env, str):
+            valid = factors(env) if valid is None else valid
+            unknown = [factor for factor in level if factor not in valid]
+            if unknown:
+                raise ValueError(f"levels: unknown factors {unknown} for {env}; its factors are {', '.join(valid)}.")
+        checked.setdefault(level_label(level), level)
+    return checked
 
 
 class _RowLog:

@@ -46,6 +46,7 @@ def summarize(
     run: str | None = None,
     task: str = "env",
     reps: int = 2000,
+    carry: Sequence[str] = ("factor", "intensity", "fixed"),
 ) -> list[dict[str, Any]]:
     """One line per group (default: method × level) with every convention the papers use.
 
@@ -54,7 +55,9 @@ def summarize(
     (``iqm_low``, ``iqm_high``) and of the mean (``mean_low``, ``mean_high``); RL-ViGen's
     per-seed ``rlvigen_mean`` ± ``rlvigen_std``. ``run`` names the column that identifies a run:
     ``"run"`` when rows have it (one trained agent each), else ``"seed"``. ``by`` keys missing
-    from the rows are skipped.
+    from the rows are skipped. The ``carry`` columns (a sweep's ``factor`` and ``intensity``) are
+    copied into a line when all its rows have the same value, so that curves can be drawn from
+    the lines.
 
     Examples:
         >>> from vigen.evaluation import summarize
@@ -62,6 +65,10 @@ def summarize(
         >>> line = summarize(rows, reps=200)[0]
         >>> line["level"], line["runs"], line["mean"], line["rlvigen_std"]
         ('train', 3, 20.0, 10.0)
+        >>> swept = [{"level": "camera_rotation=0.3", "factor": "camera_rotation", "intensity": 0.3, "seed": s,
+        ...           "env": "dmc/a", "return": 1.0} for s in range(2)]
+        >>> {key: summarize(swept, reps=10)[0][key] for key in ("level", "factor", "intensity")}
+        {'level': 'camera_rotation=0.3', 'factor': 'camera_rotation', 'intensity': 0.3}
     """
     if not rows:
         raise ValueError("no rows to summarize; did the evaluation run any episode?")
@@ -76,8 +83,13 @@ def summarize(
         rlvigen = rlvigen_mean_std(scores)
         iqm_low, iqm_high = stratified_bootstrap_ci(scores, iqm, reps=reps)
         mean_low, mean_high = stratified_bootstrap_ci(scores, np.mean, reps=reps)
+        carried = {}
+        for column in carry:
+            values = {str(member.get(column)) for member in members}
+            if column not in keys and column in members[0] and len(values) == 1:
+                carried[column] = members[0][column]
         lines.append({
-            **dict(zip(keys, group)),
+            **dict(zip(keys, group)), **carried,
             "runs": scores.shape[0], "tasks": scores.shape[1], "episodes": len(members),
             "mean": float(scores.mean()), "mean_low": mean_low, "mean_high": mean_high,
             "iqm": iqm(scores), "iqm_low": iqm_low, "iqm_high": iqm_high,
