@@ -25,7 +25,7 @@ What a run guarantees (``vigen.checkpoint`` does the work):
   (``replay_buffer/journal``) and restored on resume; CSV rows logged after it are dropped.
 * Each checkpoint ends a *segment*, in a resumed run and in one never killed alike: the episode in
   progress is cut there (marked truncated, so its n-step targets bootstrap), the collector is
-  rebuilt and its env reset with seed ``seed + 1000 * agent steps``. With dm_control's defaults
+  rebuilt and its env reset with seed ``derive_seed(seed, agent steps)`` (workers: one more index each). With dm_control's defaults
   (1000-frame episodes, an evaluation every 10k frames) checkpoints fall on episode ends anyway.
   Not covered: wandb logs are not rewound, and falling back past a checkpoint that does not load
   keeps the transitions written after it in the overwritten slots (resume says so).
@@ -61,6 +61,7 @@ from vigen.io import atomic_write, unused_path
 from vigen.losses import ALGOS, LinearSchedule, make_loss
 from vigen.policies import make_policy
 from vigen.rendering import RenderSettings
+from vigen.seeding import ENV_SEED_LIMIT, derive_seed
 
 PRESETS = {
     "paper": dict(batch_size=256, buffer_size=1_000_000, lr=1e-4, hidden_dim=1024, feature_dim=50, n_step=3,
@@ -224,7 +225,7 @@ def main() -> None:
     steps_per_batch = 50 * config["update_every"]  # per worker
     progress = tqdm(total=total_steps * action_repeat, initial=steps * action_repeat, unit="frame", dynamic_ncols=True)
     while steps < total_steps:  # one segment per checkpoint
-        collector = make_collector(make, policy, config, env_seed=config["seed"] + 1000 * steps,
+        collector = make_collector(make, policy, config, env_seed=derive_seed(config["seed"], steps, below=ENV_SEED_LIMIT),
                                    steps_per_batch=steps_per_batch,
                                    batches=segment_batches(steps, total_steps, eval_every, steps_per_batch * config["workers"]),
                                    random_steps=max(0, seed_steps - steps))
@@ -288,12 +289,12 @@ def segment_batches(steps: int, total_steps: int, eval_every: int, batch_steps: 
 
 
 def make_collector(make, policy, config: dict, *, env_seed: int, steps_per_batch: int, batches: int, random_steps: int):
-    """A collector for one segment, its env(s) freshly reset with ``env_seed`` (+ worker index)."""
+    """A collector for one segment, its env freshly reset with ``env_seed`` (worker ``w``: ``derive_seed(env_seed, w)``)."""
     workers = config["workers"]
     options = dict(frames_per_batch=steps_per_batch * workers, total_frames=steps_per_batch * workers * batches,
                    init_random_frames=random_steps, auto_register_policy_transforms=False)
     if workers > 1:
-        return MultiSyncCollector([partial(make, seed=env_seed + w) for w in range(workers)], policy,
+        return MultiSyncCollector([partial(make, seed=derive_seed(env_seed, w, below=ENV_SEED_LIMIT)) for w in range(workers)], policy,
                                   cat_results="stack", **options)
     return Collector(make(seed=env_seed), policy, **options)
 

@@ -2,8 +2,8 @@
 
 For each suite, task and level, the env is built at ``seed=3`` with 48×48 frames and the fast
 render settings, and played for two short episodes (reset, 2 zero-action steps; reset, 1 step).
-The newest frame of each observation is kept: its SHA-256 (exact) and an 8×8 thumbnail of block
-means (for a readable report when the hash changes).
+The newest frames of the observations are kept as their SHA-256 (exact) and the per-frame,
+per-channel means (for a readable report when the hash changes).
 
     python scripts/golden_frames.py --out test/data/golden_frames.json               # every suite
     python scripts/golden_frames.py --out /tmp/after.json --frames /tmp/after.npz    # also the full frames
@@ -28,21 +28,18 @@ from vigen.rendering import RenderSettings
 
 SEED = 3
 IMAGE_SIZE = 48
-THUMBNAIL = 8
 PLAY = (2, 1)
 """Zero-action steps in each of the two episodes."""
 
 
 def cases() -> list[tuple[str, str]]:
     """(env name, level) for every named level of every suite; robosuite and Adroit on each of their tasks."""
-    from vigen.envs.levels import suite_levels
-    from vigen.envs.registry import available_envs
+    from vigen.envs import SUITES
 
     found = []
-    for suite in ("dmc", "robosuite", "adroit"):
-        levels, _ = suite_levels(suite)
-        names = ["dmc/walker-walk"] if suite == "dmc" else available_envs(suite)
-        found += [(name, level) for name in names for level in levels]
+    for suite in SUITES.values():
+        tasks = [suite.example_task] if suite.name == "dmc" else list(suite.tasks())
+        found += [(f"{suite.name}/{task}", level) for task in tasks for level in suite.levels]
     return found
 
 
@@ -64,11 +61,9 @@ def play(env_name: str, level: str) -> np.ndarray:
 
 
 def record(frames: np.ndarray) -> dict[str, Any]:
-    """SHA-256 of the frames and their 8×8 block-mean thumbnails (rounded to 0.1)."""
-    count, height, width, _ = frames.shape
-    blocks = frames.reshape(count, THUMBNAIL, height // THUMBNAIL, THUMBNAIL, width // THUMBNAIL, 3).mean(axis=(2, 4))
+    """SHA-256 of the frames and their per-frame, per-channel means (rounded to 0.01)."""
     return {"sha256": hashlib.sha256(np.ascontiguousarray(frames).tobytes()).hexdigest(),
-            "thumbnails": np.round(blocks, 1).tolist()}
+            "means": np.round(frames.mean(axis=(1, 2)), 2).tolist()}
 
 
 def main() -> None:
@@ -87,7 +82,7 @@ def main() -> None:
         full[f"{env_name}:{level}"] = frames
         print(f"{env_name:32s} {level:24s} {results[f'{env_name}:{level}']['sha256'][:12]}", flush=True)
     payload = {"seed": SEED, "image_size": IMAGE_SIZE, "play": list(PLAY), "levels": results}
-    atomic_write(args.out, json.dumps(payload, indent=0) + "\n")
+    atomic_write(args.out, json.dumps(payload, indent=1) + "\n")
     if args.frames:
         np.savez_compressed(args.frames, **full)
 

@@ -153,14 +153,14 @@ def test_hand_keeps_its_colours():
 
 def test_levels_use_vigen_transform_classes():
     for level in adroit.LEVELS:
-        for transform in adroit.level_transforms(level):
+        for transform in adroit.ADROIT.level_transforms("door", level):
             assert type(transform) in vars(vigen.transforms).values(), f"{level}: {type(transform)}"
 
 
 def test_bad_names_say_what_is_valid():
     with pytest.raises(ValueError, match="Did you mean adroit/door"):
         make_env("adroit/dor")
-    with pytest.raises(ValueError, match="Unknown Adroit level 'extreme'"):
+    with pytest.raises(ValueError, match="Unknown generalization level 'extreme' for adroit/ envs"):
         make_env("adroit/door", generalization="extreme")
     with pytest.raises(ValueError, match="No camera 'top'"):
         make_env("adroit/door", camera="top")

@@ -13,7 +13,12 @@ from torchrl.envs import ParallelEnv
 from torchrl.envs.utils import check_env_specs
 
 from vigen.envs import make_env
-from vigen.envs.levels import GROUPS, LEVELS, level_transforms, levels_markdown, resolve_levels
+from vigen.envs.levels import levels_markdown, resolve_levels
+from vigen.envs.dmc import DMC, GROUPS, LEVELS
+
+
+def level_transforms(level, seed=None, **options):
+    return DMC.level_transforms("walker-walk", level, seed=seed, **options)
 from vigen.rendering import RenderSettings
 from vigen.transforms import ImageBank, PixelCorruption, RandomTextures, VideoBackground, VideoSource
 
@@ -38,7 +43,7 @@ def test_docs_table_matches_the_registry():
 
 def test_every_level_builds_its_transforms():
     for level in LEVELS:
-        assert len(level_transforms(level, seed=0)) == len(LEVELS[level][2])
+        assert len(level_transforms(level, seed=0)) == len(LEVELS[level].steps)
     assert resolve_levels("all") == list(LEVELS)
     assert set(resolve_levels(["dmcgb", "rlvigen"])) <= set(LEVELS)
     assert len(GROUPS["corruptions"]) == 25

@@ -10,9 +10,8 @@ from torchrl.envs.utils import check_env_specs
 
 import vigen.transforms
 from vigen.envs import make_env
-from vigen.envs.levels import level_transforms as dmc_level_transforms
+from vigen.envs.dmc import DMC
 from vigen.envs.levels import resolve_levels
-from vigen.envs.levels import LEVELS as DMC_LEVELS
 from vigen.rendering import RenderSettings
 from vigen.transforms.scene import ScenePerturbation
 
@@ -93,7 +92,7 @@ def test_each_level_changes_the_first_frame(level):
 
 def test_train_is_the_untouched_scene():
     assert torch.equal(first_frame(lift("train")), first_frame(lift(None)))
-    assert suite.level_transforms("lift", "train") == []
+    assert suite.ROBOSUITE.level_transforms("lift", "train") == []
 
 
 def test_scene_ids_reproduce_their_scene():
@@ -153,7 +152,7 @@ def test_hard_level_replaces_floor_and_walls_with_video():
     assert 0.1 < mask.float().mean() < 0.9, "floor and walls are part of the view, the robot and table are not"
     expected = video.videos.frames(video.params["video"], SIZE, SIZE)[0].permute(2, 0, 1)
     assert torch.equal(pixels[:, mask], expected[:, mask])
-    videos = [t.video for scene in (3, 4) for t in suite.level_transforms("lift", "hard", scene)
+    videos = [t.video for scene in (3, 4) for t in suite.ROBOSUITE.level_transforms("lift", "hard", scene)
               if isinstance(t, vigen.transforms.VideoBackground)]
     assert videos == [3, 4], "each scene plays its own video in every episode"
 
@@ -174,11 +173,11 @@ def test_every_listed_robot_keeps_the_panda_action_spec(robot):
 
 
 def test_levels_use_the_same_transform_classes_as_dm_control():
-    dmc_classes = {type(t) for level in DMC_LEVELS for t in dmc_level_transforms(level)}
+    dmc_classes = {type(t) for level in DMC.levels for t in DMC.level_transforms("walker-walk", level)}
     for level in suite.LEVELS:
-        for transform in suite.level_transforms("door", level):
+        for transform in suite.ROBOSUITE.level_transforms("door", level):
             assert type(transform) in vars(vigen.transforms).values(), f"{level}: {type(transform)} is not a vigen transform"
-    used = {type(t) for level in suite.LEVELS for t in suite.level_transforms("door", level)}
+    used = {type(t) for level in suite.LEVELS for t in suite.ROBOSUITE.level_transforms("door", level)}
     assert used & dmc_classes >= {vigen.transforms.RandomTextures, vigen.transforms.RandomCamera,
                                   vigen.transforms.RandomLighting, vigen.transforms.VideoBackground}
 
@@ -186,9 +185,9 @@ def test_levels_use_the_same_transform_classes_as_dm_control():
 def test_bad_names_say_what_is_valid():
     with pytest.raises(ValueError, match="Did you mean robosuite/door"):
         make_env("robosuite/dor")
-    with pytest.raises(ValueError, match="Unknown robosuite level 'extreme'.*easy"):
+    with pytest.raises(ValueError, match="Unknown generalization level .extreme. for robosuite/ envs.*easy"):
         make_env("robosuite/door", generalization="extreme")
-    with pytest.raises(ValueError, match="scene_id selects one of RL-ViGen's 10 scenes"):
+    with pytest.raises(ValueError, match="scene_id selects one of the level's 10 scenes"):
         make_env("robosuite/door", generalization="easy", scene_id=10)
     with pytest.raises(ValueError, match="Unknown robot 'Baxter'"):
         make_env("robosuite/door", robot="Baxter")
@@ -272,5 +271,5 @@ def test_bad_scene_ids_are_refused_before_building():
         make_env("robosuite/door", generalization="easy", scene_id=3.0)
     with pytest.raises(TypeError, match=r"^scene_id must be an int in 0..9"):
         make_env("robosuite/door", generalization="easy", scene_id=True)
-    with pytest.raises(ValueError, match="scene_id selects one of RL-ViGen's 10 scenes"):
-        suite.select_scene([], "easy", -1)
+    with pytest.raises(ValueError, match="scene_id selects one of the level's 10 scenes"):
+        make_env("robosuite/door", generalization="easy", image_size=32).set_scene(-1)

@@ -9,7 +9,11 @@ import torch
 from torchrl.envs import Compose, ParallelEnv
 
 from vigen.envs import make_env
-from vigen.envs.levels import GROUPS, LEVELS, level_transforms
+from vigen.envs.dmc import DMC, GROUPS, LEVELS
+
+
+def level_transforms(level, seed=None, **options):
+    return DMC.level_transforms("walker-walk", level, seed=seed, **options)
 from vigen.envs.pixels import derive_seed
 from vigen.rendering import RenderSettings
 from vigen.transforms import RandomShift, VideoBackground

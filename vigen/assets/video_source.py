@@ -12,6 +12,7 @@ import torch.nn.functional as F
 
 from vigen.assets.image_bank import IMAGE_SUFFIXES
 from vigen.assets.procedural import procedural_video
+from vigen.seeding import derive_seed
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".webm", ".mkv")
 # a decoded frame side outside this range means a broken header, not a background video
@@ -97,7 +98,7 @@ class VideoSource:
         key = (index, height, width)
         if self._cache is None or self._cache[0] != key:
             if self.paths is None:
-                frames = procedural_video(self.seed * 100_003 + index, self.max_frames, height, width)
+                frames = procedural_video(derive_seed(self.seed, index), self.max_frames, height, width)
             else:
                 frames = _decode(self.paths[index], self.max_frames, height, width)
             self._cache = (key, frames)

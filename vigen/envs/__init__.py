@@ -1,4 +1,4 @@
-"""Env builders: simulator tasks as TorchRL pixel envs, named ``"<suite>/<env>"``.
+"""Env builders: simulator tasks as TorchRL pixel envs, named ``"<suite>/<task>"``, one :class:`Suite` record per simulator.
 
 Examples:
     >>> from vigen.envs import make_env
@@ -7,7 +7,9 @@ Examples:
     torch.Size([100, 9, 84, 84])
 """
 
+from vigen.envs.levels import level_label
 from vigen.envs.parallel import ParallelEnv, WorkerError
-from vigen.envs.registry import SUITES, available_envs, make_env
+from vigen.envs.registry import SUITES, available_envs, factors, get_suite, make_env
+from vigen.envs.suite import Suite
 
-__all__ = ["SUITES", "ParallelEnv", "WorkerError", "available_envs", "make_env"]
+__all__ = ["SUITES", "ParallelEnv", "Suite", "WorkerError", "available_envs", "factors", "get_suite", "level_label", "make_env"]

@@ -1,147 +1,163 @@
-"""dm_control suite tasks as TorchRL pixel envs, set up as in DrQ-v2 and RL-ViGen.
+"""The ``dmc`` suite: dm_control tasks as pixel envs (DrQ-v2's setup), with DMC-GB's, RL-ViGen's and ImageNet-C's levels.
 
-Each env renders 84×84 RGB frames from the task's camera, repeats every action twice without
-rendering the skipped frames, runs 1000 simulator (control) steps per episode, stacks the last
-three frames along the channel axis and returns them as uint8 ``[3·k, 84, 84]`` under ``"pixels"``.
+The suite record :data:`DMC` holds the task names, the builder (:mod:`vigen.envs.dmc_env`, which
+imports dm_control when the first env is built), the level table, groups and factors.
 
-The chain, innermost first:
-
-* ``suite.load(domain, task)``: the dm_control task, with its own time limit lifted;
-* :class:`ActionRepeat`: repeats the action and ends the episode at ``episode_length`` control
-  steps as a time-limit truncation (``discount == 1``);
-* ``dm_control.suite.wrappers.pixels.Wrapper``: renders once per agent step, pixels only;
-* :class:`DMCPixelEnv` (a TorchRL ``DMControlWrapper``): specs, seeding, ``terminated`` /
-  ``truncated`` from the discount, and the live ``physics``;
-* ``ToTensorImage`` (HWC → CHW, uint8 kept), ``CatFrames`` and ``DoubleToFloat``.
+Examples:
+    >>> from vigen.envs.dmc import DMC
+    >>> DMC.levels["color_hard"].steps
+    (RandomSceneColors(scale=0.2),)
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from typing import Any
 
-import dm_env
 import mujoco
 import numpy as np
-import torch
-from dm_control import suite
-from dm_control.mujoco.engine import Camera
-from dm_control.suite.wrappers import pixels
-from torchrl.envs import DoubleToFloat, Transform, TransformedEnv
-from torchrl.envs.libs.dm_control import DMControlWrapper
+from torchrl.envs import DoubleToFloat, Transform
 
-from vigen.envs.levels import make_perturbations
-from vigen.envs.pixels import PixelEnv, check_env_arguments, stacked_pixel_env
-from vigen.rendering import RenderSettings
+from vigen.envs.levels import Factor, Level, Scaled, Severity, Span, Step
+from vigen.envs.pixels import PixelEnv
+from vigen.envs.suite import Suite
+from vigen.transforms import (
+    PixelCorruption,
+    RandomCamera,
+    RandomLighting,
+    RandomSceneColors,
+    RandomTextures,
+    VideoBackground,
+)
+from vigen.transforms.corruptions import SEVERITIES
 
-DOMAIN_ALIASES = {"cup": "ball_in_cup"}
-"""Short domain names used by DrQ-v2's task names (``cup_catch``)."""
+CORRUPTION_SOURCE = "ImageNet-C severities (Hendrycks & Dietterich 2019)"
 
-DEFAULT_CAMERAS = {"quadruped": 2}
-"""Camera per domain where DrQ-v2 does not use camera 0 (the quadruped's camera 2 follows it)."""
+LEVELS: dict[str, Level] = {
+    "train": Level("the clean training scene", "all"),
+    "color_easy": Level(
+        "floor, sky and agent colours: default + N(0, 0.1²) per channel",
+        "DMC-GB color_easy (statistics of its presets)",
+        (Step(RandomSceneColors, {"scale": 0.1}),),
+    ),
+    "color_hard": Level(
+        "floor, sky and agent colours: default + N(0, 0.2²) per channel",
+        "DMC-GB color_hard (statistics of its presets)",
+        (Step(RandomSceneColors, {"scale": 0.2}),),
+    ),
+    "objects_color_easy": Level(
+        "agent colour only: default + N(0, 0.1²)",
+        "RL-ViGen objects_color easy",
+        (Step(RandomSceneColors, {"scale": 0.1, "parts": ("self",)}),),
+    ),
+    "objects_color_hard": Level(
+        "agent colour only: default + N(0, 0.2²)",
+        "RL-ViGen objects_color hard",
+        (Step(RandomSceneColors, {"scale": 0.2, "parts": ("self",)}),),
+    ),
+    "floor_texture": Level(
+        "floor grid replaced by a texture image",
+        "RL-ViGen table_texture (labmaze and procedural textures)",
+        (Step(RandomTextures),),
+    ),
+    "video_easy": Level(
+        "sky replaced by a video, new frame every step",
+        "DMC-GB video_easy (procedural videos unless a folder is given)",
+        (Step(VideoBackground, {"floor": False}),),
+    ),
+    "video_hard": Level(
+        "sky and floor replaced by a video, new frame every step",
+        "DMC-GB video_hard (procedural videos unless a folder is given)",
+        (Step(VideoBackground, {"floor": True}),),
+    ),
+    "light_easy": Level(
+        "light position +{3, 4}, diffuse ± 0.2, light moving 0.01/step within ± 5",
+        "RL-ViGen light_position + light_color + moving_light, easy",
+        (Step(RandomLighting, dict(RandomLighting.LEVELS["easy"])),),
+    ),
+    "light_hard": Level(
+        "light position +{9, 10}, diffuse ± 10, light moving 0.05/step within ± 10",
+        "RL-ViGen light_position + light_color + moving_light, hard",
+        (Step(RandomLighting, dict(RandomLighting.LEVELS["hard"])),),
+    ),
+    "camera_easy": Level(
+        "camera moved ± 0.08, turned ± 9°, field of view −4° … +5°",
+        "RL-ViGen cam_pos easy; DCS camera scale 0.1; RL-ViGen Adroit FOV easy",
+        (Step(RandomCamera, {"position": 0.08, "rotation_deg": 9.0, "fov_deg": (-4.0, 5.0)}),),
+    ),
+    "camera_hard": Level(
+        "camera moved ± 0.15, turned ± 27°, field of view ± 10°",
+        "RL-ViGen cam_pos hard; DCS camera scale 0.3; RL-ViGen Adroit FOV hard",
+        (Step(RandomCamera, {"position": 0.15, "rotation_deg": 27.0, "fov_deg": (-10.0, 10.0)}),),
+    ),
+    **{
+        f"{corruption}_{severity}": Level(
+            f"{corruption.replace('_', ' ')}, severity {severity} of 5",
+            CORRUPTION_SOURCE,
+            (Step(PixelCorruption, {"corruption": corruption, "severity": severity}),),
+        )
+        for corruption in SEVERITIES
+        for severity in range(1, 6)
+    },
+}
+"""Level name -> what it shows, its source, and its transforms with their exact parameters."""
+
+GROUPS: dict[str, list[str]] = {
+    "dmcgb": ["color_easy", "color_hard", "video_easy", "video_hard"],
+    "rlvigen": [
+        "color_easy", "color_hard", "objects_color_easy", "objects_color_hard", "floor_texture",
+        "video_easy", "video_hard", "light_easy", "light_hard", "camera_easy", "camera_hard",
+    ],
+    "corruptions": [f"{c}_{s}" for c in SEVERITIES for s in range(1, 6)],
+    "all": list(LEVELS),
+}
+
+NO_LIGHT_SHIFT = {"position_offset": None, "diffuse_offset": None}
+"""RandomLighting parameters that leave position and colour alone (each lighting factor sets one thing)."""
+
+FACTORS: dict[str, Factor] = {
+    "background_color": Factor((Step(RandomSceneColors, {"scale": Scaled(1.0), "parts": ("grid", "skybox")}),)),
+    "object_color": Factor(
+        (Step(RandomSceneColors, {"scale": Scaled(1.0), "parts": ("self",)}),),
+        points={"objects_color_easy": 0.1, "objects_color_hard": 0.2},
+    ),
+    "floor_texture": Factor((Step(RandomTextures, {"blend": Scaled(1.0)}),), points={"floor_texture": 1.0}),
+    "light_position": Factor((Step(RandomLighting, {**NO_LIGHT_SHIFT, "position_jitter": Scaled((10.0, 10.0, 10.0))}),)),
+    "light_color": Factor((Step(RandomLighting, {"position_offset": None, "diffuse_offset": Scaled(1.0)}),)),
+    "moving_light": Factor((Step(RandomLighting, {**NO_LIGHT_SHIFT, "moving_step": Scaled(0.05), "moving_range": 10.0}),)),
+    "camera_position": Factor((Step(RandomCamera, {"position": Scaled(0.5)}),)),
+    "camera_rotation": Factor((Step(RandomCamera, {"position": 0.0, "rotation_deg": Scaled(90.0)}),)),
+    "camera_fov": Factor((Step(RandomCamera, {"position": 0.0, "fov_deg": Span(40.0)}),)),
+    **{
+        corruption: Factor(
+            (Step(PixelCorruption, {"corruption": corruption, "severity": Severity()}),),
+            points={f"{corruption}_{severity}": severity / 5 for severity in range(1, 6)},
+        )
+        for corruption in SEVERITIES
+    },
+}
+"""Factor name -> its transforms at intensity ``x``."""
 
 
-def env_names() -> list[str]:
-    """All dm_control suite tasks as vigen env names, ``"dmc/<domain>-<task>"``, plus DrQ-v2's ``cup`` alias.
+def dmc_tasks() -> list[str]:
+    """The ``"<domain>-<task>"`` names of every dm_control suite task (imports dm_control)."""
+    from vigen.envs.dmc_env import task_names
 
-    Examples:
-        >>> from vigen.envs.dmc import env_names
-        >>> "dmc/walker-walk" in env_names()
-        True
-    """
-    names = [f"dmc/{domain}-{task}" for domain, task in suite.ALL_TASKS]
-    aliases = {full: short for short, full in DOMAIN_ALIASES.items()}
-    return names + [f"dmc/{aliases[d]}-{t}" for d, t in suite.ALL_TASKS if d in aliases]
+    return task_names()
 
 
-def make_named(env: str, **kwargs: Any) -> TransformedEnv:
-    """Build ``"dmc/<domain>-<task>"`` from its ``"<domain>-<task>"`` part; see :func:`make_dmc_env`."""
-    domain, _, task = env.partition("-")
-    return make_dmc_env(domain, task, **kwargs)
+def build_dmc_base(task: str, *, seed: int | None = None, **options: Any) -> Any:
+    """The raw-frame base env of ``"dmc/<task>"`` (imports dm_control)."""
+    from vigen.envs.dmc_env import build_dmc_base as build
 
-
-class ActionRepeat(dm_env.Environment):
-    """Repeats each action ``repeat`` times and cuts episodes at ``episode_length`` control steps.
-
-    Rewards are summed and discounts multiplied over the repeated steps, as in DrQ-v2's
-    ``ActionRepeatWrapper``. Reaching ``episode_length`` returns a ``LAST`` step with the
-    discount of the last transition (1 unless the task terminated), which TorchRL reads as a
-    truncation. The wrapped env's own time limit should be lifted so that this is the only one.
-
-    Args:
-        env: a dm_control ``control.Environment``.
-        repeat: simulator steps per agent step.
-        episode_length: simulator steps per episode.
-
-    Examples:
-        >>> from dm_control import suite
-        >>> env = ActionRepeat(suite.load("cartpole", "balance", task_kwargs={"time_limit": float("inf")}), 2, 10)
-        >>> first = env.reset()
-        >>> steps = [env.step([0.0]) for _ in range(5)]  # 5 agent steps = 10 simulator steps
-        >>> [step.last() for step in steps], steps[-1].discount
-        ([False, False, False, False, True], 1.0)
-    """
-
-    def __init__(self, env: Any, repeat: int, episode_length: int) -> None:
-        if repeat < 1:
-            raise ValueError(f"action_repeat must be at least 1, got {repeat}.")
-        if episode_length < 1:
-            raise ValueError(f"episode_length must be at least 1 simulator step, got {episode_length}.")
-        self._env = env
-        self._repeat = repeat
-        self._episode_length = episode_length
-        self._elapsed = 0
-        self._needs_reset = True
-
-    @property
-    def physics(self) -> Any:
-        return self._env.physics
-
-    @property
-    def task(self) -> Any:
-        return self._env.task
-
-    def reset(self) -> dm_env.TimeStep:
-        self._elapsed = 0
-        self._needs_reset = False
-        return self._env.reset()
-
-    def step(self, action: Any) -> dm_env.TimeStep:
-        if self._needs_reset:
-            return self.reset()
-        reward, discount = 0.0, 1.0
-        for _ in range(self._repeat):
-            time_step = self._env.step(action)
-            self._elapsed += 1
-            reward += time_step.reward or 0.0
-            discount *= time_step.discount
-            if time_step.last() or self._elapsed >= self._episode_length:
-                self._needs_reset = True
-                return dm_env.TimeStep(dm_env.StepType.LAST, reward, discount, time_step.observation)
-        return time_step._replace(reward=reward, discount=discount)
-
-    def observation_spec(self) -> Any:
-        return self._env.observation_spec()
-
-    def action_spec(self) -> Any:
-        return self._env.action_spec()
-
-    def reward_spec(self) -> Any:
-        return self._env.reward_spec()
-
-    def discount_spec(self) -> Any:
-        return self._env.discount_spec()
-
-    def close(self) -> None:
-        self._env.close()
+    return build(task, seed=seed, **options)
 
 
 class DMCScene:
     """The :class:`~vigen.transforms.scene.SceneHandle` of a dm_control physics.
 
     Examples:
-        >>> from vigen.envs.dmc import DMCPixelEnv
+        >>> from vigen.envs.dmc_env import DMCPixelEnv
         >>> scene = DMCPixelEnv("walker", "walk", image_size=64).scene
         >>> scene.model.ntex, scene.data.time
         (2, 0.0)
@@ -172,109 +188,21 @@ class DMCScene:
                 ctx.call(mujoco.mjr_uploadTexture, self.model, contexts.mujoco.ptr, texture_id)
 
 
-class DMCPixelEnv(DMControlWrapper):
-    """A dm_control suite task rendered to uint8 HWC frames, with the action repeat under the renderer.
-
-    The TorchRL base env of :func:`make_dmc_env` (which adds channel-first frames, frame stacking
-    and float32 actions and rewards). It follows TorchRL's ``DMControlWrapper`` for specs, seeding
-    and flags: an episode that ends with discount 1 (the time limit) is ``truncated``, one that
-    ends with discount 0 is ``terminated``. :attr:`physics` is the live MuJoCo model, data and
-    render contexts, for scene perturbations.
-
-    Args:
-        domain: suite domain, e.g. ``"walker"`` (``"cup"`` is accepted for ``"ball_in_cup"``).
-        task: suite task, e.g. ``"walk"``.
-        action_repeat: simulator steps per agent step; only the last one is rendered.
-        image_size: height and width of the rendered frame.
-        camera_id: camera to render; ``None`` uses 2 for quadruped and 0 elsewhere (DrQ-v2).
-        episode_length: simulator steps per episode.
-        render_settings: MuJoCo render quality; ``None`` keeps dm_control's defaults.
-        seed: seed of the task's random state (initial poses and targets); ``None`` draws one.
-        device: device of the returned tensors.
-
-    Reference: DrQ-v2, https://arxiv.org/abs/2107.09645 (its ``dmc.py`` sets up the same env).
-
-    Examples:
-        >>> from vigen.envs.dmc import DMCPixelEnv
-        >>> env = DMCPixelEnv("walker", "walk", seed=0)
-        >>> env
-        DMCPixelEnv(walker-walk, camera_id=0, image_size=84, action_repeat=2, episode_length=1000)
-        >>> env.reset()["pixels"].shape, env.physics.model.ncam
-        (torch.Size([84, 84, 3]), 2)
-    """
-
-    def __init__(
-        self,
-        domain: str,
-        task: str,
-        *,
-        action_repeat: int = 2,
-        image_size: int = 84,
-        camera_id: int | None = None,
-        episode_length: int = 1000,
-        render_settings: RenderSettings | None = None,
-        seed: int | None = None,
-        device: torch.device | str = "cpu",
-    ) -> None:
-        check_env_arguments(
-            action_repeat=action_repeat, image_size=image_size, camera_id=camera_id, episode_length=episode_length, seed=seed
-        )
-        domain = DOMAIN_ALIASES.get(domain, domain)
-        if (domain, task) not in suite.ALL_TASKS:
-            raise ValueError(f"Unknown dm_control task {domain}-{task}. Valid names: {', '.join(env_names())}.")
-        camera_id = DEFAULT_CAMERAS.get(domain, 0) if camera_id is None else camera_id
-
-        control_env = suite.load(domain, task, task_kwargs={"random": seed, "time_limit": math.inf})
-        model = control_env.physics.model
-        if not 0 <= camera_id < model.ncam:
-            raise ValueError(f"camera_id={camera_id} does not exist: {domain} has cameras 0..{model.ncam - 1}.")
-        (render_settings or RenderSettings()).apply(model, image_size, image_size)
-        rendered = pixels.Wrapper(
-            ActionRepeat(control_env, action_repeat, episode_length),
-            pixels_only=True,
-            render_kwargs={"height": image_size, "width": image_size, "camera_id": camera_id},
-        )
-        super().__init__(rendered, device=device)
-        self.domain_name, self.task_name, self.camera_id = domain, task, camera_id
-        self.image_size, self.action_repeat, self.episode_length = image_size, action_repeat, episode_length
-
-    def _set_seed(self, seed: int | None) -> None:
-        """Seed the task as ``seed=`` does at build time: the next reset starts the seed's first episode.
-
-        TorchRL's ``DMControlWrapper`` seeds and then resets, which uses up that first episode.
-        """
-        super()._set_seed(seed)
-        if seed is not None:
-            self._env._env.task._random = np.random.RandomState(seed)
-
-    @property
-    def physics(self) -> Any:
-        """The live dm_control ``Physics``: MuJoCo model and data, and the render contexts."""
-        return self._env.physics
-
-    def render_frame(self) -> np.ndarray:
-        """The current view as uint8 ``[H, W, 3]``, rendered as the env renders its observations."""
-        return self.physics.render(self.image_size, self.image_size, camera_id=self.camera_id)
-
-    @property
-    def scene(self) -> DMCScene:
-        """The handle that scene perturbations (``vigen.transforms``) edit."""
-        return DMCScene(self._env.physics, self._segmentation_camera)
-
-    def _segmentation_camera(self) -> Camera:
-        """A camera kept for segmentation renders, without the shadow, reflection and sky passes they do not need."""
-        if getattr(self, "_segmentation_camera_cache", None) is None:
-            camera = Camera(self.physics, self.image_size, self.image_size, self.camera_id)
-            for flag in (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION, mujoco.mjtRndFlag.mjRND_SKYBOX):
-                camera.scene.flags[flag] = 0
-            self._segmentation_camera_cache = camera
-        return self._segmentation_camera_cache
-
-    def __repr__(self) -> str:
-        return (
-            f"{type(self).__name__}({self.domain_name}-{self.task_name}, camera_id={self.camera_id}, "
-            f"image_size={self.image_size}, action_repeat={self.action_repeat}, episode_length={self.episode_length})"
-        )
+DMC = Suite(
+    name="dmc",
+    about="dm_control suite tasks, dmc/<domain>-<task> (e.g. dmc/walker-walk)",
+    tasks=dmc_tasks,
+    build_base=build_dmc_base,
+    scene_handle=DMCScene,
+    levels=LEVELS,
+    groups=GROUPS,
+    factors=FACTORS,
+    example_task="walker-walk",
+    env_options={"action_repeat": 2, "image_size": 84, "camera_id": None, "episode_length": 1000, "render_settings": None,
+                 "device": "cpu"},
+    extra_transforms=lambda: (DoubleToFloat(),),
+)
+"""The dm_control suite record."""
 
 
 def make_dmc_env(
@@ -282,7 +210,7 @@ def make_dmc_env(
     task: str,
     *,
     frame_stack: int = 3,
-    generalization: str | Sequence[Transform] | None = None,
+    generalization: str | dict[str, float] | Sequence[Transform] | None = None,
     seed: int | None = None,
     level_options: dict[str, Any] | None = None,
     **env_options: Any,
@@ -295,21 +223,23 @@ def make_dmc_env(
         frame_stack: frames stacked along channels (``"pixels"`` is ``[3·frame_stack, H, W]``).
             Use 1 to store single frames and stack at replay-buffer sampling time
             (``CatFrames.make_rb_transform_and_sampler``), which takes a third of the memory.
-        generalization: a level name (see :mod:`vigen.envs.levels`, e.g. ``"color_hard"``;
-            ``None`` or ``"train"`` is the clean scene) or a list of vigen transforms. Scene
-            perturbations act on the raw frames, pixel corruptions on each frame before stacking.
+        generalization: a level name (:data:`LEVELS`, e.g. ``"color_hard"``; ``None`` or
+            ``"train"`` is the clean scene), a dict of factor intensities (:data:`FACTORS`, e.g.
+            ``{"camera_rotation": 0.3}``) or a list of vigen transforms. Scene perturbations act on
+            the raw frames, pixel corruptions on each frame before stacking.
         seed: seeds the task (initial poses and targets) and every perturbation of the env, the
             ``i``-th with ``derive_seed(seed, i)``; ``env.set_seed(seed)`` later does the same.
         level_options: passed to the level's transforms that accept them, e.g.
-            ``{"videos": "/data/dmcgb/video_hard"}`` or ``{"palette": ".../color_hard.pt"}``.
-        **env_options: options of :class:`DMCPixelEnv`: ``action_repeat`` (2), ``image_size``
-            (84), ``camera_id`` (2 for quadruped, else 0), ``episode_length`` (1000 simulator
-            steps), ``render_settings`` (dm_control's; :meth:`RenderSettings.fast` is ~3× faster
-            on CPU-only machines) and ``device``.
+            ``{"videos": "/data/dmcgb/video_hard"}`` or ``{"palette": ".../color_hard.pt"}``; a key no
+            transform of the suite takes raises, listing the valid ones.
+        **env_options: options of :class:`~vigen.envs.dmc_env.DMCPixelEnv`: ``action_repeat`` (2),
+            ``image_size`` (84), ``camera_id`` (2 for quadruped, else 0), ``episode_length`` (1000
+            simulator steps), ``render_settings`` (dm_control's; :meth:`RenderSettings.fast` is ~3×
+            faster on CPU-only machines) and ``device``.
 
     Returns:
-        A :class:`~vigen.envs.pixels.PixelEnv` (a ``TransformedEnv``) with uint8 ``"pixels"``, float32 ``"action"`` in [-1, 1] (task
-        bounds) and ``"reward"``, and ``"done"``/``"terminated"``/``"truncated"`` flags.
+        A :class:`~vigen.envs.pixels.PixelEnv` (a ``TransformedEnv``) with uint8 ``"pixels"``, float32
+        ``"action"`` in [-1, 1] (task bounds) and ``"reward"``, and ``"done"``/``"terminated"``/``"truncated"`` flags.
 
     Examples:
         >>> from vigen.envs.dmc import make_dmc_env
@@ -317,8 +247,5 @@ def make_dmc_env(
         >>> env.rollout(5)["pixels"].shape
         torch.Size([5, 9, 84, 84])
     """
-    checked = {name: env_options[name] for name in ("action_repeat", "image_size", "camera_id", "episode_length") if name in env_options}
-    check_env_arguments(frame_stack=frame_stack, seed=seed, **checked)
-    perturbations = make_perturbations(generalization, seed, **(level_options or {}))
-    base = DMCPixelEnv(domain, task, seed=seed, **env_options)
-    return stacked_pixel_env(base, perturbations, frame_stack, DoubleToFloat(), seed=seed)
+    return DMC.make(f"{domain}-{task}", frame_stack=frame_stack, generalization=generalization, seed=seed,
+                    level_options=level_options, **env_options)

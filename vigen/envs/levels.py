@@ -1,211 +1,330 @@
-"""Named generalization levels: which vigen transforms, with which exact parameters, each level applies.
+"""Levels as data: what a named level or a factor at some intensity applies, and how it is built.
 
-The registry is data: :data:`LEVELS` maps a level name to a list of ``(transform, parameters)``
-pairs (transform names from :mod:`vigen.transforms`), and :data:`GROUPS` names lists of levels.
-``docs/levels.md`` is generated from it (``python -m vigen.envs.levels > docs/levels.md``) and a
-test keeps the two equal.
+A :class:`Level` (``"color_hard"``, robosuite's ``"easy"``, DMC-GB2's ``"rotate_hard"``) and a
+:class:`Factor` (``"camera_rotation"`` at an intensity in [0, 1]) are lists of :class:`Step`:
+a transform class and its parameters. A parameter is a plain value, or a small named rule
+(:class:`Derived`) that reads the :class:`LevelContext` — the task, the scene id or the
+intensity — such as :class:`Scaled` (``0.05·x``) or :class:`ByTask`. Every suite declares its
+tables in its :class:`~vigen.envs.suite.Suite` record; ``docs/levels.md`` is generated from them
+(``python -m vigen.envs.levels > docs/levels.md``) and a test keeps the two equal.
+
+Examples:
+    >>> from vigen.envs.levels import LevelContext, Scaled, Step
+    >>> from vigen.transforms import RandomCamera
+    >>> step = Step(RandomCamera, {"position": 0.0, "rotation_deg": Scaled(90.0)})
+    >>> step.build(LevelContext("walker-walk", intensity=0.1))
+    RandomCamera(position=0.0, rotation_deg=9.0, fov_deg=None)
 """
 
 from __future__ import annotations
 
+import inspect
+import math
+import numbers
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 from torchrl.envs import Transform
 
-import vigen.transforms as transforms
-from vigen.envs.pixels import derive_seed
-from vigen.transforms.corruptions import SEVERITIES
 
-CORRUPTION_SOURCE = "ImageNet-C severities (Hendrycks & Dietterich 2019)"
+@dataclass(frozen=True)
+class LevelContext:
+    """What a level's parameters may depend on: the task, the scene id (robosuite's 0..9) and the factor intensity."""
 
-# name -> (what it shows, where it comes from, [(transform, parameters), ...])
-LEVELS: dict[str, tuple[str, str, list[tuple[str, dict[str, Any]]]]] = {
-    "train": ("the clean training scene", "all", []),
-    "color_easy": (
-        "floor, sky and agent colours: default + N(0, 0.1²) per channel",
-        "DMC-GB color_easy (statistics of its presets)",
-        [("RandomSceneColors", {"scale": 0.1})],
-    ),
-    "color_hard": (
-        "floor, sky and agent colours: default + N(0, 0.2²) per channel",
-        "DMC-GB color_hard (statistics of its presets)",
-        [("RandomSceneColors", {"scale": 0.2})],
-    ),
-    "objects_color_easy": (
-        "agent colour only: default + N(0, 0.1²)",
-        "RL-ViGen objects_color easy",
-        [("RandomSceneColors", {"scale": 0.1, "parts": ("self",)})],
-    ),
-    "objects_color_hard": (
-        "agent colour only: default + N(0, 0.2²)",
-        "RL-ViGen objects_color hard",
-        [("RandomSceneColors", {"scale": 0.2, "parts": ("self",)})],
-    ),
-    "floor_texture": (
-        "floor grid replaced by a texture image",
-        "RL-ViGen table_texture (labmaze and procedural textures)",
-        [("RandomTextures", {})],
-    ),
-    "video_easy": (
-        "sky replaced by a video, new frame every step",
-        "DMC-GB video_easy (procedural videos unless a folder is given)",
-        [("VideoBackground", {"floor": False})],
-    ),
-    "video_hard": (
-        "sky and floor replaced by a video, new frame every step",
-        "DMC-GB video_hard (procedural videos unless a folder is given)",
-        [("VideoBackground", {"floor": True})],
-    ),
-    "light_easy": (
-        "light position +{3, 4}, diffuse ± 0.2, light moving 0.01/step within ± 5",
-        "RL-ViGen light_position + light_color + moving_light, easy",
-        [("RandomLighting", dict(transforms.RandomLighting.LEVELS["easy"]))],
-    ),
-    "light_hard": (
-        "light position +{9, 10}, diffuse ± 10, light moving 0.05/step within ± 10",
-        "RL-ViGen light_position + light_color + moving_light, hard",
-        [("RandomLighting", dict(transforms.RandomLighting.LEVELS["hard"]))],
-    ),
-    "camera_easy": (
-        "camera moved ± 0.08, turned ± 9°, field of view −4° … +5°",
-        "RL-ViGen cam_pos easy; DCS camera scale 0.1; RL-ViGen Adroit FOV easy",
-        [("RandomCamera", {"position": 0.08, "rotation_deg": 9.0, "fov_deg": (-4.0, 5.0)})],
-    ),
-    "camera_hard": (
-        "camera moved ± 0.15, turned ± 27°, field of view ± 10°",
-        "RL-ViGen cam_pos hard; DCS camera scale 0.3; RL-ViGen Adroit FOV hard",
-        [("RandomCamera", {"position": 0.15, "rotation_deg": 27.0, "fov_deg": (-10.0, 10.0)})],
-    ),
-    **{
-        f"{corruption}_{severity}": (
-            f"{corruption.replace('_', ' ')}, severity {severity} of 5",
-            CORRUPTION_SOURCE,
-            [("PixelCorruption", {"corruption": corruption, "severity": severity})],
-        )
-        for corruption in SEVERITIES
-        for severity in range(1, 6)
-    },
-}
-
-GROUPS: dict[str, list[str]] = {
-    "dmcgb": ["color_easy", "color_hard", "video_easy", "video_hard"],
-    "rlvigen": [
-        "color_easy", "color_hard", "objects_color_easy", "objects_color_hard", "floor_texture",
-        "video_easy", "video_hard", "light_easy", "light_hard", "camera_easy", "camera_hard",
-    ],
-    "corruptions": [f"{c}_{s}" for c in SEVERITIES for s in range(1, 6)],
-    "all": list(LEVELS),
-}
+    task: str
+    scene_id: int = 0
+    intensity: float = 1.0
 
 
-def suite_levels(suite: str = "dmc") -> tuple[dict[str, Any], dict[str, list[str]]]:
-    """The level and group tables of a suite: this module's for ``dmc``, the suite module's ``LEVELS``/``GROUPS`` otherwise.
+class Derived:
+    """A parameter computed from the :class:`LevelContext` by a small named rule; ``repr`` is its formula.
 
-    Examples:
-        >>> from vigen.envs.levels import suite_levels
-        >>> levels, groups = suite_levels("robosuite")
-        >>> groups["rlvigen"]
-        ['easy', 'medium', 'hard']
+    Subclasses set :attr:`depends_on_scene` when the value follows the scene id, so an env can
+    move its level to another scene without rebuilding it.
     """
-    if suite == "dmc":
-        return LEVELS, GROUPS
-    from vigen.envs.registry import suite_module
 
-    module = suite_module(suite)
-    return module.LEVELS, module.GROUPS
+    depends_on_scene = False
+
+    def __call__(self, context: LevelContext) -> Any:
+        raise NotImplementedError
 
 
-def resolve_levels(names: str | list[str], suite: str = "dmc") -> list[str]:
-    """Expand group names (``dmcgb``, ``rlvigen``, ``corruptions``, ``all`` for ``dmc``) into level names, in order.
+@dataclass(frozen=True, repr=False)
+class ByTask(Derived):
+    """The value for the context's task, from a table.
 
     Examples:
-        >>> from vigen.envs.levels import resolve_levels
+        >>> ByTask({"door": ("door",), "lift": ("cube",)})(LevelContext("lift"))
+        ('cube',)
+    """
+
+    table: Mapping[str, Any]
+
+    def __call__(self, context: LevelContext) -> Any:
+        return self.table[context.task]
+
+    def __repr__(self) -> str:
+        return "by task: " + ", ".join(f"{task}: {value!r}" for task, value in self.table.items())
+
+
+@dataclass(frozen=True, repr=False)
+class SceneIndex(Derived):
+    """``offset + scene_id``: the scene's own draw, e.g. its texture set or its video.
+
+    Examples:
+        >>> SceneIndex(10)(LevelContext("door", scene_id=3))
+        13
+    """
+
+    offset: int = 0
+    depends_on_scene = True
+
+    def __call__(self, context: LevelContext) -> int:
+        return self.offset + context.scene_id
+
+    def __repr__(self) -> str:
+        return f"{self.offset} + scene_id" if self.offset else "scene_id"
+
+
+@dataclass(frozen=True, repr=False)
+class Scaled(Derived):
+    """``scale · x`` for the intensity ``x`` (a tuple scales each entry).
+
+    Examples:
+        >>> Scaled(0.5)(LevelContext("walk", intensity=0.2)), Scaled((1.0, 0.5))(LevelContext("walk", intensity=0.2))
+        (0.1, (0.2, 0.1))
+    """
+
+    scale: float | tuple[float, ...]
+
+    def __call__(self, context: LevelContext) -> float | tuple[float, ...]:
+        if isinstance(self.scale, tuple):
+            return tuple(s * context.intensity for s in self.scale)
+        return self.scale * context.intensity
+
+    def __repr__(self) -> str:
+        return f"{self.scale}·x"
+
+
+@dataclass(frozen=True, repr=False)
+class Span(Derived):
+    """``(-half · x, half · x)``: a symmetric range that widens with the intensity ``x``.
+
+    Examples:
+        >>> Span(40.0)(LevelContext("walk", intensity=0.25))
+        (-10.0, 10.0)
+    """
+
+    half: float
+
+    def __call__(self, context: LevelContext) -> tuple[float, float]:
+        return (-self.half * context.intensity, self.half * context.intensity)
+
+    def __repr__(self) -> str:
+        return f"±{self.half}·x"
+
+
+@dataclass(frozen=True, repr=False)
+class Severity(Derived):
+    """``⌈5 · x⌉``: an ImageNet-C severity (1..5) from the intensity ``x`` > 0.
+
+    Examples:
+        >>> [Severity()(LevelContext("walk", intensity=x)) for x in (0.1, 0.2, 0.5, 1.0)]
+        [1, 1, 3, 5]
+    """
+
+    def __call__(self, context: LevelContext) -> int:
+        return min(5, max(1, math.ceil(5 * context.intensity - 1e-9)))
+
+    def __repr__(self) -> str:
+        return "⌈5·x⌉"
+
+
+@dataclass(frozen=True, repr=False)
+class Choice(Derived):
+    """One of ``options`` by intensity: ``x`` in ``((i-1)/n, i/n]`` picks the ``i``-th (of ``n``).
+
+    Examples:
+        >>> [Choice(("IIWA", "Kinova3"))(LevelContext("door", intensity=x)) for x in (0.3, 0.5, 0.9)]
+        ['IIWA', 'IIWA', 'Kinova3']
+    """
+
+    options: tuple[Any, ...]
+
+    def __call__(self, context: LevelContext) -> Any:
+        index = math.ceil(context.intensity * len(self.options) - 1e-9) - 1
+        return self.options[min(len(self.options) - 1, max(0, index))]
+
+    def __repr__(self) -> str:
+        return f"one of {self.options!r} by x"
+
+
+def evaluate_value(value: Any, context: LevelContext) -> Any:
+    """A parameter's value in ``context``: a :class:`Derived` rule is applied, anything else is returned as it is."""
+    return value(context) if isinstance(value, Derived) else value
+
+
+@dataclass(frozen=True)
+class Step:
+    """One transform of a level: its class and its parameters (plain values or :class:`Derived` rules).
+
+    Examples:
+        >>> from vigen.transforms import RandomSceneColors
+        >>> Step(RandomSceneColors, {"scale": 0.2})
+        RandomSceneColors(scale=0.2)
+    """
+
+    transform: type[Transform]
+    params: Mapping[str, Any] = field(default_factory=dict)
+
+    def accepts(self) -> set[str]:
+        """The keyword arguments the transform's constructor takes (its real signature), without ``seed``."""
+        return accepted_options(self.transform)
+
+    def build(self, context: LevelContext, options: Mapping[str, Any] | None = None) -> Transform:
+        """The transform, with its parameters evaluated in ``context`` and the ``options`` it accepts on top."""
+        params = {name: evaluate_value(value, context) for name, value in self.params.items()}
+        params.update({name: value for name, value in (options or {}).items() if name in self.accepts()})
+        return self.transform(**params)
+
+    def scene_params(self, context: LevelContext) -> dict[str, Any]:
+        """The parameters that follow the scene id, evaluated in ``context`` (empty for most steps)."""
+        return {name: value(context) for name, value in self.params.items() if isinstance(value, Derived) and value.depends_on_scene}
+
+    def __repr__(self) -> str:
+        return f"{self.transform.__name__}({', '.join(f'{name}={value!r}' for name, value in self.params.items())})"
+
+
+def accepted_options(transform: type[Transform]) -> set[str]:
+    """The keyword arguments of ``transform``'s constructor, without ``seed`` (seeds are derived, never passed).
+
+    Examples:
+        >>> from vigen.transforms import VideoBackground
+        >>> {"videos", "floor"} <= accepted_options(VideoBackground), "seed" in accepted_options(VideoBackground)
+        (True, False)
+    """
+    parameters = inspect.signature(transform.__init__).parameters.values()
+    kinds = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    return {p.name for p in parameters if p.kind in kinds and p.name not in ("self", "seed")}
+
+
+@dataclass(frozen=True)
+class Level:
+    """A named level: what it shows, its source, its steps, and env options it sets (e.g. another robot).
+
+    Examples:
+        >>> from vigen.transforms import RandomSceneColors
+        >>> level = Level("agent colour", "RL-ViGen objects_color hard", (Step(RandomSceneColors, {"scale": 0.2, "parts": ("self",)}),))
+        >>> level.steps[0].transform.__name__
+        'RandomSceneColors'
+    """
+
+    what: str
+    source: str
+    steps: tuple[Step, ...] = ()
+    env_options: Mapping[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Factor:
+    """One factor of variation in a suite: its steps at intensity ``x`` (parameters may read ``x``), and env options.
+
+    ``points`` names the suite's levels that are this factor at one intensity (same transform,
+    same parameters), e.g. ``{"objects_color_hard": 0.2}``.
+    """
+
+    steps: tuple[Step, ...] = ()
+    env_options: Mapping[str, Any] = field(default_factory=dict)
+    points: Mapping[str, float] = field(default_factory=dict)
+
+
+def check_intensity(factor: str, intensity: Any) -> float:
+    """``intensity`` as a float in [0, 1], or a clear error naming the factor.
+
+    Examples:
+        >>> check_intensity("camera_rotation", 0.5)
+        0.5
+        >>> check_intensity("camera_rotation", 2)
+        Traceback (most recent call last):
+        ...
+        ValueError: Intensity of 'camera_rotation' must be in [0, 1] (0: off, 1: the strongest), got 2.
+    """
+    if isinstance(intensity, bool) or not isinstance(intensity, numbers.Real):
+        raise TypeError(f"Intensity of {factor!r} must be a number in [0, 1], got {intensity!r} ({type(intensity).__name__}).")
+    if not 0.0 <= float(intensity) <= 1.0 or math.isnan(float(intensity)):
+        raise ValueError(f"Intensity of {factor!r} must be in [0, 1] (0: off, 1: the strongest), got {intensity}.")
+    return float(intensity)
+
+
+def level_label(generalization: str | Mapping[str, float] | None) -> str:
+    """The row label of a level: its name, or ``factor=intensity`` joined by ``+`` (sorted by factor) for a factor dict.
+
+    Examples:
+        >>> level_label("color_hard"), level_label({"object_color": 0.5, "camera_rotation": 0.3}), level_label(None)
+        ('color_hard', 'camera_rotation=0.3+object_color=0.5', 'train')
+    """
+    if generalization is None:
+        return "train"
+    if isinstance(generalization, str):
+        return generalization
+    return "+".join(f"{name}={float(value):g}" for name, value in sorted(generalization.items()))
+
+
+def resolve_levels(names: str | Sequence[str], suite: str = "dmc") -> list[str]:
+    """Expand group names (e.g. ``dmcgb``, ``rlvigen``, ``all``) into level names of ``suite``, in order.
+
+    Examples:
         >>> resolve_levels(["train", "dmcgb"])
         ['train', 'color_easy', 'color_hard', 'video_easy', 'video_hard']
     """
-    levels, groups = suite_levels(suite)
-    names = [names] if isinstance(names, str) else list(names)
-    resolved: list[str] = []
-    for name in names:
-        if name in groups:
-            resolved += groups[name]
-        elif name in levels:
-            resolved.append(name)
-        else:
-            raise ValueError(
-                f"Unknown generalization level {name!r} for {suite}/ envs. Levels: {', '.join(levels)}. "
-                f"Groups: {', '.join(groups)}."
-            )
-    return list(dict.fromkeys(resolved))
+    from vigen.envs.registry import get_suite
 
-
-def level_transforms(level: str, seed: int | None = None, **overrides: Any) -> list[Transform]:
-    """The transforms of ``level``, the ``i``-th seeded with :func:`~vigen.envs.pixels.derive_seed` ``(seed, i)``.
-
-    ``overrides`` are passed to every transform of the level that accepts them, e.g.
-    ``videos="/data/dmcgb/video_hard"`` or ``palette=".../color_hard.pt"``.
-    """
-    if level not in LEVELS:
-        resolve_levels(level)  # raises the error that lists the names
-        raise ValueError(f"{level!r} is a group of levels, not one level: {GROUPS[level]}.")
-    built = []
-    for index, (name, parameters) in enumerate(LEVELS[level][2]):
-        cls = getattr(transforms, name)
-        accepted = {k: v for k, v in overrides.items() if k in cls.__init__.__code__.co_varnames}
-        built.append(cls(**parameters, **accepted, seed=derive_seed(seed, index)))
-    return built
+    return get_suite(suite).resolve_levels(names)
 
 
 def levels_markdown() -> str:
-    """The table of every level and its exact parameters (the content of ``docs/levels.md``)."""
+    """The tables of every suite's levels, groups and factors (the content of ``docs/levels.md``)."""
+    from vigen.envs.factors import FACTORS
+    from vigen.envs.registry import SUITES
 
-    def show(value: Any) -> str:
-        return repr(value).replace("|", "\\|")
+    def cell(text: Any) -> str:
+        return str(text).replace("|", "\\|")
+
+    def steps(steps: Sequence[Step], env_options: Mapping[str, Any]) -> str:
+        shown = [f"`{cell(repr(step))}`" for step in steps] + [f"env: `{cell(f'{k}={v!r}')}`" for k, v in env_options.items()]
+        return "; ".join(shown) or "—"
 
     lines = [
         "# Generalization levels",
         "",
-        "Generated from `vigen/envs/levels.py` by `python -m vigen.envs.levels > docs/levels.md`; a test keeps them equal.",
-        "Use a level with `make_env(name, generalization=level, seed=...)`.",
+        "Generated from the suites' level tables by `python -m vigen.envs.levels > docs/levels.md`; a test keeps them equal.",
+        "Use a level with `make_env(name, generalization=level, seed=...)`, factors with",
+        "`make_env(name, generalization={\"camera_rotation\": 0.3, ...}, seed=...)` (intensity `x` in [0, 1]; 0 is off).",
+        "`x` in a parameter is the factor's intensity; `scene_id` is the scene a level shows (robosuite: 0..9, `seed % 10` by default).",
         "",
-        "| level | what changes | transforms and exact parameters | source |",
-        "|---|---|---|---|",
+        "## Factors",
+        "",
+        "| factor | what changes | suites |",
+        "|---|---|---|",
     ]
-    for level, (what, source, steps) in LEVELS.items():
-        spec = "; ".join(f"`{name}({', '.join(f'{k}={show(v)}' for k, v in params.items())})`" for name, params in steps)
-        lines.append(f"| `{level}` | {what} | {spec or '—'} | {source} |")
-    lines += ["", "| group | levels |", "|---|---|"]
-    lines += [f"| `{group}` | {', '.join(f'`{name}`' for name in names)} |" for group, names in GROUPS.items()]
-    lines += _suite_markdown("robosuite", "robosuite/door", "the transforms for `robosuite/door`, scene 0")
-    lines += _suite_markdown("adroit", "adroit/door", "the transforms")
+    for name, what in FACTORS.items():
+        where = [suite_name for suite_name, suite in SUITES.items() if name in suite.factors]
+        lines.append(f"| `{name}` | {cell(what)} | {', '.join(where) or '—'} |")
+    for suite_name, suite in SUITES.items():
+        lines += ["", f"## {suite_name}/ — {cell(suite.about)}", "",
+                  f"Example: `make_env(\"{suite_name}/{suite.example_task}\", generalization=\"{next(iter(suite.levels))}\", seed=0)`.",
+                  "", "| level | what changes | transforms and exact parameters | source |", "|---|---|---|---|"]
+        for level_name, level in suite.levels.items():
+            lines.append(f"| `{level_name}` | {cell(level.what)} | {steps(level.steps, level.env_options)} | {cell(level.source)} |")
+        lines += ["", "| group | levels |", "|---|---|"]
+        lines += [f"| `{group}` | {', '.join(f'`{name}`' for name in names)} |" for group, names in suite.groups.items()]
+        lines += ["", "| factor | transforms at intensity x | named levels on it |", "|---|---|---|"]
+        for factor_name, factor in suite.factors.items():
+            points = ", ".join(f"`{level}` = {x:g}" for level, x in factor.points.items()) or "—"
+            lines.append(f"| `{factor_name}` | {steps(factor.steps, factor.env_options)} | {points} |")
     return "\n".join(lines) + "\n"
-
-
-def _suite_markdown(suite: str, example: str, shown: str) -> list[str]:
-    """The level table of another suite: what each level shows, its source, and the transforms (with their parameters)."""
-    from vigen.envs.registry import suite_module
-
-    module = suite_module(suite)
-    task = example.split("/", 1)[1]
-    lines = ["", f"## {suite}/ levels", "", f"Use a level with `make_env(\"{example}\", generalization=level, seed=...)`; "
-             f"the last column lists {shown}.", "", "| level | what changes | source | transforms |", "|---|---|---|---|"]
-    for level, (what, source) in module.LEVELS.items():
-        built = module.level_transforms(task, level) if suite == "robosuite" else module.level_transforms(level)
-        spec = "; ".join(f"`{transform!r}`".replace("|", "\\|") for transform in built)
-        lines.append(f"| `{level}` | {what} | {source} | {spec or '—'} |")
-    lines += ["", "| group | levels |", "|---|---|"]
-    lines += [f"| `{group}` | {', '.join(f'`{name}`' for name in names)} |" for group, names in module.GROUPS.items()]
-    return lines
 
 
 if __name__ == "__main__":
     print(levels_markdown(), end="")
-
-
-def make_perturbations(
-    generalization: str | list[Transform] | None, seed: int | None = None, **options: Any
-) -> list[Transform]:
-    """The transforms for ``make_env(..., generalization=...)``: a level name, a list of transforms, or ``None``."""
-    from vigen.envs.pixels import perturbations
-
-    return perturbations(generalization, lambda level: level_transforms(level, seed, **options))

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numbers
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 import torch
@@ -12,17 +12,11 @@ from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import CatFrames, Compose, EnvBase, ToTensorImage, Transform, TransformedEnv
 
 from vigen.envs.parallel import failures_recorded
+from vigen.seeding import ENV_SEED_LIMIT as SEED_LIMIT
+from vigen.seeding import derive_seed
 from vigen.transforms.augmentations.base import ImageAugmentation
 from vigen.transforms.scene import SceneTransform
 
-SEED_LIMIT = 2**32
-"""Env seeds lie in ``[0, 2**32)``: the range of NumPy's ``RandomState`` (dm_control) and of ``ParallelEnv``'s worker seeds."""
-
-DERIVED_SEED_LIMIT = 2**63
-"""Derived seeds are taken modulo this, so that they fit a ``torch.Generator`` and NumPy's generators."""
-
-SEED_STRIDE = 1_000_003
-"""A prime: ``derive_seed(seed, i)`` gives distinct streams for distinct seeds and indices."""
 
 POSITIVE_ARGUMENTS = {
     "image_size": "pixels per side of the rendered frame, e.g. image_size=84",
@@ -75,24 +69,6 @@ def _check_int(name: str, value: Any, low: int, hint: str, high: int | None = No
         raise ValueError(f"{name} must be {wanted}, got {value}. {hint}")
 
 
-def derive_seed(seed: int | None, *path: int) -> int | None:
-    """The seed of one stream below ``seed``: ``path`` names it (e.g. a transform's index in its env).
-
-    Each step folds one index in as ``seed * 1_000_003 + index`` (modulo ``2**63``), so distinct
-    seeds and paths give distinct streams and one index reproduces what vigen has always drawn.
-    ``None`` stays ``None`` (unseeded: the global RNG decides).
-
-    Examples:
-        >>> derive_seed(0, 1), derive_seed(2, 0), derive_seed(None, 3)
-        (1, 2000006, None)
-    """
-    if seed is None:
-        return None
-    for index in path:
-        seed = (seed * SEED_STRIDE + index) % DERIVED_SEED_LIMIT
-    return seed
-
-
 def flatten_transforms(transforms: Sequence[Transform]) -> list[Transform]:
     """``transforms`` with every ``Compose`` replaced by its transforms (recursively), in order.
 
@@ -125,15 +101,6 @@ def check_transforms(transforms: Sequence[Transform] | None) -> list[Transform]:
     return flatten_transforms(built)
 
 
-def perturbations(
-    generalization: str | Sequence[Transform] | None, level_transforms: Callable[[str], list[Transform]]
-) -> list[Transform]:
-    """The transforms of ``make_env(..., generalization=...)``: a level name's (built by ``level_transforms``) or the given ones."""
-    if isinstance(generalization, str):
-        return level_transforms(generalization)
-    return check_transforms(generalization)
-
-
 def seeded_transforms(transform: Transform) -> Iterator[Transform]:
     """The transforms of a chain that draw from their own seed (scene perturbations, image augmentations), in chain order."""
     if isinstance(transform, Compose):
@@ -144,18 +111,31 @@ def seeded_transforms(transform: Transform) -> Iterator[Transform]:
 
 
 class PixelEnv(TransformedEnv):
-    """A vigen pixel env: a ``TransformedEnv`` whose ``set_seed`` also reseeds its perturbations.
+    """A vigen pixel env: a ``TransformedEnv`` whose ``set_seed`` also reseeds its perturbations (and picks the scene).
 
     TorchRL's ``TransformedEnv.set_seed`` seeds the base env only. Here ``set_seed(s)`` seeds the
-    base env with ``s`` and then every scene perturbation and image augmentation of the chain,
+    base env with ``s`` and then every scene transform and image augmentation of the chain,
     the ``i``-th (in chain order) with :func:`derive_seed` ``(s, i)``, which is what
     ``make_env(..., seed=s)`` does at build time, so ``make_env(name, generalization=level).set_seed(s)``
     and ``make_env(name, generalization=level, seed=s)`` give the same episodes. ``ParallelEnv.set_seed``
     reaches it in each worker. ``set_seed(None)`` changes nothing.
 
+    Levels with several scenes (robosuite: RL-ViGen's 10 per level) show scene ``scene_id``.
+    Built without an explicit ``scene_id``, the scene follows the seed: ``set_seed(s)`` moves it
+    to ``s % scenes``, the scene ``make_env(..., seed=s)`` builds. An explicit ``scene_id`` stays
+    through ``set_seed``; :meth:`set_scene` changes it either way.
+
     With a ``failure_report`` path (:class:`vigen.envs.ParallelEnv` sets one in each worker),
     an exception raised by a step, a reset or ``set_seed`` first writes its traceback there,
     then propagates unchanged, so the parent process can show it.
+
+    Args:
+        base_env: the raw-frame env.
+        transform: its transform chain.
+        level: the built level (:class:`~vigen.envs.suite.BuiltLevel`), or ``None`` for user transforms.
+        scenes: how many scenes the suite's levels have.
+        scene_id: the scene shown now.
+        scene_follows_seed: whether ``set_seed(s)`` moves the level to scene ``s % scenes``.
 
     Examples:
         >>> from vigen.envs import make_env
@@ -168,14 +148,29 @@ class PixelEnv(TransformedEnv):
     failure_report: str | None = None
     """The file a failure of a step, reset or ``set_seed`` is written to (``None``: not written)."""
 
+    def __init__(self, base_env: EnvBase, transform: Transform | None = None, *, level: Any = None, scenes: int = 1,
+                 scene_id: int = 0, scene_follows_seed: bool = True, **kwargs: Any) -> None:
+        check_scene_id(scene_id, scenes)
+        super().__init__(base_env, transform, **kwargs)
+        self.level, self.scenes, self.scene_id, self.scene_follows_seed = level, scenes, int(scene_id), scene_follows_seed
+
     def set_seed(self, seed: int | None = None, static_seed: bool = False) -> int | None:
-        """Seed the base env and every perturbation of the chain from ``seed``; returns the next seed (TorchRL's rule)."""
+        """Seed the base env and every perturbation of the chain from ``seed`` (and move to scene ``seed % scenes``); returns the next seed."""
         with failures_recorded(self.failure_report):
             check_env_arguments(seed=seed)
+            if seed is not None and self.scene_follows_seed and self.scenes > 1:
+                self.set_scene(seed % self.scenes)
             next_seed = self.base_env.set_seed(seed, static_seed=static_seed)
             if seed is not None:
                 self.seed_transforms(seed)
             return next_seed
+
+    def set_scene(self, scene_id: int) -> None:
+        """Show the level's scene ``scene_id`` from the next reset on."""
+        check_scene_id(scene_id, self.scenes)
+        if self.level is not None:
+            self.level.select_scene(int(scene_id))
+        self.scene_id = int(scene_id)
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         with failures_recorded(self.failure_report):
@@ -186,8 +181,24 @@ class PixelEnv(TransformedEnv):
             return super()._reset(tensordict, **kwargs)
 
     def seed_transforms(self, seed: int) -> None:
-        """Reseed the chain's scene perturbations and image augmentations from ``seed``, the ``i``-th with ``derive_seed(seed, i)``."""
+        """Reseed the chain's scene transforms and image augmentations from ``seed``, the ``i``-th with ``derive_seed(seed, i)``."""
         seed_in_order(list(seeded_transforms(self.transform)), seed)
+
+
+def check_scene_id(scene_id: Any, scenes: int) -> None:
+    """Raise a clear error unless ``scene_id`` is an int in ``0..scenes-1``.
+
+    Examples:
+        >>> check_scene_id(3, 10)
+        >>> check_scene_id(10, 10)
+        Traceback (most recent call last):
+        ...
+        ValueError: scene_id selects one of the level's 10 scenes: 0..9, got 10.
+    """
+    if isinstance(scene_id, bool) or not isinstance(scene_id, numbers.Integral):
+        raise TypeError(f"scene_id must be an int in 0..{scenes - 1} (or None: seed % {scenes}), got {scene_id!r} ({type(scene_id).__name__}).")
+    if not 0 <= scene_id < scenes:
+        raise ValueError(f"scene_id selects one of the level's {scenes} scenes: 0..{scenes - 1}, got {scene_id}.")
 
 
 def seed_in_order(transforms: Sequence[Transform], seed: int | None) -> list[Transform]:
@@ -210,7 +221,6 @@ def stacked_pixel_env(
     frame_stack: int,
     *extra: Transform,
     seed: int | None = None,
-    env_class: type[PixelEnv] = PixelEnv,
     **env_options: Any,
 ) -> PixelEnv:
     """``base`` (uint8 HWC ``"pixels"``) with its perturbations, channel-first frames and a stack of ``frame_stack``.
@@ -219,7 +229,7 @@ def stacked_pixel_env(
     ``ToTensorImage`` (HWC → CHW, uint8 kept), then pixel perturbations on each frame, then
     ``CatFrames`` along channels, then ``extra`` transforms. With a ``seed``, the perturbations
     are seeded as :meth:`PixelEnv.set_seed` seeds them (the base env is seeded by its builder).
-    The env is an ``env_class`` (a :class:`PixelEnv` subclass of a suite) built with ``env_options``.
+    ``env_options`` go to :class:`PixelEnv` (the level and its scene).
     """
     check_env_arguments(frame_stack=frame_stack)
     transforms = check_transforms(transforms)
@@ -228,7 +238,7 @@ def stacked_pixel_env(
     chain += [t for t in transforms if not isinstance(t, SceneTransform)]
     if frame_stack > 1:
         chain.append(CatFrames(N=frame_stack, dim=-3, in_keys=["pixels"]))
-    env = env_class(base, Compose(*chain, *extra), **env_options)
+    env = PixelEnv(base, Compose(*chain, *extra), **env_options)
     if seed is not None:
         env.seed_transforms(seed)
     return env

@@ -1,25 +1,35 @@
-"""Env names: ``"<suite>/<env>"`` strings mapped to suite builders, with helpful errors for bad names.
+"""Env names: ``"<suite>/<task>"`` strings, each suite a :class:`~vigen.envs.suite.Suite` record.
 
-Each suite is a module of ``vigen.envs`` that provides ``env_names() -> list[str]`` (the full
-``"<suite>/<env>"`` names it builds) and ``make_named(env: str, **kwargs)`` (the builder for the
-part after the slash). Suites import their simulator only when used.
+The suite records are imported here directly; each imports its simulator only when its first
+env is built (robosuite and gymnasium-robotics are optional extras).
 """
 
 from __future__ import annotations
 
-import difflib
-import importlib
-from types import ModuleType
 from typing import Any
 
 from torchrl.envs import EnvBase
 
-SUITES: dict[str, tuple[str, str]] = {
-    "dmc": ("vigen.envs.dmc", "dm_control suite tasks, dmc/<domain>-<task> (e.g. dmc/walker-walk)"),
-    "robosuite": ("vigen.envs.robosuite", "robosuite manipulation, robosuite/<task> (e.g. robosuite/door); extra [robosuite]"),
-    "adroit": ("vigen.envs.adroit", "Adroit dexterous hand, adroit/<task> (door, hammer, pen); extra [adroit]"),
-}
-"""Suite prefix -> (module, description)."""
+from vigen.envs.adroit import ADROIT
+from vigen.envs.dmc import DMC
+from vigen.envs.robosuite import ROBOSUITE
+from vigen.envs.suite import Suite
+
+SUITES: dict[str, Suite] = {suite.name: suite for suite in (DMC, ROBOSUITE, ADROIT)}
+"""Suite prefix -> its record."""
+
+
+def get_suite(name: str) -> Suite:
+    """The suite of a prefix (``"dmc"``) or an env name (``"dmc/walker-walk"``); unknown ones raise listing the suites.
+
+    Examples:
+        >>> get_suite("dmc/walker-walk").name
+        'dmc'
+    """
+    prefix = name.split("/", 1)[0] if isinstance(name, str) else name
+    if prefix not in SUITES:
+        raise ValueError(f"Unknown suite {prefix!r}. {_suites_hint()}")
+    return SUITES[prefix]
 
 
 def available_envs(suite: str | None = None) -> list[str]:
@@ -30,19 +40,33 @@ def available_envs(suite: str | None = None) -> list[str]:
         >>> "dmc/cheetah-run" in available_envs("dmc")
         True
     """
-    prefixes = list(SUITES) if suite is None else [suite]
-    return [name for prefix in prefixes for name in suite_module(prefix).env_names()]
+    suites = list(SUITES.values()) if suite is None else [get_suite(suite)]
+    return [name for record in suites for name in record.env_names()]
+
+
+def factors(name: str) -> list[str]:
+    """The factor names a suite (``"dmc"``) or an env (``"dmc/walker-walk"``) supports, for ``generalization={factor: x}``.
+
+    Examples:
+        >>> from vigen.envs import factors
+        >>> "camera_rotation" in factors("dmc/walker-walk")
+        True
+    """
+    return list(get_suite(name).factors)
 
 
 def make_env(name: str, **kwargs: Any) -> EnvBase:
     """Build a TorchRL pixel env from its vigen name.
 
     Args:
-        name: ``"<suite>/<env>"``, e.g. ``"dmc/walker-walk"``; :func:`available_envs` lists them.
-        **kwargs: forwarded to the suite's builder (for ``dmc/``: :func:`vigen.envs.dmc.make_dmc_env`,
-            e.g. ``seed``, ``frame_stack``, ``action_repeat``, ``camera_id``, ``render_settings``; for
-            ``robosuite/``: :func:`vigen.envs.robosuite.make_robosuite_env`; for ``adroit/``:
-            :func:`vigen.envs.adroit.make_adroit_env`).
+        name: ``"<suite>/<task>"``, e.g. ``"dmc/walker-walk"``; :func:`available_envs` lists them.
+        **kwargs: :meth:`Suite.make <vigen.envs.suite.Suite.make>`'s arguments: ``generalization``
+            (a level name, a dict of factor intensities, or a list of transforms), ``seed``,
+            ``frame_stack``, ``level_options``, ``scene_id`` (suites with scenes), and the suite's
+            env options (for ``dmc/``: :func:`vigen.envs.dmc.make_dmc_env`'s, e.g. ``image_size``,
+            ``action_repeat``, ``camera_id``, ``render_settings``; for ``robosuite/``:
+            :func:`vigen.envs.robosuite.make_robosuite_env`'s; for ``adroit/``:
+            :func:`vigen.envs.adroit.make_adroit_env`'s).
 
     ``make_env`` is a module-level function, so ``functools.partial(make_env, name, ...)`` pickles
     and can be handed to ``ParallelEnv`` and TorchRL's multiprocess collectors.
@@ -52,27 +76,17 @@ def make_env(name: str, **kwargs: Any) -> EnvBase:
         >>> env = make_env("dmc/walker-walk", seed=0)
         >>> env.rollout(3)["pixels"].dtype
         torch.uint8
+        >>> env = make_env("dmc/walker-walk", generalization={"camera_rotation": 0.3}, seed=0, image_size=32)
+        >>> env.level.label
+        'camera_rotation=0.3'
     """
     if not isinstance(name, str) or "/" not in name:
         raise ValueError(
-            f"Env names look like '<suite>/<env>' (e.g. 'dmc/walker-walk'), got {name!r}. {_suites_hint()}"
+            f"Env names look like '<suite>/<task>' (e.g. 'dmc/walker-walk'), got {name!r}. {_suites_hint()}"
         )
-    suite, env = name.split("/", 1)
-    module = suite_module(suite)
-    valid = module.env_names()
-    if name not in valid:
-        close = difflib.get_close_matches(name, valid, n=3, cutoff=0.6)
-        hint = f" Did you mean {' or '.join(close)}?" if close else ""
-        raise ValueError(f"Unknown env {name!r}.{hint} Valid names: {', '.join(valid)}.")
-    return module.make_named(env, **kwargs)
-
-
-def suite_module(suite: str) -> ModuleType:
-    """The module that builds a suite's envs (and holds its ``LEVELS`` unless it is ``dmc``)."""
-    if suite not in SUITES:
-        raise ValueError(f"Unknown suite {suite!r}. {_suites_hint()}")
-    return importlib.import_module(SUITES[suite][0])
+    prefix, task = name.split("/", 1)
+    return get_suite(prefix).make(task, **kwargs)
 
 
 def _suites_hint() -> str:
-    return "Valid suites: " + "; ".join(f"{prefix} ({about})" for prefix, (_, about) in SUITES.items()) + "."
+    return "Valid suites: " + "; ".join(f"{prefix} ({suite.about})" for prefix, suite in SUITES.items()) + "."

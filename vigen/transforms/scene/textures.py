@@ -35,6 +35,8 @@ class RandomTextures(ScenePerturbation):
             at the first reset), a function that returns a bank (called at the first reset), or
             ``None`` for the built-in bank.
         scene_id: a scene id that fixes the draw for every episode, or ``None`` to draw per episode.
+        blend: weight of the new image, in [0, 1]: each texel is ``(1 - blend)·original + blend·image``
+            (1: replaced, vigen's levels; lower values are the ``*_texture`` factors' intensities).
         seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
 
     Examples:
@@ -49,9 +51,13 @@ class RandomTextures(ScenePerturbation):
         textures: str | Sequence[str] = "grid",
         images: ImageBank | str | os.PathLike | Callable[[], ImageBank] | None = None,
         scene_id: int | None = None,
+        blend: float = 1.0,
         seed: int | None = None,
     ) -> None:
+        if isinstance(blend, bool) or not isinstance(blend, (int, float)) or not 0.0 <= blend <= 1.0:
+            raise ValueError(f"RandomTextures: blend is the weight of the new image, a number in [0, 1]; got {blend!r}.")
         super().__init__(seed=seed)
+        self.blend = float(blend)
         if isinstance(images, (str, os.PathLike)) and not os.path.isdir(os.path.expanduser(images)):
             # checked here, not at the first reset: inside a ParallelEnv worker that error would only kill the worker
             raise FileNotFoundError(
@@ -88,7 +94,11 @@ class RandomTextures(ScenePerturbation):
     def apply(self, scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
         for index, (texture, image) in enumerate(zip(defaults["textures"], params["images"])):
             texture, image = int(texture), int(image)
-            pixels = defaults[f"original_{index}"] if image < 0 else self._texture_pixels(scene.model, texture, image)
+            original = defaults[f"original_{index}"]
+            pixels = original if image < 0 else self._texture_pixels(scene.model, texture, image)
+            if image >= 0 and self.blend < 1.0:
+                mixed = (1.0 - self.blend) * torch.from_numpy(original).float() + self.blend * torch.from_numpy(pixels).float()
+                pixels = mixed.round_().clamp_(0, 255).to(torch.uint8).numpy()
             texture_pixels(scene.model, texture)[:] = pixels
             scene.upload_texture(texture)
 
@@ -117,4 +127,5 @@ class RandomTextures(ScenePerturbation):
         else:
             source = images if isinstance(images, ImageBank) else (images or "builtin")
         scene = "" if self.scene_id is None else f", scene_id={self.scene_id}"
-        return f"textures={self.textures}, images={source!s}{scene}"
+        blend = "" if self.blend == 1.0 else f", blend={self.blend:g}"
+        return f"textures={self.textures}, images={source!s}{scene}{blend}"

@@ -1,0 +1,54 @@
+"""Golden frames: every named level renders what it rendered before the Suite redesign, bit for bit.
+
+``test/data/golden_frames.json`` was written by ``scripts/golden_frames.py`` at commit fcde993,
+before levels moved into the Suite records; it holds the SHA-256 of the frames of two short
+episodes per suite, task and level (seed 3, 48×48, fast rendering). A default run checks a
+sample of levels from every suite; ``-m matrix`` checks all 97.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+GOLDEN = json.loads((ROOT / "test" / "data" / "golden_frames.json").read_text())
+SAMPLE = {
+    "dmc/walker-walk:train", "dmc/walker-walk:color_hard", "dmc/walker-walk:video_hard", "dmc/walker-walk:camera_hard",
+    "dmc/walker-walk:light_easy", "dmc/walker-walk:floor_texture", "dmc/walker-walk:jpeg_compression_3",
+    "robosuite/lift:hard", "robosuite/door:camera_easy", "adroit/door:video_hard",
+}
+
+
+def load_script():
+    spec = importlib.util.spec_from_file_location("golden_frames", ROOT / "scripts" / "golden_frames.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def cases():
+    for key in GOLDEN["levels"]:
+        marks = [pytest.mark.render] if key in SAMPLE else [pytest.mark.render, pytest.mark.matrix]
+        yield pytest.param(key, marks=marks, id=key)
+
+
+def test_the_golden_file_covers_every_named_level_of_every_suite():
+    script = load_script()
+    assert {f"{name}:{level}" for name, level in script.cases()} == set(GOLDEN["levels"])
+    assert (GOLDEN["seed"], GOLDEN["image_size"], GOLDEN["play"]) == (script.SEED, script.IMAGE_SIZE, list(script.PLAY))
+
+
+@pytest.mark.parametrize("key", cases())
+def test_level_frames_equal_the_golden_frames(key: str):
+    name, level = key.split(":")
+    pytest.importorskip({"dmc": "dm_control", "robosuite": "robosuite", "adroit": "gymnasium_robotics"}[name.split("/")[0]])
+    script = load_script()
+    frames = script.play(name, level)
+    record, golden = script.record(frames), GOLDEN["levels"][key]
+    difference = np.abs(np.array(record["means"]) - np.array(golden["means"])).max()
+    assert record["sha256"] == golden["sha256"], f"{key}: frames changed (largest change of a frame's channel mean: {difference:.2f} of 255)"

@@ -1,0 +1,39 @@
+"""The shared factor vocabulary: one name per kind of visual change, each with an intensity in [0, 1].
+
+Every suite maps the factors that make sense for its scenes to transforms in its
+:class:`~vigen.envs.suite.Suite` record (``suite.factors``); ``make_env(name,
+generalization={"camera_rotation": 0.3, "object_color": 0.5})`` applies one or several.
+Intensity 0 leaves the factor off; 1 is the strongest setting vigen defines. Where a benchmark
+has an intensity scale (the Distracting Control Suite's ``s``), the factor uses it, so
+``camera_rotation`` at 0.1 / 0.2 / 0.3 is DCS easy / medium / hard.
+
+Examples:
+    >>> from vigen.envs.factors import FACTORS
+    >>> FACTORS["camera_rotation"]
+    'camera turned about its own axes by U(±90°·x) each (DCS: π/2·s)'
+"""
+
+from __future__ import annotations
+
+from vigen.transforms.corruptions import SEVERITIES
+
+FACTORS: dict[str, str] = {
+    "background_color": "floor, sky and walls recoloured: colour noise (std or mix weight) x",
+    "object_color": "the agent or the task objects recoloured: colour noise (std or mix weight) x",
+    "table_color": "the table recoloured: mix weight x of a random colour",
+    "floor_texture": "floor texture replaced by an image, blended with weight x",
+    "table_texture": "table texture replaced by an image, blended with weight x",
+    "object_texture": "object textures replaced by images, blended with weight x",
+    "video_background": "background replaced by a video, blended with alpha x (DCS video_alpha)",
+    "light_position": "lights moved by U(±x·range) per axis",
+    "light_color": "light diffuse colour offset by U(±x)",
+    "moving_light": "lights moving every step, speed ∝ x",
+    "camera_position": "camera moved by U(±x·range) per axis",
+    "camera_rotation": "camera turned about its own axes by U(±90°·x) each (DCS: π/2·s)",
+    "camera_fov": "field of view changed by U(±40°·x)",
+    "dynamic_camera": "DCS dynamic camera: pose drifting every step at scale x",
+    "dynamic_color": "DCS dynamic colours: every material's colour drifting every step at scale x",
+    "embodiment": "another robot arm with the same action space, further from the Panda as x grows",
+    **{name: f"pixel corruption {name.replace('_', ' ')}, severity ⌈5·x⌉ (ImageNet-C)" for name in SEVERITIES},
+}
+"""Factor name -> what it changes (and how the intensity ``x`` enters)."""
