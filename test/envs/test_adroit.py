@@ -199,6 +199,7 @@ def test_set_seed_equals_seed_at_build(level):
 
 
 @pytest.mark.slow
+@pytest.mark.matrix
 @pytest.mark.parametrize("level", [level for level in adroit.LEVELS if level not in ONE_LEVEL_PER_GROUP])
 def test_set_seed_equals_seed_at_build_every_level(level):
     check_set_seed_equals_seed_at_build(level)

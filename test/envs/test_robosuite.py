@@ -167,6 +167,7 @@ def test_cross_embodiment_keeps_the_panda_action_spec(robot):
 
 
 @pytest.mark.slow
+@pytest.mark.matrix
 @pytest.mark.parametrize("robot", suite.ROBOTS)
 def test_every_listed_robot_keeps_the_panda_action_spec(robot):
     assert make_env("robosuite/door", robot=robot, image_size=16, render_settings=FAST).action_spec == lift().action_spec
@@ -240,6 +241,7 @@ def test_set_seed_equals_seed_at_build_scene_included(level):
 
 
 @pytest.mark.slow
+@pytest.mark.matrix
 @pytest.mark.parametrize("level", OTHER_LEVELS)
 def test_set_seed_equals_seed_at_build_every_level(level):
     check_set_seed_equals_seed_at_build(level)

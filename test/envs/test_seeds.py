@@ -62,6 +62,7 @@ def test_set_seed_equals_seed_at_build(level):
 
 
 @pytest.mark.slow
+@pytest.mark.matrix
 @pytest.mark.parametrize("level", SLOW_LEVELS)
 def test_set_seed_equals_seed_at_build_every_level(level):
     check_set_seed_equals_seed_at_build(level)
