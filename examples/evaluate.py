@@ -9,6 +9,12 @@ method. The report folder (never overwritten: a new name is picked if it exists)
 ``episodes.csv`` (one row per episode), ``summary.csv``, ``report.md`` (levels × methods:
 IQM with its 95 % stratified-bootstrap CI, and RL-ViGen's mean ± std over runs) and
 ``levels.png`` (bars with 95 % CIs).
+
+``--sweep FACTOR I1 I2 ...`` (repeatable) adds one level per intensity of a factor (see
+``vigen.envs.factors``) and writes its robustness curve, ``intensity_<FACTOR>.png`` (IQM against
+intensity, one line per method, as the Distracting Control Suite plots them):
+
+    python examples/evaluate.py runs/svea-walker-walk-s0 --levels train --sweep camera_rotation 0 0.1 0.2 0.3 0.5
 """
 
 from __future__ import annotations
@@ -22,8 +28,9 @@ from tensordict.nn import TensorDictModuleBase
 from torchrl.data import Bounded
 
 from vigen.checkpoint import CheckpointError, load_checkpoint, newest_checkpoint
+from vigen.envs import factors
 from vigen.envs.levels import resolve_levels
-from vigen.evaluation import evaluate, markdown_table, plot_levels, summarize, write_csv
+from vigen.evaluation import evaluate, markdown_table, plot_intensity, plot_levels, summarize, sweep, write_csv
 from vigen.io import unused_path
 from vigen.losses import make_loss
 from vigen.policies import make_policy
@@ -40,6 +47,9 @@ def parse_args() -> argparse.Namespace:
                         help="levels or groups of the runs' suite (dmc: dmcgb, rlvigen, corruptions; robosuite: rlvigen, "
                              "camera, embodiment; adroit: rlvigen, camera, light); default: train and the suite's "
                              "dmcgb (dmc) or rlvigen group")
+    parser.add_argument("--sweep", nargs="+", action="append", default=[], metavar="FACTOR I1 I2",
+                        help="a factor and its intensities in [0, 1], e.g. --sweep camera_rotation 0 0.1 0.3; "
+                             "repeatable; adds their levels and an intensity_FACTOR.png curve")
     parser.add_argument("--episodes", type=int, default=10, help="episodes per level and seed")
     parser.add_argument("--seeds", nargs="+", type=int, default=[0],
                         help="env and level seeds (robosuite: also the scene, seed %% 10; RL-ViGen: --seeds 0 1 ... 9)")
@@ -47,7 +57,20 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--videos", default=None, help="a folder of videos for the video levels (default: procedural)")
     parser.add_argument("--episode-length", type=int, default=None, help="simulator steps per episode (default: the run's)")
     parser.add_argument("--out", type=Path, default=Path("reports/evaluation"))
-    return parser.parse_args()
+    args = parser.parse_args()
+    args.sweep = [parse_sweep(items) for items in args.sweep]
+    return args
+
+
+def parse_sweep(items: list[str]) -> list[dict[str, float]]:
+    """``["camera_rotation", "0", "0.1"]`` -> the sweep's levels, or an exit naming what is wrong."""
+    factor, *values = items
+    try:
+        return sweep(factor, [float(value) for value in values])
+    except (TypeError, ValueError) as error:
+        if not values:
+            error = f"give the intensities after the factor, e.g. --sweep {factor} 0 0.1 0.3"
+        raise SystemExit(f"--sweep {' '.join(items)}: {error}") from None
 
 
 def load_agent(path: Path) -> tuple[dict, TensorDictModuleBase]:
@@ -84,6 +107,11 @@ def main() -> None:
             levels[config["env"]] = resolve_levels(args.levels or ["train", DEFAULT_GROUPS.get(suite, "all")], suite=suite)
         except ValueError as error:
             raise SystemExit(str(error)) from None
+        for swept in args.sweep:
+            if swept[0].factor not in factors(config["env"]):
+                raise SystemExit(f"--sweep {swept[0].factor}: not a factor of {config['env']}; its factors are "
+                                 f"{', '.join(factors(config['env']))}.")
+            levels[config["env"]] += swept
     rows = []
     for config, policy in agents:
         length = args.episode_length or config.get("episode_length")
@@ -110,8 +138,13 @@ def main() -> None:
         report += f"\n## Success rate (%)\n\n{markdown_table(success)}\n"
     (out / "report.md").write_text(report)
     plot_levels(lines, out / "levels.png", title=f"{task}: zero-shot IQM per level (95 % CI)")
+    swept_factors = dict.fromkeys(swept[0].factor for swept in args.sweep)
+    curves = [plot_intensity(lines, out / f"intensity_{factor}.png", factor=factor,
+                             title=f"{task}: IQM against {factor} (95 % CI)").name for factor in swept_factors]
+    if curves:
+        (out / "report.md").write_text(report + "\n## Robustness curves\n\n" + "".join(f"![{name}]({name})\n" for name in curves))
     print(markdown_table(lines))
-    print(f"\nwrote {out}/: episodes.csv, summary.csv, report.md, levels.png")
+    print(f"\nwrote {out}/: {', '.join(['episodes.csv', 'summary.csv', 'report.md', 'levels.png', *curves])}")
 
 
 if __name__ == "__main__":
