@@ -14,7 +14,15 @@ from torchrl.envs.utils import check_env_specs
 
 from vigen.envs import make_env
 from vigen.rendering import RenderSettings
-from vigen.transforms import RandomCamera, RandomLighting, RandomMaterialColors, RandomSceneColors, load_dmcgb_palette
+from vigen.transforms import (
+    RandomCamera,
+    RandomLighting,
+    RandomMaterialColors,
+    RandomSceneColors,
+    VideoBackground,
+    VideoSource,
+    load_dmcgb_palette,
+)
 
 pytestmark = pytest.mark.render
 
@@ -182,3 +190,66 @@ def test_palette_loader_refuses_code(tmp_path):
         load_dmcgb_palette(bad)
     with pytest.raises(FileNotFoundError, match="does not exist"):
         load_dmcgb_palette(tmp_path / "missing.pt")
+
+
+def test_video_background_bounce_turns_at_the_ends_as_dcs():
+    # distracting_control/background.py step(): i += d; i <= 0 -> i = 0, d = +1; i >= n -> i = n - 1, d = -1
+    video = VideoBackground(VideoSource.procedural(count=2, max_frames=3), playback="bounce")
+    video.params = {"video": 0, "frame": None, "start": 0.5, "direction": 1}
+    assert [video.next_frame(3) for _ in range(9)] == [1, 2, 2, 1, 0, 1, 2, 2, 1]
+    video.params = {"video": 0, "frame": None, "start": 0.0, "direction": -1}
+    assert [video.next_frame(3) for _ in range(4)] == [0, 0, 1, 2]
+    static = VideoBackground(VideoSource.procedural(count=2, max_frames=3), playback="static")
+    static.params = {"video": 1, "frame": None, "start": 0.99, "direction": 1}
+    assert [static.next_frame(3) for _ in range(3)] == [2, 2, 2]
+
+
+def test_video_background_dcs_draws_a_random_video_of_the_first_n():
+    video = VideoBackground(VideoSource.procedural(count=5, max_frames=3), playback="static", num_videos=3, seed=0)
+    draws = [video.sample(video.generator()) for _ in range(300)]
+    assert {d["video"] for d in draws} == {0, 1, 2}, "DCS: choice over the first num_videos videos"
+    starts = np.array([d["start"] for d in draws])
+    assert starts.min() >= 0 and starts.max() < 1 and starts.min() < 0.02 and starts.max() > 0.98
+    assert {d["direction"] for d in draws} == {-1, 1}
+    again = VideoBackground(VideoSource.procedural(count=5, max_frames=3), playback="static", num_videos=3, seed=0)
+    assert [again.sample(again.generator()) for _ in range(300)] == draws
+    forward = VideoBackground(VideoSource.procedural(count=5, max_frames=3), num_videos=2, seed=0)
+    videos = []
+    for _ in range(4):
+        forward.params = forward.sample(forward.generator())
+        videos.append(forward.params["video"])
+    assert sorted(set(videos)) == [0, 1] and videos[1] == (videos[0] + 1) % 2, "forward: in order over the first 2"
+    for kwargs, match in [(dict(playback="loop"), "playback must be one of"), (dict(alpha=1.5), "alpha"),
+                          (dict(num_videos=0), "num_videos"), (dict(num_videos=6), "num_videos=6")]:
+        with pytest.raises(ValueError, match=match):
+            VideoBackground(VideoSource.procedural(count=5, max_frames=3), **kwargs)
+
+
+def test_video_background_playbacks_composite_the_expected_frames():
+    source = VideoSource.procedural(count=2, max_frames=4)
+
+    def run(**kwargs):
+        video = VideoBackground(source, **kwargs)
+        env = make_env("dmc/walker-walk", generalization=[video], seed=0, frame_stack=1, image_size=32, render_settings=FAST)
+        clean = make_env("dmc/walker-walk", seed=0, frame_stack=1, image_size=32, render_settings=FAST)
+        frames, expected = [], []
+        states = env.reset(), clean.reset()
+        for step in range(4):
+            if step:
+                states = tuple(e.step(s.set("action", torch.zeros(6)))["next"] for e, s in zip((env, clean), states))
+            mask = torch.from_numpy(video.background_mask(env.base_env.scene))[..., None]
+            frames.append(states[0]["pixels"].permute(1, 2, 0))
+            expected.append((mask, states[1]["pixels"].permute(1, 2, 0), source.frames(video.params["video"], 32, 32)))
+        return video, frames, expected
+
+    # forward (DMC-GB, the default): frame t at step t, replacing the background
+    video, frames, expected = run()
+    for t, (frame, (mask, clean, clip)) in enumerate(zip(frames, expected)):
+        assert torch.equal(frame, torch.where(mask, clip[t % 4], clean))
+    # static (DCS): one frame for the episode; alpha blends (1 - a) * render + a * video, truncated as DCS does
+    video, frames, expected = run(playback="static", alpha=0.5)
+    index = video.params["frame"]
+    for frame, (mask, clean, clip) in zip(frames, expected):
+        blend = (0.5 * clip[index].float() + 0.5 * clean.float()).to(torch.uint8)
+        assert torch.equal(frame, torch.where(mask, blend, clean))
+    assert "playback='static', alpha=0.5" in repr(video)

@@ -38,6 +38,7 @@ from vigen.transforms.augmentations import (
     RandomShift,
 )
 from vigen.transforms.corruptions import PixelCorruption
+from vigen.transforms.scene import DistractingCamera, DistractingColors, DMCGB2Camera
 from vigen.transforms.scene import (
     RandomCamera,
     RandomLighting,
@@ -51,6 +52,7 @@ from vigen.transforms.scene import (
 )
 
 __all__ = [
+    "DMCGB2Camera", "DistractingCamera", "DistractingColors",
     "CenterCrop",
     "ImageAugmentation",
     "ImageBank",

@@ -10,12 +10,15 @@ segmentation shows background. This room may import torch, torchrl, numpy and mu
 from vigen.transforms.scene.base import SceneHandle, ScenePerturbation, SceneTransform
 from vigen.transforms.scene.camera import RandomCamera
 from vigen.transforms.scene.colors import RandomSceneColors
+from vigen.transforms.scene.distracting import DistractingCamera, DistractingColors
+from vigen.transforms.scene.dmcgb2_camera import DMCGB2Camera
 from vigen.transforms.scene.lighting import RandomLighting
 from vigen.transforms.scene.material_colors import RandomMaterialColors
 from vigen.transforms.scene.textures import RandomTextures
 from vigen.transforms.scene.video import VideoBackground
 
 __all__ = [
+    "DMCGB2Camera", "DistractingCamera", "DistractingColors",
     "RandomCamera",
     "RandomLighting",
     "RandomMaterialColors",

@@ -14,6 +14,8 @@ from torch import Tensor
 from vigen.assets.video_source import VideoSource
 from vigen.transforms.scene.base import SceneHandle, SceneParams, SceneTransform
 
+PLAYBACKS = ("forward", "static", "bounce")
+
 
 class VideoBackground(SceneTransform):
     """Replace the background of every frame with the current frame of a video (DMC-GB ``video_easy/hard``).
@@ -28,9 +30,24 @@ class VideoBackground(SceneTransform):
     (robosuite's ``eval-hard``: the walls). Background pixels are found with
     the model's own segmentation of the same camera view (pixels that hit no object, plus
     ground planes with ``floor=True``), never by colour: DMC-GB keys on a green sky and
-    RL-ViGen on pure black, which also replaces agent pixels of that colour. Videos are taken in
-    order, one per episode (DMC-GB), starting from a seeded index; the frame advances every step
-    and wraps.
+    RL-ViGen on pure black, which also replaces agent pixels of that colour.
+
+    ``playback`` says which frames an episode shows:
+
+    * ``"forward"`` (DMC-GB): videos taken in order, one per episode, starting from a seeded
+      index; the first frame at reset, then one frame forward per step, wrapping;
+    * ``"static"`` (Distracting Control Suite, static): a random video and one random frame of it
+      for the whole episode;
+    * ``"bounce"`` (Distracting Control Suite, dynamic): a random video, a random start frame and
+      direction (±1), one frame per step, turning at the ends as DCS's ``background.py`` does
+      (index ``i += d``; at ``i <= 0``: ``i = 0, d = +1``; at ``i >= n``: ``i = n - 1, d = -1``).
+
+    ``alpha`` is DCS's ``video_alpha``: background pixels become ``(1 - α)·render + α·video``
+    (truncated to the frame's integer type, as DCS does); 1 replaces them. ``num_videos`` keeps
+    only the first videos of the source (DCS: the first 2 to 8 DAVIS videos at low scales, see
+    ``DCS_NUM_VIDEOS``). DCS draws the frame into the skybox texture and makes the floor grid
+    semi-transparent; vigen composites by segmentation as above (``floor=True`` replaces the
+    floor fully).
 
     The transform composites the env's raw ``[H, W, 3]`` frames, so it must sit before
     ``ToTensorImage`` (and frame stacking): ``make_env(..., generalization="video_hard")`` or
@@ -47,6 +64,9 @@ class VideoBackground(SceneTransform):
         background: name prefixes of more geoms to replace, e.g. ``("wall",)``.
         video: play this video (index into ``videos``, wrapped) in every episode instead of
             taking them in turn (RL-ViGen's robosuite ``eval-hard``: the scene id).
+        playback: ``"forward"``, ``"static"`` or ``"bounce"`` (see above).
+        alpha: weight of the video on background pixels, in [0, 1].
+        num_videos: use only the first ``num_videos`` videos (``None``: all).
         seed: see :class:`~vigen.transforms.scene.SceneTransform`.
 
     Examples:
@@ -54,6 +74,9 @@ class VideoBackground(SceneTransform):
         >>> env = make_env("dmc/walker-walk", generalization="video_hard", seed=0)
         >>> env.rollout(3)["pixels"].shape
         torch.Size([3, 9, 84, 84])
+        >>> dcs = VideoBackground(playback="bounce", alpha=0.5, num_videos=2, seed=0)
+        >>> make_env("dmc/walker-walk", generalization=[dcs], image_size=32).rollout(3)["pixels"].shape
+        torch.Size([3, 9, 32, 32])
     """
 
     def __init__(
@@ -62,12 +85,25 @@ class VideoBackground(SceneTransform):
         floor: bool = False,
         background: Sequence[str] = (),
         video: int | None = None,
+        playback: str = "forward",
+        alpha: float = 1.0,
+        num_videos: int | None = None,
         seed: int | None = None,
     ) -> None:
+        if playback not in PLAYBACKS:
+            raise ValueError(f"VideoBackground: playback must be one of {PLAYBACKS}, got {playback!r}.")
+        if isinstance(alpha, bool) or not isinstance(alpha, (int, float)) or not 0.0 <= alpha <= 1.0:
+            raise ValueError(f"VideoBackground: alpha is the video's weight on background pixels, in [0, 1]; got {alpha!r}.")
+        if num_videos is not None and (isinstance(num_videos, bool) or not isinstance(num_videos, int) or num_videos < 1):
+            raise ValueError(f"VideoBackground: num_videos is a count >= 1 or None (all videos), got {num_videos!r}.")
         super().__init__(seed=seed, in_keys=["pixels"])
         self.videos = videos if isinstance(videos, VideoSource) else (
             VideoSource.procedural() if videos is None else VideoSource.from_folder(videos)
         )
+        if num_videos is not None and num_videos > len(self.videos):
+            raise ValueError(f"VideoBackground: num_videos={num_videos} but the source has {len(self.videos)} videos; "
+                             "pass at most that many, or None for all.")
+        self.playback, self.alpha, self.num_videos = playback, float(alpha), num_videos
         self.floor = floor
         self.background = tuple(background)
         self.video = video
@@ -85,11 +121,41 @@ class VideoBackground(SceneTransform):
         return self._geoms
 
     def sample(self, rng: np.random.Generator) -> SceneParams:
-        """The episode's video (the next in order, the first one drawn from ``rng``; or the fixed ``video``) from its first frame."""
+        """The episode's video and where its playback starts.
+
+        ``forward``: the next video in order (the first one drawn from ``rng``; or the fixed
+        ``video``) from its first frame. ``static`` / ``bounce``: a uniformly drawn video (or the
+        fixed one), a start drawn uniformly over its frames (``start`` in [0, 1), resolved once
+        the frames are decoded) and, for ``bounce``, a direction ±1.
+        """
+        count = self.num_videos or len(self.videos)
+        if self.playback != "forward":
+            video = self.video % count if self.video is not None else int(rng.integers(count))
+            start, direction = float(rng.random()), 2 * int(rng.integers(2)) - 1
+            return {"video": video, "frame": None, "start": start, "direction": direction}
         if self.video is not None:
             return {"video": self.video % len(self.videos), "frame": 0}
-        previous = self.params["video"] if self.params is not None else int(rng.integers(len(self.videos))) - 1
-        return {"video": (previous + 1) % len(self.videos), "frame": 0}
+        previous = self.params["video"] if self.params is not None else int(rng.integers(count)) - 1
+        return {"video": (previous + 1) % count, "frame": 0}
+
+    def next_frame(self, length: int) -> int:
+        """The frame to show now (of a video of ``length`` frames), moving the playback on by one step."""
+        params = self.params
+        if self.playback == "forward":
+            index = params["frame"] % length
+            params["frame"] += 1
+            return index
+        if params["frame"] is None:
+            params["frame"] = min(int(params["start"] * length), length - 1)
+        index = params["frame"]
+        if self.playback == "bounce":
+            following = index + params["direction"]
+            if following <= 0:
+                following, params["direction"] = 0, 1
+            if following >= length:
+                following, params["direction"] = length - 1, -1
+            params["frame"] = following
+        return index
 
     def background_mask(self, scene: SceneHandle) -> np.ndarray:
         """``[H, W]`` True where the camera sees the sky (and, with ``floor``, a ground plane, or a ``background`` geom)."""
@@ -115,10 +181,11 @@ class VideoBackground(SceneTransform):
         scene = self.scene
         height, width = pixels.shape[-3:-1]
         video = self.videos.frames(self.params["video"], height, width)
-        frame = video[self.params["frame"] % len(video)].to(pixels.device)
+        frame = video[self.next_frame(len(video))].to(pixels.device)
         mask = torch.from_numpy(self.background_mask(scene)).to(pixels.device)[..., None]
+        if self.alpha < 1.0:
+            frame = (self.alpha * frame.float() + (1.0 - self.alpha) * pixels.float()).to(pixels.dtype)
         tensordict.set("pixels", torch.where(mask, frame, pixels))
-        self.params["frame"] += 1
         return tensordict
 
     def _reset_env_preprocess(self, tensordict: TensorDictBase | None) -> TensorDictBase | None:
@@ -146,4 +213,7 @@ class VideoBackground(SceneTransform):
     def extra_repr(self) -> str:
         background = f", background={self.background}" if self.background else ""
         video = "" if self.video is None else f", video={self.video}"
-        return f"videos={self.videos}, floor={self.floor}{background}{video}"
+        playback = "" if self.playback == "forward" else f", playback={self.playback!r}"
+        alpha = "" if self.alpha == 1.0 else f", alpha={self.alpha}"
+        count = "" if self.num_videos is None else f", num_videos={self.num_videos}"
+        return f"videos={self.videos}, floor={self.floor}{background}{video}{playback}{alpha}{count}"
