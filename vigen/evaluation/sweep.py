@@ -14,6 +14,8 @@ import numbers
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from vigen.envs import level_label
+
 DCS_INTENSITIES: tuple[float, ...] = (0.025, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5)
 """The Distracting Control Suite's difficulty scale ``s`` (its benchmark uses 0.1 / 0.2 / 0.3 as easy / medium / hard)."""
 
@@ -143,8 +145,6 @@ def level_columns(level: str | Mapping[str, float]) -> dict[str, Any]:
         >>> level_columns(sweep("camera_rotation", [0.3], fixed={"object_color": 0.5})[0])
         {'factor': 'camera_rotation', 'intensity': 0.3, 'fixed': 'object_color=0.5'}
     """
-    from vigen.envs import level_label
-
     if isinstance(level, str):
         return {}
     if isinstance(level, SweepPoint):
