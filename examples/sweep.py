@@ -12,8 +12,9 @@ its 95 % stratified-bootstrap CI, RL-ViGen's mean ± std over seeds) and ``inten
 
 With its defaults (5 intensities × 3 seeds × 1 episode of 250 agent steps, random policy) it took
 1 min 15 s of wall time on this project's 2-core CPU machine (measured with ``time``, imports
-included, other jobs running). The random policy's actions come from the global torch RNG, so its
-curve shows the spread of random play, not the factor's effect; a trained agent's shows the effect.
+included, other jobs running). The random policy plays the same seeded actions at every intensity,
+so its curve is flat: the reference of an agent blind to pixels. A trained agent's curve shows the
+factor's effect.
 """
 
 from __future__ import annotations

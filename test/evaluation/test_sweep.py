@@ -162,6 +162,21 @@ def test_rows_path_widens_for_sweep_columns(tmp_path):
     assert len(rows) == 2
 
 
+@pytest.mark.render
+@pytest.mark.slow
+def test_random_baseline_is_seeded_and_blind():
+    """policy=None: actions from a generator seeded by the seed, so the same at every visual level and every call."""
+    levels = ["train", *sweep("camera_rotation", [0.5])]
+    rows = evaluate(None, TASK, levels, episodes=2, seeds=[0, 1], max_steps=10, env_options=TINY)
+    again = evaluate(None, TASK, levels, episodes=2, seeds=[0, 1], max_steps=10, env_options=TINY)
+    returns = {(row["level"], row["seed"], row["episode"]): row["return"] for row in rows}
+    assert returns == {(row["level"], row["seed"], row["episode"]): row["return"] for row in again}
+    for seed in (0, 1):
+        for episode in (0, 1):
+            assert returns["train", seed, episode] == returns["camera_rotation=0.5", seed, episode]
+    assert len({returns["train", seed, episode] for seed in (0, 1) for episode in (0, 1)}) == 4
+
+
 # -- summaries and curves -------------------------------------------------------------------------
 
 def _sweep_rows() -> list[dict]:

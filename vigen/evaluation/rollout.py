@@ -108,7 +108,10 @@ def evaluate(
         >>> [(row["level"], row.get("factor"), row.get("intensity")) for row in rows]
         [('train', None, None), ('camera_rotation=0', 'camera_rotation', 0.0), ('camera_rotation=0.3', 'camera_rotation', 0.3)]
 
-    ``policy=None`` plays random actions, a baseline worth reporting next to trained agents.
+    ``policy=None`` plays uniform random actions in the action bounds, a baseline worth reporting
+    next to trained agents. They are drawn from a generator seeded with the seed, so the random
+    agent plays the same actions at every level: blind to pixels, its return changes only where a
+    level changes the dynamics.
 
     If a level fails (a corrupt video, a policy error, ...), :class:`EvaluationError` is raised
     with the finished episodes in ``.rows``, the failing level, seed and episode in its message,
@@ -143,9 +146,10 @@ def evaluate(
                 else:
                     instance = env(level, seed)
                 try:
+                    acting = _random_policy(instance, seed) if policy is None else policy
                     for episode in range(episodes):
                         row = {**dict(tags or {}), "env": name, "level": label, **columns, "seed": seed,
-                               "episode": episode, **_play(policy, instance, max_steps)}
+                               "episode": episode, **_play(acting, instance, max_steps)}
                         rows.append(row)
                         if log is not None:
                             log.append(row)
@@ -216,6 +220,22 @@ class _RowLog:
             csv.DictWriter(file, fieldnames=self.columns, restval="").writerow(row)
             file.flush()
             os.fsync(file.fileno())
+
+
+def _random_policy(env: EnvBase, seed: int) -> Policy | None:
+    """Uniform actions in ``env``'s bounds from a generator seeded with ``seed``; ``None`` (TorchRL's own draw) if unbounded."""
+    spec = env.action_spec
+    space = getattr(spec, "space", None)
+    if not (hasattr(space, "low") and hasattr(space, "high")):
+        return None
+    generator = torch.Generator().manual_seed(seed)
+    low, high = space.low, space.high
+
+    def act(tensordict: TensorDictBase) -> TensorDictBase:
+        draw = torch.rand(spec.shape, generator=generator, dtype=low.dtype)
+        return tensordict.set("action", (low + (high - low) * draw).to(spec.dtype))
+
+    return act
 
 
 def _play(policy: Policy | None, env: EnvBase, max_steps: int) -> dict[str, Any]:
