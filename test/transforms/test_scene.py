@@ -5,6 +5,7 @@ from __future__ import annotations
 from functools import partial
 from pathlib import Path
 
+import mujoco
 import numpy as np
 import pytest
 import torch
@@ -253,3 +254,26 @@ def test_video_background_playbacks_composite_the_expected_frames():
         blend = (0.5 * clip[index].float() + 0.5 * clean.float()).to(torch.uint8)
         assert torch.equal(frame, torch.where(mask, blend, clean))
     assert "playback='static', alpha=0.5" in repr(video)
+
+
+def test_video_background_ground_plane_alpha_blends_the_floor_as_dcs():
+    # suite_utils.get_background_kwargs: the grid's alpha is 0.3 outside walker / cheetah / reacher; DCS then sees
+    # 0.7 of the (video) sky through the floor. vigen: floor pixels = 0.3 * render + 0.7 * video.
+    source = VideoSource.procedural(count=1, max_frames=2)
+    video = VideoBackground(source, playback="static", ground_plane_alpha=0.3)
+    env = make_env("dmc/walker-walk", generalization=[video], seed=0, frame_stack=1, image_size=32, render_settings=FAST)
+    clean = make_env("dmc/walker-walk", seed=0, frame_stack=1, image_size=32, render_settings=FAST)
+    frame, reference = env.reset()["pixels"].permute(1, 2, 0), clean.reset()["pixels"].permute(1, 2, 0)
+    scene = env.base_env.scene
+    segmentation = scene.segmentation()
+    ids, types = segmentation[..., 0], segmentation[..., 1]
+    planes = scene.model.geom_type[np.maximum(ids, 0)] == mujoco.mjtGeom.mjGEOM_PLANE
+    floor = torch.from_numpy((types == mujoco.mjtObj.mjOBJ_GEOM) & (ids >= 0) & planes)[..., None]
+    sky = torch.from_numpy(ids < 0)[..., None]
+    clip = source.frames(0, 32, 32)[video.params["frame"]]
+    assert floor.any() and sky.any()
+    blend = (0.7 * clip.float() + 0.3 * reference.float()).to(torch.uint8)
+    expected = torch.where(sky, clip, torch.where(floor, blend, reference))
+    assert torch.equal(frame, expected)
+    with pytest.raises(ValueError, match="pass one of them"):
+        VideoBackground(source, floor=True, ground_plane_alpha=0.3)

@@ -46,8 +46,10 @@ class VideoBackground(SceneTransform):
     (truncated to the frame's integer type, as DCS does); 1 replaces them. ``num_videos`` keeps
     only the first videos of the source (DCS: the first 2 to 8 DAVIS videos at low scales, see
     ``DCS_NUM_VIDEOS``). DCS draws the frame into the skybox texture and makes the floor grid
-    semi-transparent; vigen composites by segmentation as above (``floor=True`` replaces the
-    floor fully).
+    semi-transparent (its ``ground_plane_alpha``: reacher 0, walker and cheetah 1, other domains
+    0.3); vigen composites by segmentation instead: with ``ground_plane_alpha`` set, ground-plane
+    pixels become ``(1 - w)·render + w·video`` with ``w = α·(1 - ground_plane_alpha)`` (where DCS
+    would show the floor over the sky texture, vigen shows it over the video frame).
 
     The transform composites the env's raw ``[H, W, 3]`` frames, so it must sit before
     ``ToTensorImage`` (and frame stacking): ``make_env(..., generalization="video_hard")`` or
@@ -67,6 +69,8 @@ class VideoBackground(SceneTransform):
         playback: ``"forward"``, ``"static"`` or ``"bounce"`` (see above).
         alpha: weight of the video on background pixels, in [0, 1].
         num_videos: use only the first ``num_videos`` videos (``None``: all).
+        ground_plane_alpha: the floor's opacity over the video, in [0, 1] (DCS's, per domain:
+            ``dcs_ground_plane_alpha``); ``None`` keeps the floor, or replaces it with ``floor=True``.
         seed: see :class:`~vigen.transforms.scene.SceneTransform`.
 
     Examples:
@@ -88,6 +92,7 @@ class VideoBackground(SceneTransform):
         playback: str = "forward",
         alpha: float = 1.0,
         num_videos: int | None = None,
+        ground_plane_alpha: float | None = None,
         seed: int | None = None,
     ) -> None:
         if playback not in PLAYBACKS:
@@ -96,7 +101,15 @@ class VideoBackground(SceneTransform):
             raise ValueError(f"VideoBackground: alpha is the video's weight on background pixels, in [0, 1]; got {alpha!r}.")
         if num_videos is not None and (isinstance(num_videos, bool) or not isinstance(num_videos, int) or num_videos < 1):
             raise ValueError(f"VideoBackground: num_videos is a count >= 1 or None (all videos), got {num_videos!r}.")
+        if ground_plane_alpha is not None:
+            if isinstance(ground_plane_alpha, bool) or not isinstance(ground_plane_alpha, (int, float)) or not (
+                    0.0 <= ground_plane_alpha <= 1.0):
+                raise ValueError("VideoBackground: ground_plane_alpha is the floor's opacity in [0, 1] or None, "
+                                 f"got {ground_plane_alpha!r}.")
+            if floor:
+                raise ValueError("VideoBackground: floor=True replaces the floor, ground_plane_alpha blends it; pass one of them.")
         super().__init__(seed=seed, in_keys=["pixels"])
+        self.ground_plane_alpha = None if ground_plane_alpha is None else float(ground_plane_alpha)
         self.videos = videos if isinstance(videos, VideoSource) else (
             VideoSource.procedural() if videos is None else VideoSource.from_folder(videos)
         )
@@ -157,9 +170,9 @@ class VideoBackground(SceneTransform):
             params["frame"] = following
         return index
 
-    def background_mask(self, scene: SceneHandle) -> np.ndarray:
+    def background_mask(self, scene: SceneHandle, segmentation: np.ndarray | None = None) -> np.ndarray:
         """``[H, W]`` True where the camera sees the sky (and, with ``floor``, a ground plane, or a ``background`` geom)."""
-        segmentation = scene.segmentation()
+        segmentation = scene.segmentation() if segmentation is None else segmentation
         ids, types = segmentation[..., 0], segmentation[..., 1]
         mask = ids < 0
         is_background = self.background_geoms(scene.model)
@@ -182,10 +195,19 @@ class VideoBackground(SceneTransform):
         height, width = pixels.shape[-3:-1]
         video = self.videos.frames(self.params["video"], height, width)
         frame = video[self.next_frame(len(video))].to(pixels.device)
-        mask = torch.from_numpy(self.background_mask(scene)).to(pixels.device)[..., None]
-        if self.alpha < 1.0:
-            frame = (self.alpha * frame.float() + (1.0 - self.alpha) * pixels.float()).to(pixels.dtype)
-        tensordict.set("pixels", torch.where(mask, frame, pixels))
+        segmentation = scene.segmentation()
+        mask = torch.from_numpy(self.background_mask(scene, segmentation)).to(pixels.device)[..., None]
+        if self.alpha == 1.0 and self.ground_plane_alpha is None:
+            tensordict.set("pixels", torch.where(mask, frame, pixels))
+            return tensordict
+        weight = mask * self.alpha
+        if self.ground_plane_alpha is not None:
+            ids, types = segmentation[..., 0], segmentation[..., 1]
+            planes = (types == int(mujoco.mjtObj.mjOBJ_GEOM)) & (ids >= 0) & (
+                scene.model.geom_type[np.maximum(ids, 0)] == mujoco.mjtGeom.mjGEOM_PLANE)
+            weight = torch.where(torch.from_numpy(planes).to(pixels.device)[..., None],
+                                 self.alpha * (1.0 - self.ground_plane_alpha), weight)
+        tensordict.set("pixels", (weight * frame.float() + (1.0 - weight) * pixels.float()).to(pixels.dtype))
         return tensordict
 
     def _reset_env_preprocess(self, tensordict: TensorDictBase | None) -> TensorDictBase | None:
@@ -216,4 +238,5 @@ class VideoBackground(SceneTransform):
         playback = "" if self.playback == "forward" else f", playback={self.playback!r}"
         alpha = "" if self.alpha == 1.0 else f", alpha={self.alpha}"
         count = "" if self.num_videos is None else f", num_videos={self.num_videos}"
-        return f"videos={self.videos}, floor={self.floor}{background}{video}{playback}{alpha}{count}"
+        ground = "" if self.ground_plane_alpha is None else f", ground_plane_alpha={self.ground_plane_alpha}"
+        return f"videos={self.videos}, floor={self.floor}{background}{video}{playback}{alpha}{count}{ground}"
