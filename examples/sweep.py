@@ -10,11 +10,13 @@ Nothing is trained. The policy plays ``--episodes`` episodes per intensity and s
 it exists) gets ``episodes.csv``, ``summary.csv``, ``report.md`` (intensities × methods: IQM with
 its 95 % stratified-bootstrap CI, RL-ViGen's mean ± std over seeds) and ``intensity_<factor>.png``.
 
-With its defaults (5 intensities × 3 seeds × 1 episode of 250 agent steps, random policy) it took
-1 min 15 s of wall time on this project's 2-core CPU machine (measured with ``time``, imports
-included, other jobs running). The random policy plays the same seeded actions at every intensity,
-so its curve is flat: the reference of an agent blind to pixels. A trained agent's curve shows the
-factor's effect.
+With its defaults (5 intensities × 3 seeds × 1 episode of 250 agent steps, random policy, one
+torch thread) it took 77 s of wall time on this project's 2-core CPU machine (measured with
+``time``, imports included, load average 3 from other jobs). With two torch threads it took 77 s
+at load average 1 but 194 s at load average 2.4 (OpenMP threads competing for the two cores),
+hence the default ``--threads 1``. The random policy plays the same seeded actions at every
+intensity, so its curve is flat: the reference of an agent blind to pixels. A trained agent's
+curve shows the factor's effect.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import json
 import time
 from pathlib import Path
 
+import torch
 from torchrl.data import Bounded
 
 from vigen.checkpoint import CheckpointError, load_checkpoint, newest_checkpoint
@@ -47,8 +50,13 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--episodes", type=int, default=1, help="episodes per intensity and seed")
     parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2], help="env and level seeds")
     parser.add_argument("--episode-length", type=int, default=500, help="simulator steps per episode (action repeat 2)")
+    parser.add_argument("--threads", type=int, default=1,
+                        help="torch threads; 1 is fastest for one env's small tensors on a busy CPU")
     parser.add_argument("--out", type=Path, default=Path("reports/sweep"))
-    return parser.parse_args()
+    args = parser.parse_args()
+    if args.threads < 1:
+        raise SystemExit(f"--threads must be >= 1, got {args.threads}.")
+    return args
 
 
 def load_policy(path: Path):
@@ -68,6 +76,7 @@ def load_policy(path: Path):
 def main() -> None:
     start = time.perf_counter()
     args = parse_args()
+    torch.set_num_threads(args.threads)
     agents = [] if args.checkpoint is None else [load_policy(args.checkpoint)]
     env = args.env or (agents[0][0]["env"] if agents else "dmc/walker-walk")
     if args.factor not in factors(env):
