@@ -24,7 +24,7 @@ def run_example(code: str, tmp_path: Path) -> str:
 
 
 def test_every_example_is_checked():
-    assert len(EXAMPLES) == 6
+    assert len(EXAMPLES) == 7
 
 
 @pytest.mark.slow
@@ -42,6 +42,13 @@ def test_replay_buffer_example_runs(tmp_path):
 def test_levels_example_runs(tmp_path):
     out = run_example(EXAMPLES[3], tmp_path)
     assert "video_hard torch.Size([10, 9, 84, 84])" in out and out.count("torch.Size") == 5
+    assert "camera_rotation=0.3+gaussian_noise=0.4" in out
+
+
+@pytest.mark.render
+def test_sweep_example_runs(tmp_path):
+    run_example(EXAMPLES[4], tmp_path)
+    assert (tmp_path / "camera_rotation.png").stat().st_size > 0
 
 
 def test_loss_example_runs(tmp_path):
@@ -51,12 +58,12 @@ def test_loss_example_runs(tmp_path):
 
 @pytest.mark.render
 def test_evaluation_example_runs(tmp_path):
-    out = run_example(EXAMPLES[4], tmp_path)
+    out = run_example(EXAMPLES[5], tmp_path)
     assert "'level': 'train'" in out and "| level | random |" in out and "| color_hard |" in out
 
 
 @pytest.mark.render
 def test_manipulation_example_runs(tmp_path):
     pytest.importorskip("robosuite", reason="the robosuite extra is not installed: pip install -e '.[robosuite]'")
-    out = run_example(EXAMPLES[5], tmp_path)
+    out = run_example(EXAMPLES[6], tmp_path)
     assert "('train', 0, 20, False)" in out and "('robot_iiwa', 1, 20, " in out

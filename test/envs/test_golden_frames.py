@@ -1,9 +1,11 @@
 """Golden frames: every named level renders what it rendered before the Suite redesign, bit for bit.
 
-``test/data/golden_frames.json`` was written by ``scripts/golden_frames.py`` at commit fcde993,
-before levels moved into the Suite records; it holds the SHA-256 of the frames of two short
-episodes per suite, task and level (seed 3, 48×48, fast rendering). A default run checks a
-sample of levels from every suite; ``-m matrix`` checks all 97.
+``test/data/golden_frames.json`` holds the SHA-256 of the frames of two short episodes per suite,
+task and level (seed 3, 48×48, fast rendering), written by ``scripts/golden_frames.py``. The 97
+levels that existed before the Suite records were recorded at commit fcde993 and re-rendered
+bit for bit after the redesign; the DMC-GB2 and DCS presets were recorded when they were added,
+so any later change to them is caught too. A default run checks a sample of levels from every
+suite; ``-m matrix`` checks all 121.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ GOLDEN = json.loads((ROOT / "test" / "data" / "golden_frames.json").read_text())
 SAMPLE = {
     "dmc/walker-walk:train", "dmc/walker-walk:color_hard", "dmc/walker-walk:video_hard", "dmc/walker-walk:camera_hard",
     "dmc/walker-walk:light_easy", "dmc/walker-walk:floor_texture", "dmc/walker-walk:jpeg_compression_3",
-    "robosuite/lift:hard", "robosuite/door:camera_easy", "adroit/door:video_hard",
+    "dmc/walker-walk:rotate_shift_hard", "dmc/walker-walk:dcs_0.2", "robosuite/lift:hard", "robosuite/door:camera_easy", "adroit/door:video_hard",
 }
 
 

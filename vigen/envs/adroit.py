@@ -27,6 +27,8 @@ from vigen.envs.levels import Factor, Level, Scaled, Severity, Span, Step
 from vigen.envs.pixels import PixelEnv
 from vigen.envs.suite import Suite
 from vigen.transforms import (
+    DistractingCamera,
+    DistractingColors,
     ImageBank,
     PixelCorruption,
     RandomCamera,
@@ -140,6 +142,7 @@ FACTORS: dict[str, Factor] = {
     "floor_texture": Factor((Step(RandomTextures, {"textures": ("groundplane",), "blend": Scaled(1.0)}),)),
     "table_texture": Factor((Step(RandomTextures, {"textures": TABLE_TEXTURES, "blend": Scaled(1.0)}),)),
     "object_texture": Factor((Step(RandomTextures, {"textures": ("wood", "wood2d", "woodb", "foil", "square"), "blend": Scaled(1.0)}),)),
+    "video_background": Factor((Step(VideoBackground, {"floor": True, "alpha": Scaled(1.0)}),)),
     "light_position": Factor((Step(RandomLighting, {**NO_LIGHT_SHIFT, "position_jitter": Scaled((1.0, 1.0, 0.5))}),),
                              points={"light_hard": 1.0}),
     "light_color": Factor((Step(RandomLighting, {"position_offset": None, "diffuse_offset": Scaled(1.0)}),)),
@@ -147,6 +150,9 @@ FACTORS: dict[str, Factor] = {
     "camera_position": Factor((Step(RandomCamera, {"position": Scaled(0.2)}),)),
     "camera_rotation": Factor((Step(RandomCamera, {"position": 0.0, "rotation_deg": Scaled(90.0)}),)),
     "camera_fov": Factor((Step(RandomCamera, {"position": 0.0, "fov_deg": Span(40.0)}),)),
+    "dynamic_camera": Factor((Step(DistractingCamera, {"scale": Scaled(1.0), "dynamic": True, "camera": "vil_camera",
+                                                      "limit_to_upper_quadrant": False}),)),
+    "dynamic_color": Factor((Step(DistractingColors, {"scale": Scaled(1.0), "dynamic": True}),)),
     **{
         corruption: Factor((Step(PixelCorruption, {"corruption": corruption, "severity": Severity()}),))
         for corruption in SEVERITIES

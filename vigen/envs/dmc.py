@@ -11,17 +11,21 @@ Examples:
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import mujoco
 import numpy as np
 from torchrl.envs import DoubleToFloat, Transform
 
-from vigen.envs.levels import Factor, Level, Scaled, Severity, Span, Step
+from vigen.envs.levels import Derived, Factor, Level, LevelContext, Scaled, Severity, Span, Step
 from vigen.envs.pixels import PixelEnv
 from vigen.envs.suite import Suite
 from vigen.transforms import (
+    DistractingCamera,
+    DistractingColors,
+    DMCGB2Camera,
     PixelCorruption,
     RandomCamera,
     RandomLighting,
@@ -30,8 +34,85 @@ from vigen.transforms import (
     VideoBackground,
 )
 from vigen.transforms.corruptions import SEVERITIES
+from vigen.transforms.scene.distracting import DCS_NUM_VIDEOS, DCS_SCALES, dcs_ground_plane_alpha
 
 CORRUPTION_SOURCE = "ImageNet-C severities (Hendrycks & Dietterich 2019)"
+DMCGB2_SOURCE = "DMC-GB2 (aalmuzairee/dmcgb2, envs/dmcgb/dmcgb_geometric.py, 2025-07)"
+DCS_SOURCE = "DMC-GB's Distracting Control Suite variant (nicklashansen/dmcontrol-generalization-benchmark, src/env/distracting_control)"
+
+
+@dataclass(frozen=True, repr=False)
+class Domain(Derived):
+    """The task's dm_control domain (``"walker"`` for ``"walker-walk"``).
+
+    Examples:
+        >>> Domain()(LevelContext("ball_in_cup-catch"))
+        'ball_in_cup'
+    """
+
+    def __call__(self, context: LevelContext) -> str:
+        return context.task.partition("-")[0]
+
+    def __repr__(self) -> str:
+        return "domain"
+
+
+@dataclass(frozen=True, repr=False)
+class ByDomain(Derived):
+    """A value per dm_control domain, ``default`` for the others.
+
+    Examples:
+        >>> ByDomain({"quadruped": 2}, 0)(LevelContext("quadruped-run")), ByDomain({"quadruped": 2}, 0)(LevelContext("walker-walk"))
+        (2, 0)
+    """
+
+    table: Mapping[str, Any]
+    default: Any
+
+    def __call__(self, context: LevelContext) -> Any:
+        return self.table.get(context.task.partition("-")[0], self.default)
+
+    def __repr__(self) -> str:
+        return f"by domain: {dict(self.table)!r}, else {self.default!r}"
+
+
+@dataclass(frozen=True, repr=False)
+class GroundPlaneAlpha(Derived):
+    """DCS's ground-plane alpha of the task's domain (reacher 0, walker and cheetah 1, others 0.3)."""
+
+    def __call__(self, context: LevelContext) -> float:
+        return dcs_ground_plane_alpha(context.task.partition("-")[0])
+
+    def __repr__(self) -> str:
+        return "dcs_ground_plane_alpha(domain)"
+
+
+DCS_CAMERA = {"camera": ByDomain({"quadruped": 2}, 0), "limit_to_upper_quadrant": ByDomain({"reacher": False}, True)}
+"""DCS's camera settings: the env's camera (quadruped: 2), and the upper-quadrant limit except for reacher."""
+
+
+def dcs_level(scale: float, dynamic: bool) -> Level:
+    """DMC-GB's Distracting Control Suite setting at intensity ``scale``: camera, colours and background video together."""
+    videos = DCS_NUM_VIDEOS[scale]
+    motion = "drifting every step" if dynamic else "drawn per episode"
+    return Level(
+        f"DCS at intensity {scale}: camera pose and every material colour {motion}, "
+        f"background video ({videos or 'all'} videos, {'playing back and forth' if dynamic else 'one still frame'})",
+        DCS_SOURCE + ("" if dynamic else ", static variant"),
+        (Step(DistractingCamera, {"scale": scale, "dynamic": dynamic, **DCS_CAMERA}),
+         Step(DistractingColors, {"scale": scale, "dynamic": dynamic}),
+         Step(VideoBackground, {"playback": "bounce" if dynamic else "static", "num_videos": videos,
+                                "ground_plane_alpha": GroundPlaneAlpha()})),
+    )
+
+
+def dmcgb2_level(mode: str, difficulty: str) -> Level:
+    what = {"rotate": "camera turned about its view axis", "shift": "camera panned and tilted towards the image corners",
+            "rotate_shift": "camera panned, tilted and turned"}[mode]
+    return Level(f"{what} ({difficulty}), one of 100 presets per episode", DMCGB2_SOURCE,
+                 (Step(DMCGB2Camera, {"mode": mode, "difficulty": difficulty, "domain": Domain()}),))
+
+
 
 LEVELS: dict[str, Level] = {
     "train": Level("the clean training scene", "all"),
@@ -90,6 +171,18 @@ LEVELS: dict[str, Level] = {
         "RL-ViGen cam_pos hard; DCS camera scale 0.3; RL-ViGen Adroit FOV hard",
         (Step(RandomCamera, {"position": 0.15, "rotation_deg": 27.0, "fov_deg": (-10.0, 10.0)}),),
     ),
+    **{f"{mode}_{difficulty}": dmcgb2_level(mode, difficulty) for mode in ("rotate", "shift", "rotate_shift")
+       for difficulty in ("easy", "hard")},
+    **{
+        f"color_video_{difficulty}": Level(
+            f"color_{difficulty} and video_{difficulty} together",
+            "DMC-GB2 color_video (its video is an in-simulation back cube; vigen keys by segmentation)",
+            (Step(RandomSceneColors, {"scale": scale}), Step(VideoBackground, {"floor": difficulty == "hard"})),
+        )
+        for difficulty, scale in (("easy", 0.1), ("hard", 0.2))
+    },
+    **{f"dcs_{scale}": dcs_level(scale, dynamic=True) for scale in DCS_SCALES},
+    **{f"dcs_static_{scale}": dcs_level(scale, dynamic=False) for scale in DCS_SCALES},
     **{
         f"{corruption}_{severity}": Level(
             f"{corruption.replace('_', ' ')}, severity {severity} of 5",
@@ -108,6 +201,10 @@ GROUPS: dict[str, list[str]] = {
         "color_easy", "color_hard", "objects_color_easy", "objects_color_hard", "floor_texture",
         "video_easy", "video_hard", "light_easy", "light_hard", "camera_easy", "camera_hard",
     ],
+    "dmcgb2": ["color_easy", "color_hard", "video_easy", "video_hard", "color_video_easy", "color_video_hard",
+               *(f"{mode}_{difficulty}" for mode in ("rotate", "shift", "rotate_shift") for difficulty in ("easy", "hard"))],
+    "dcs": [f"dcs_{scale}" for scale in DCS_SCALES],
+    "dcs_static": [f"dcs_static_{scale}" for scale in DCS_SCALES],
     "corruptions": [f"{c}_{s}" for c in SEVERITIES for s in range(1, 6)],
     "all": list(LEVELS),
 }
@@ -122,12 +219,15 @@ FACTORS: dict[str, Factor] = {
         points={"objects_color_easy": 0.1, "objects_color_hard": 0.2},
     ),
     "floor_texture": Factor((Step(RandomTextures, {"blend": Scaled(1.0)}),), points={"floor_texture": 1.0}),
+    "video_background": Factor((Step(VideoBackground, {"alpha": Scaled(1.0)}),)),
     "light_position": Factor((Step(RandomLighting, {**NO_LIGHT_SHIFT, "position_jitter": Scaled((10.0, 10.0, 10.0))}),)),
     "light_color": Factor((Step(RandomLighting, {"position_offset": None, "diffuse_offset": Scaled(1.0)}),)),
     "moving_light": Factor((Step(RandomLighting, {**NO_LIGHT_SHIFT, "moving_step": Scaled(0.05), "moving_range": 10.0}),)),
     "camera_position": Factor((Step(RandomCamera, {"position": Scaled(0.5)}),)),
     "camera_rotation": Factor((Step(RandomCamera, {"position": 0.0, "rotation_deg": Scaled(90.0)}),)),
     "camera_fov": Factor((Step(RandomCamera, {"position": 0.0, "fov_deg": Span(40.0)}),)),
+    "dynamic_camera": Factor((Step(DistractingCamera, {"scale": Scaled(1.0), "dynamic": True, **DCS_CAMERA}),)),
+    "dynamic_color": Factor((Step(DistractingColors, {"scale": Scaled(1.0), "dynamic": True}),)),
     **{
         corruption: Factor(
             (Step(PixelCorruption, {"corruption": corruption, "severity": Severity()}),),

@@ -30,6 +30,8 @@ from vigen.envs.levels import ByTask, Choice, Factor, Level, Scaled, SceneIndex,
 from vigen.envs.pixels import PixelEnv
 from vigen.envs.suite import Suite
 from vigen.transforms import (
+    DistractingCamera,
+    DistractingColors,
     ImageBank,
     PixelCorruption,
     RandomCamera,
@@ -169,6 +171,7 @@ FACTORS: dict[str, Factor] = {
     "floor_texture": Factor((Step(RandomTextures, {"textures": ("texplane",), "blend": Scaled(1.0)}),)),
     "table_texture": Factor((Step(RandomTextures, {"textures": TABLE_TEXTURES, "blend": Scaled(1.0)}),)),
     "object_texture": Factor((Step(RandomTextures, {"textures": OBJECT_TEXTURES, "blend": Scaled(1.0)}),)),
+    "video_background": Factor((Step(VideoBackground, {"floor": True, "background": ("wall",), "alpha": Scaled(1.0)}),)),
     "light_position": Factor((Step(RandomLighting, {**NO_LIGHT_SHIFT, "position_jitter": Scaled((2.0, 2.0, 1.0))}),)),
     "light_color": Factor((Step(RandomLighting, {"position_offset": None, "diffuse_offset": Scaled(1.0)}),)),
     "moving_light": Factor((Step(RandomLighting, {**NO_LIGHT_SHIFT, "moving_step": Scaled(0.1), "moving_range": 3.0, "height": 4.0,
@@ -176,6 +179,9 @@ FACTORS: dict[str, Factor] = {
     "camera_position": Factor((Step(RandomCamera, {"position": Scaled(0.4)}),)),
     "camera_rotation": Factor((Step(RandomCamera, {"position": 0.0, "rotation_deg": Scaled(90.0)}),)),
     "camera_fov": Factor((Step(RandomCamera, {"position": 0.0, "fov_deg": Span(40.0)}),)),
+    "dynamic_camera": Factor((Step(DistractingCamera, {"scale": Scaled(1.0), "dynamic": True, "camera": "agentview",
+                                                      "limit_to_upper_quadrant": False}),)),
+    "dynamic_color": Factor((Step(DistractingColors, {"scale": Scaled(1.0), "dynamic": True}),)),
     "embodiment": Factor(env_options={"robot": Choice(ROBOTS[1:])},
                          points={f"robot_{robot.lower()}": (index + 1) / len(ROBOTS[1:]) for index, robot in enumerate(ROBOTS[1:])}),
     **{

@@ -1,0 +1,96 @@
+"""The benchmark presets in the dm_control level table equal their sources' definitions.
+
+Numbers from ../shared/reference/ANCHORS.md §3 (DMC-GB §3.1–3.2, DCS and DMC-GB's DCS variant
+§3.4, DMC-GB2 §3.5, RL-ViGen §3.6); the transforms' own parity tests (against the source code)
+are in test/transforms/test_distracting.py and test_dmcgb2_camera.py.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from vigen.envs import make_env
+from vigen.envs.dmc import DMC
+from vigen.rendering import RenderSettings
+from vigen.transforms import DistractingCamera, DistractingColors, DMCGB2Camera, RandomSceneColors, VideoBackground
+from vigen.transforms.scene.dmcgb2_camera import rotate_presets
+
+FAST = {"image_size": 32, "render_settings": RenderSettings.fast()}
+DCS_INTENSITIES = (0.025, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5)  # ANCHORS §3.4, DMC-GB's DCS variant
+DCS_VIDEOS = (2, 2, 4, 6, 8, None, None, None)  # None: all videos
+
+
+def built(level: str, task: str = "walker-walk"):
+    return DMC.level_transforms(task, level, seed=0)
+
+
+def test_every_preset_names_its_source():
+    for name, level in DMC.levels.items():
+        assert level.source, name
+    for name in DMC.groups["dmcgb2"]:
+        assert "DMC-GB" in DMC.levels[name].source
+    for name in DMC.groups["dcs"] + DMC.groups["dcs_static"]:
+        assert "Distracting Control" in DMC.levels[name].source
+
+
+def test_dmcgb_colour_presets_have_the_palette_statistics():
+    assert [t.scale for t in built("color_easy")] == [0.1] and [t.scale for t in built("color_hard")] == [0.2]
+    assert all(isinstance(t, RandomSceneColors) and t.parts == ("grid", "skybox", "self") for t in built("color_hard"))
+    assert [t.floor for t in built("video_easy")] == [False] and [t.floor for t in built("video_hard")] == [True]
+
+
+def test_dmcgb2_has_its_twelve_test_distributions():
+    expected = {f"{kind}_{difficulty}" for kind in ("rotate", "shift", "rotate_shift", "color", "video", "color_video")
+                for difficulty in ("easy", "hard")}
+    assert set(DMC.groups["dmcgb2"]) == expected and len(DMC.groups["dmcgb2"]) == 12
+
+
+@pytest.mark.parametrize("mode", ["rotate", "shift", "rotate_shift"])
+@pytest.mark.parametrize("difficulty", ["easy", "hard"])
+@pytest.mark.parametrize("task, domain", [("walker-walk", "walker"), ("cup-catch", "cup"), ("finger-spin", "finger")])
+def test_dmcgb2_geometric_presets_use_the_task_domain(mode, difficulty, task, domain):
+    (camera,) = built(f"{mode}_{difficulty}", task)
+    assert isinstance(camera, DMCGB2Camera)
+    assert (camera.mode, camera.difficulty, camera.domain) == (mode, difficulty, domain)
+
+
+def test_dmcgb2_rotate_ranges_are_the_sources():
+    # 100 evenly spaced in-plane angles over [-90, 90] (easy) and [-180, 180] (hard) degrees
+    easy, hard = rotate_presets("easy"), rotate_presets("hard")
+    assert len(easy) == len(hard) == 100
+    assert easy.min() == pytest.approx(-90.0) and easy.max() <= 90.0 and hard.min() == pytest.approx(-180.0) and hard.max() <= 180.0
+    assert built("rotate_hard")[0].difficulty == "hard"
+
+
+def test_color_video_is_colour_and_video_together():
+    for difficulty, scale, floor in (("easy", 0.1, False), ("hard", 0.2, True)):
+        colors, video = built(f"color_video_{difficulty}")
+        assert isinstance(colors, RandomSceneColors) and colors.scale == scale
+        assert isinstance(video, VideoBackground) and video.floor is floor
+
+
+@pytest.mark.parametrize("dynamic", [True, False])
+def test_dcs_levels_follow_the_intensity_scale(dynamic):
+    prefix = "dcs_" if dynamic else "dcs_static_"
+    assert DMC.groups["dcs" if dynamic else "dcs_static"] == [f"{prefix}{s}" for s in DCS_INTENSITIES]
+    for scale, videos in zip(DCS_INTENSITIES, DCS_VIDEOS):
+        camera, colors, background = built(f"{prefix}{scale}")
+        assert isinstance(camera, DistractingCamera) and (camera.scale, camera.dynamic) == (scale, dynamic)
+        assert isinstance(colors, DistractingColors) and (colors.scale, colors.dynamic) == (scale, dynamic)
+        assert isinstance(background, VideoBackground) and background.num_videos == videos
+        assert background.playback == ("bounce" if dynamic else "static")
+
+
+def test_dcs_settings_follow_the_domain():
+    # ground-plane alpha: reacher 0, walker and cheetah 1, others 0.3; camera 2 for quadruped; reacher unclipped
+    alphas = {task: built("dcs_0.1", task)[2].ground_plane_alpha
+              for task in ("reacher-easy", "walker-walk", "cheetah-run", "finger-spin")}
+    assert alphas == {"reacher-easy": 0.0, "walker-walk": 1.0, "cheetah-run": 1.0, "finger-spin": 0.3}
+    assert built("dcs_0.1", "quadruped-walk")[0].camera == 2 and built("dcs_0.1", "walker-walk")[0].camera == 0
+    assert built("dcs_0.1", "reacher-easy")[0].limit_to_upper_quadrant is False
+
+
+@pytest.mark.parametrize("level", ["rotate_shift_hard", "color_video_hard", "dcs_0.2", "dcs_static_0.3"])
+def test_new_presets_build_and_play(level):
+    env = make_env("dmc/walker-walk", generalization=level, seed=0, **FAST)
+    assert env.rollout(3)["pixels"].shape == (3, 9, 32, 32)
