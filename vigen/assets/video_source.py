@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-import math
 import os
 from pathlib import Path
 
 import numpy as np
 import torch
-import torch.nn.functional as F
 
 from vigen.assets.image_bank import IMAGE_SUFFIXES
 from vigen.assets.procedural import procedural_video

@@ -17,27 +17,28 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import mujoco
 import numpy as np
 from torchrl.envs import Transform
 
-from vigen.envs.levels import Factor, Level, Scaled, Severity, Span, Step
+from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
+from vigen.envs.levels import Factor, Level, Scaled, Step
 from vigen.envs.pixels import PixelEnv
 from vigen.envs.suite import Suite
 from vigen.transforms import (
     DistractingCamera,
-    DistractingColors,
     ImageBank,
-    PixelCorruption,
     RandomCamera,
     RandomLighting,
     RandomMaterialColors,
     RandomTextures,
     VideoBackground,
 )
-from vigen.transforms.corruptions import SEVERITIES
+
+if TYPE_CHECKING:
+    from vigen.envs.adroit_env import AdroitPixelEnv
 
 TASKS = {"door": "AdroitHandDoorEnv", "hammer": "AdroitHandHammerEnv", "pen": "AdroitHandPenEnv"}
 """vigen name -> gymnasium-robotics env class (module ``adroit_<name>``)."""
@@ -145,18 +146,15 @@ FACTORS: dict[str, Factor] = {
     "video_background": Factor((Step(VideoBackground, {"floor": True, "alpha": Scaled(1.0)}),)),
     "light_position": Factor((Step(RandomLighting, {**NO_LIGHT_SHIFT, "position_jitter": Scaled((1.0, 1.0, 0.5))}),),
                              points={"light_hard": 1.0}),
-    "light_color": Factor((Step(RandomLighting, {"position_offset": None, "diffuse_offset": Scaled(1.0)}),)),
+    "light_color": LIGHT_COLOR,
     "moving_light": Factor((Step(RandomLighting, {**NO_LIGHT_SHIFT, "moving_step": Scaled(0.12), "moving_range": 3.0, "moving_axes": (1,)}),)),
     "camera_position": Factor((Step(RandomCamera, {"position": Scaled(0.2)}),)),
-    "camera_rotation": Factor((Step(RandomCamera, {"position": 0.0, "rotation_deg": Scaled(90.0)}),)),
-    "camera_fov": Factor((Step(RandomCamera, {"position": 0.0, "fov_deg": Span(40.0)}),)),
+    "camera_rotation": CAMERA_ROTATION,
+    "camera_fov": CAMERA_FOV,
     "dynamic_camera": Factor((Step(DistractingCamera, {"scale": Scaled(1.0), "dynamic": True, "camera": "vil_camera",
                                                       "limit_to_upper_quadrant": False}),)),
-    "dynamic_color": Factor((Step(DistractingColors, {"scale": Scaled(1.0), "dynamic": True}),)),
-    **{
-        corruption: Factor((Step(PixelCorruption, {"corruption": corruption, "severity": Severity()}),))
-        for corruption in SEVERITIES
-    },
+    "dynamic_color": DYNAMIC_COLOR,
+    **pixel_corruption_factors(),
 }
 """Factor name -> its transforms at intensity ``x``."""
 

@@ -19,7 +19,8 @@ import mujoco
 import numpy as np
 from torchrl.envs import DoubleToFloat, Transform
 
-from vigen.envs.levels import Derived, Factor, Level, LevelContext, Scaled, Severity, Span, Step
+from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
+from vigen.envs.levels import Derived, Factor, Level, LevelContext, Scaled, Step
 from vigen.envs.pixels import PixelEnv
 from vigen.envs.suite import Suite
 from vigen.transforms import (
@@ -221,20 +222,14 @@ FACTORS: dict[str, Factor] = {
     "floor_texture": Factor((Step(RandomTextures, {"blend": Scaled(1.0)}),), points={"floor_texture": 1.0}),
     "video_background": Factor((Step(VideoBackground, {"alpha": Scaled(1.0)}),)),
     "light_position": Factor((Step(RandomLighting, {**NO_LIGHT_SHIFT, "position_jitter": Scaled((10.0, 10.0, 10.0))}),)),
-    "light_color": Factor((Step(RandomLighting, {"position_offset": None, "diffuse_offset": Scaled(1.0)}),)),
+    "light_color": LIGHT_COLOR,
     "moving_light": Factor((Step(RandomLighting, {**NO_LIGHT_SHIFT, "moving_step": Scaled(0.05), "moving_range": 10.0}),)),
     "camera_position": Factor((Step(RandomCamera, {"position": Scaled(0.5)}),)),
-    "camera_rotation": Factor((Step(RandomCamera, {"position": 0.0, "rotation_deg": Scaled(90.0)}),)),
-    "camera_fov": Factor((Step(RandomCamera, {"position": 0.0, "fov_deg": Span(40.0)}),)),
+    "camera_rotation": CAMERA_ROTATION,
+    "camera_fov": CAMERA_FOV,
     "dynamic_camera": Factor((Step(DistractingCamera, {"scale": Scaled(1.0), "dynamic": True, **DCS_CAMERA}),)),
-    "dynamic_color": Factor((Step(DistractingColors, {"scale": Scaled(1.0), "dynamic": True}),)),
-    **{
-        corruption: Factor(
-            (Step(PixelCorruption, {"corruption": corruption, "severity": Severity()}),),
-            points={f"{corruption}_{severity}": severity / 5 for severity in range(1, 6)},
-        )
-        for corruption in SEVERITIES
-    },
+    "dynamic_color": DYNAMIC_COLOR,
+    **pixel_corruption_factors(named_levels=True),
 }
 """Factor name -> its transforms at intensity ``x``."""
 

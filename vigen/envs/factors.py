@@ -15,6 +15,8 @@ Examples:
 
 from __future__ import annotations
 
+from vigen.envs.levels import Factor, Scaled, Severity, Span, Step
+from vigen.transforms import DistractingColors, PixelCorruption, RandomCamera, RandomLighting
 from vigen.transforms.corruptions import SEVERITIES
 
 FACTORS: dict[str, str] = {
@@ -37,3 +39,20 @@ FACTORS: dict[str, str] = {
     **{name: f"pixel corruption {name.replace('_', ' ')}, severity ⌈5·x⌉ (ImageNet-C)" for name in SEVERITIES},
 }
 """Factor name -> what it changes (and how the intensity ``x`` enters)."""
+
+
+LIGHT_COLOR = Factor((Step(RandomLighting, {"position_offset": None, "diffuse_offset": Scaled(1.0)}),))
+CAMERA_ROTATION = Factor((Step(RandomCamera, {"position": 0.0, "rotation_deg": Scaled(90.0)}),))
+CAMERA_FOV = Factor((Step(RandomCamera, {"position": 0.0, "fov_deg": Span(40.0)}),))
+DYNAMIC_COLOR = Factor((Step(DistractingColors, {"scale": Scaled(1.0), "dynamic": True}),))
+
+
+def pixel_corruption_factors(named_levels: bool = False) -> dict[str, Factor]:
+    """One factor per ImageNet-C corruption, severity ``⌈5·x⌉``; ``named_levels`` marks ``<corruption>_<s>`` as its points."""
+    return {
+        corruption: Factor(
+            (Step(PixelCorruption, {"corruption": corruption, "severity": Severity()}),),
+            points={f"{corruption}_{severity}": severity / 5 for severity in range(1, 6)} if named_levels else {},
+        )
+        for corruption in SEVERITIES
+    }

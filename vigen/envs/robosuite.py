@@ -26,21 +26,19 @@ import mujoco
 import numpy as np
 from torchrl.envs import Transform
 
-from vigen.envs.levels import ByTask, Choice, Factor, Level, Scaled, SceneIndex, Severity, Span, Step
+from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
+from vigen.envs.levels import ByTask, Choice, Factor, Level, Scaled, SceneIndex, Step
 from vigen.envs.pixels import PixelEnv
 from vigen.envs.suite import Suite
 from vigen.transforms import (
     DistractingCamera,
-    DistractingColors,
     ImageBank,
-    PixelCorruption,
     RandomCamera,
     RandomLighting,
     RandomMaterialColors,
     RandomTextures,
     VideoBackground,
 )
-from vigen.transforms.corruptions import SEVERITIES
 
 TASKS = {"door": "Door", "lift": "Lift", "two-arm-peg-in-hole": "TwoArmPegInHole"}
 """vigen name -> robosuite environment class."""
@@ -173,21 +171,18 @@ FACTORS: dict[str, Factor] = {
     "object_texture": Factor((Step(RandomTextures, {"textures": OBJECT_TEXTURES, "blend": Scaled(1.0)}),)),
     "video_background": Factor((Step(VideoBackground, {"floor": True, "background": ("wall",), "alpha": Scaled(1.0)}),)),
     "light_position": Factor((Step(RandomLighting, {**NO_LIGHT_SHIFT, "position_jitter": Scaled((2.0, 2.0, 1.0))}),)),
-    "light_color": Factor((Step(RandomLighting, {"position_offset": None, "diffuse_offset": Scaled(1.0)}),)),
+    "light_color": LIGHT_COLOR,
     "moving_light": Factor((Step(RandomLighting, {**NO_LIGHT_SHIFT, "moving_step": Scaled(0.1), "moving_range": 3.0, "height": 4.0,
                                                   "directional": False, "cast_shadow": True}),)),
     "camera_position": Factor((Step(RandomCamera, {"position": Scaled(0.4)}),)),
-    "camera_rotation": Factor((Step(RandomCamera, {"position": 0.0, "rotation_deg": Scaled(90.0)}),)),
-    "camera_fov": Factor((Step(RandomCamera, {"position": 0.0, "fov_deg": Span(40.0)}),)),
+    "camera_rotation": CAMERA_ROTATION,
+    "camera_fov": CAMERA_FOV,
     "dynamic_camera": Factor((Step(DistractingCamera, {"scale": Scaled(1.0), "dynamic": True, "camera": "agentview",
                                                       "limit_to_upper_quadrant": False}),)),
-    "dynamic_color": Factor((Step(DistractingColors, {"scale": Scaled(1.0), "dynamic": True}),)),
+    "dynamic_color": DYNAMIC_COLOR,
     "embodiment": Factor(env_options={"robot": Choice(ROBOTS[1:])},
                          points={f"robot_{robot.lower()}": (index + 1) / len(ROBOTS[1:]) for index, robot in enumerate(ROBOTS[1:])}),
-    **{
-        corruption: Factor((Step(PixelCorruption, {"corruption": corruption, "severity": Severity()}),))
-        for corruption in SEVERITIES
-    },
+    **pixel_corruption_factors(),
 }
 """Factor name -> its transforms at intensity ``x`` (and env options: ``embodiment`` picks the arm)."""
 
