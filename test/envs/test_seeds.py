@@ -22,9 +22,10 @@ pytestmark = pytest.mark.render
 
 FAST = RenderSettings.fast()
 NAME = "dmc/walker-walk"
-ONE_PER_GROUP = ["train", "video_hard", "camera_hard", "gaussian_noise_3"]  # all, dmcgb, rlvigen, corruptions
+# all, dmcgb, rlvigen, corruptions, dmcgb2, dcs, dcs_static
+ONE_PER_GROUP = ["train", "video_hard", "camera_hard", "gaussian_noise_3", "rotate_shift_hard", "dcs_0.2", "dcs_static_0.1"]
 SLOW_LEVELS = [level for level in LEVELS if level not in ONE_PER_GROUP]
-assert {"dmcgb", "rlvigen", "corruptions", "all"} == set(GROUPS)
+assert {"dmcgb", "rlvigen", "corruptions", "dmcgb2", "dcs", "dcs_static", "all"} == set(GROUPS)
 
 
 def build(level=None, **kwargs):
@@ -68,7 +69,7 @@ def test_set_seed_equals_seed_at_build_every_level(level):
     check_set_seed_equals_seed_at_build(level)
 
 
-@pytest.mark.parametrize("level", ["video_hard", "camera_hard", "gaussian_noise_3"])
+@pytest.mark.parametrize("level", ["video_hard", "camera_hard", "gaussian_noise_3", "rotate_hard", "dcs_0.2"])
 def test_seeds_change_the_perturbation(level):
     """Two seeds differ in the perturbation itself, not only in the task's initial pose."""
     a, b = build(level), build(level)
