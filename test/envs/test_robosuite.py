@@ -192,7 +192,7 @@ def test_bad_names_say_what_is_valid():
         make_env("robosuite/door", generalization="easy", scene_id=10)
     with pytest.raises(ValueError, match="Unknown robot 'Baxter'"):
         make_env("robosuite/door", robot="Baxter")
-    with pytest.raises(ValueError, match="uses the IIWA arm"):
+    with pytest.raises(ValueError, match="Level 'robot_iiwa' sets robot='IIWA', but robot='Sawyer' was given"):
         make_env("robosuite/door", generalization="robot_iiwa", robot="Sawyer")
     assert resolve_levels(["train", "rlvigen"], suite="robosuite") == ["train", "easy", "medium", "hard"]
 
