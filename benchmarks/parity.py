@@ -1,0 +1,984 @@
+"""Parity of vigen's losses with the original implementations: one update, same weights, same draws.
+
+For each algorithm the tool imports the ORIGINAL agent from a user-given checkout (by path: nothing
+of it is copied into vigen), builds it and vigen's loss with the same architecture, copies the
+original's weights into vigen's networks (mapping the parameter names), gives both sides the same
+pre-drawn augmented views, the same action noise and the same scalar draws, runs ONE update on the
+same batch in float64 and compares every loss value and every parameter gradient.
+
+How the update is compared:
+
+* the original's optimizer steps are *recorded, not taken*: each ``step()`` saves the gradients of
+  its parameters and leaves them unchanged, and each ``backward()`` saves its loss value. So every
+  quantity of the original is measured at the same parameters as vigen's single forward pass; the
+  ordering departures (RL-ViGen's actor loss, CURL anchor and SGQN mask are computed after its
+  critic step) become comparable. The column "steps taken" repeats the original's update with its
+  real Adam steps and shows how much that order changes each quantity (a departure by design);
+* vigen's gradients are taken per ``loss_*`` entry (``autograd.grad``) and matched with the
+  original's optimizer step that consumes that loss (e.g. ``loss_curl`` with CURL's second
+  ``encoder_opt`` step). A gradient that vigen's loss sends to a parameter the original's step does
+  not own is reported as a stray row;
+* views: drawn once with vigen's augmentations (seeded) and replayed: the original's ``aug``,
+  ``random_overlay`` and ``random_mask_freq_v2`` return them, and vigen's loss gets replay
+  augmentations (``make_params``/``apply``) that return them. A replay checks that it is asked
+  to augment the expected source (e.g. the strong view is built on the weak view). The
+  augmentation kernels themselves are compared with the originals in vigen's transform tests;
+* noise: one stream of standard normals hands out values in call order to ``torch.randn_like`` /
+  ``torch.randn`` (vigen) and ``_standard_normal`` (the originals' ``TruncatedNormal`` and
+  ``Normal.rsample``); one scalar ``u`` serves SGQN's fill value (``random.uniform`` there,
+  ``torch.rand(())`` in vigen);
+* float64: ``torch.set_default_dtype(torch.float64)`` and ``Tensor.float()`` keeps float64 while
+  the tool runs (both sides call ``.float()`` on their pixels).
+
+Per quantity the relative difference is ``max|a − b| / max(max|b|, tiny)`` (b = original; for a
+gradient tensor the max runs over its elements, and the value columns show its L2 norm).
+
+Missing imports of the originals that their update does not use (hydra, omegaconf, torchvision,
+kornia) are stubbed in ``sys.modules`` while they load; every stub is listed in the output.
+RL-ViGen's SGQN needs captum's ``GuidedBackprop``: if captum does not import, a stand-in with
+captum's rule (at every ``nn.ReLU`` the gradient is clamped at 0 before the ReLU's own backward)
+is used and said so; put captum on the path (``--pythonpath DIR``) to use the real one.
+
+Reproduce (RL-ViGen master, https://github.com/gemcollector/RL-ViGen):
+
+    # a plain checkout of the original (outside the vigen tree); only its code is needed
+    git clone https://github.com/gemcollector/RL-ViGen /work/refs/RL-ViGen
+    # or from a bare mirror: git --git-dir=<mirror> archive HEAD algos utils.py rl_utils.py cfgs | tar -x -C /work/refs/RL-ViGen
+    cd /work/main && OMP_NUM_THREADS=1 .venv/bin/python benchmarks/parity.py --reference /work/refs/RL-ViGen
+    # real captum, installed outside the venv:
+    pip install --no-deps --target /work/refs/pydeps captum
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/parity.py --reference /work/refs/RL-ViGen --pythonpath /work/refs/pydeps
+    # some algorithms, a reference per algorithm:
+    .venv/bin/python benchmarks/parity.py --algos curl sgqn --reference curl=/path/RL-ViGen --reference sgqn=/path/RL-ViGen
+
+Adding an algorithm: write one ``build_<name>(reference, setup) -> Case`` function that imports the
+original's modules with :func:`import_reference`, builds its agent and vigen's loss, and says which
+original module maps to which vigen network (:class:`ModuleMap`), which optimizer step consumes
+which ``loss_*`` (:class:`StepMap`), which callables of the original are replaced by view replays,
+and its documented departures; then add it to ``ALGORITHMS``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import importlib
+import math
+import sys
+import time
+import types
+import warnings
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import torch
+from torch import Tensor, nn
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+Pairs = list[tuple[Tensor, Tensor]]  # (source the augmentation must be given, the view it returns)
+
+
+# -- settings ----------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Setup:
+    """The shared sizes and draws of one parity run (tiny, float64)."""
+
+    batch_size: int = 8
+    image_size: int = 84
+    frames: int = 3
+    action_dim: int = 4
+    feature_dim: int = 50
+    hidden_dim: int = 32
+    lr: float = 1e-4
+    gamma: float = 0.99
+    nstep: int = 3
+    step: int = 90_000  # the std schedule linear(1.0, 0.1, 100000) gives 0.19 here: some noise clipped, some not
+    seed: int = 0
+
+    @property
+    def channels(self) -> int:
+        return 3 * self.frames
+
+    @property
+    def obs_shape(self) -> tuple[int, int, int]:
+        return (self.channels, self.image_size, self.image_size)
+
+
+@dataclass
+class Batch:
+    """One replay batch, float64 pixels on the 0–255 scale (integer-valued, as stored uint8 frames)."""
+
+    pixels: Tensor
+    next_pixels: Tensor
+    action: Tensor
+    reward: Tensor
+    nstep: int
+    gamma: float
+
+    @classmethod
+    def draw(cls, setup: Setup, nstep: int) -> Batch:
+        g = torch.Generator().manual_seed(setup.seed)
+        shape = (setup.batch_size, *setup.obs_shape)
+        return cls(
+            pixels=torch.randint(0, 256, shape, generator=g).to(torch.float64),
+            next_pixels=torch.randint(0, 256, shape, generator=g).to(torch.float64),
+            action=torch.rand(setup.batch_size, setup.action_dim, generator=g, dtype=torch.float64) * 2 - 1,
+            reward=torch.randn(setup.batch_size, 1, generator=g, dtype=torch.float64),
+            nstep=nstep,
+            gamma=setup.gamma,
+        )
+
+    def for_original(self) -> tuple[Tensor, ...]:
+        """``(obs, action, reward, discount, next_obs)`` as RL-ViGen's replay buffer yields it."""
+        discount = torch.full_like(self.reward, self.gamma**self.nstep)
+        return (self.pixels.clone(), self.action.clone(), self.reward.clone(), discount, self.next_pixels.clone())
+
+    def for_vigen(self) -> Any:
+        from tensordict import TensorDict
+
+        size = self.pixels.shape[0]
+        no = torch.zeros(size, 1, dtype=torch.bool)
+        data = {
+            "pixels": self.pixels.clone(), "action": self.action.clone(),
+            "next": {"pixels": self.next_pixels.clone(), "reward": self.reward.clone(), "done": no, "terminated": no.clone()},
+        }
+        if self.nstep != 1:
+            data["steps_to_next_obs"] = torch.full((size, 1), self.nstep, dtype=torch.long)
+        return TensorDict(data, batch_size=[size])
+
+
+# -- float64 everywhere ------------------------------------------------------------------------
+@contextmanager
+def float64_mode() -> Iterator[None]:
+    """Default dtype float64, and ``Tensor.float()`` keeps float64 (complex: the real part, as ``.float()`` does)."""
+    real_float, default = torch.Tensor.float, torch.get_default_dtype()
+
+    def as_float64(self: Tensor, *args: Any, **kwargs: Any) -> Tensor:
+        return (self.real if self.is_complex() else self).to(torch.float64)
+
+    torch.set_default_dtype(torch.float64)
+    torch.Tensor.float = as_float64  # type: ignore[method-assign]
+    try:
+        yield
+    finally:
+        torch.Tensor.float = real_float  # type: ignore[method-assign]
+        torch.set_default_dtype(default)
+
+
+# -- importing an original checkout ------------------------------------------------------------
+class _Unavailable:
+    """Stand-in for an attribute of a stubbed module: fails loudly if the update ever uses it."""
+
+    def __init__(self, name: str) -> None:
+        self._name = name
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        raise RuntimeError(f"parity.py stubbed {self._name}: the original's update used it, so the stub is wrong here.")
+
+    def __getattr__(self, item: str) -> Any:
+        if item.startswith("__"):
+            raise AttributeError(item)
+        return _Unavailable(f"{self._name}.{item}")
+
+
+def _stub(name: str) -> types.ModuleType:
+    module = types.ModuleType(name)
+    module.__getattr__ = lambda item: _Unavailable(f"{name}.{item}")  # type: ignore[attr-defined]
+    module.__path__ = []  # a package, so submodule imports resolve to further stubs
+    return module
+
+
+def _importable(name: str) -> bool:
+    try:
+        importlib.import_module(name)
+        return True
+    except Exception:
+        return False
+
+
+@dataclass
+class Reference:
+    """The modules of one original checkout, and what was stubbed to load them."""
+
+    root: Path
+    modules: dict[str, types.ModuleType]
+    stubbed: list[str]
+    notes: list[str] = field(default_factory=list)
+
+
+def import_reference(
+    root: Path,
+    names: Sequence[str],
+    *,
+    paths: Sequence[str] = ("",),
+    optional: Sequence[str] = (),
+    substitutes: dict[str, types.ModuleType] | None = None,
+) -> Reference:
+    """Import the modules ``names`` of a checkout at ``root`` (its ``paths`` put first on ``sys.path``).
+
+    The checkout's top-level names (``utils``, ``drqv2``, ...) are generic: the import runs with
+    them removed from ``sys.modules`` and puts back what was there afterwards, so two checkouts
+    (or a checkout and vigen) never see each other's modules. Modules of ``optional`` that do not
+    import are stubbed; ``substitutes`` replace modules outright (e.g. a captum stand-in).
+    """
+    root = Path(root).resolve()
+    dirs = [str(root / p) if p else str(root) for p in paths]
+    missing = [d for d in dirs if not Path(d).is_dir()]
+    if missing:
+        raise FileNotFoundError(f"--reference {root}: no directory {missing[0]}; give a plain checkout of the original repository.")
+    substitutes = dict(substitutes or {})
+    stubbed = []
+    for name in optional:
+        if name not in substitutes and not _importable(name):
+            stubbed.append(name)
+    fake: dict[str, types.ModuleType] = dict(substitutes)
+    for name in stubbed:
+        fake[name] = _stub(name)
+    saved_path = list(sys.path)
+    own = set(names)
+    saved = {k: v for k, v in sys.modules.items() if k.split(".")[0] in own or k.split(".")[0] in fake}
+    for key in saved:
+        del sys.modules[key]
+    sys.path[:0] = dirs
+    try:
+        for key, module in fake.items():
+            sys.modules[key] = module
+            parts = key.split(".")
+            for i in range(1, len(parts)):  # parents of a dotted stub, so `import a.b as c` binds
+                sys.modules.setdefault(".".join(parts[:i]), _stub(".".join(parts[:i])))
+        modules = {name: importlib.import_module(name) for name in names}
+    finally:
+        sys.path[:] = saved_path
+        for key in [k for k in sys.modules if k.split(".")[0] in own or k.split(".")[0] in fake]:
+            del sys.modules[key]
+        sys.modules.update(saved)
+    return Reference(root, modules, stubbed)
+
+
+# -- captum's guided backprop, when captum is not installed ------------------------------------
+class GuidedBackpropStandIn:
+    """captum's ``GuidedBackprop(model).attribute(inputs)`` rule, for when captum does not import.
+
+    At every ``nn.ReLU`` module of the model the incoming gradient is clamped at 0 before the
+    ReLU's own backward (captum returns ``relu(grad_input)`` of the ReLU, the same value); the
+    attribution is the gradient of the summed output with respect to the inputs.
+    """
+
+    def __init__(self, model: nn.Module) -> None:
+        self.model = model
+
+    def attribute(self, inputs: Tensor, **kwargs: Any) -> Tensor:
+        def hook(module: nn.Module, args: Any, output: Tensor) -> None:
+            if output.requires_grad:
+                output.register_hook(lambda grad: grad.clamp(min=0))
+
+        handles = [m.register_forward_hook(hook) for m in self.model.modules() if isinstance(m, nn.ReLU)]
+        try:
+            x = inputs.detach().requires_grad_(True)
+            with torch.enable_grad():
+                (grad,) = torch.autograd.grad(self.model(x).sum(), x)
+        finally:
+            for handle in handles:
+                handle.remove()
+        return grad
+
+
+def captum_substitute() -> tuple[dict[str, types.ModuleType], list[str]]:
+    """``{}`` if captum imports; else a ``captum.attr`` stand-in holding :class:`GuidedBackpropStandIn`."""
+    if _importable("captum.attr"):
+        import captum
+
+        return {}, [f"captum {captum.__version__} (real GuidedBackprop)"]
+    attr = _stub("captum.attr")
+    attr.GuidedBackprop = GuidedBackpropStandIn  # type: ignore[attr-defined]
+    return {"captum": _stub("captum"), "captum.attr": attr}, [
+        "captum not installed: GuidedBackprop is the tool's stand-in with captum's rule (use --pythonpath DIR with captum for the real one)"
+    ]
+
+
+# -- replayed draws ----------------------------------------------------------------------------
+def _find(pairs: Pairs, used: list[bool], images: Tensor, who: str) -> Tensor:
+    for index, (source, view) in enumerate(pairs):
+        if not used[index] and source.shape == images.shape and torch.equal(source, images.detach()):
+            used[index] = True
+            return view.clone()
+    raise RuntimeError(
+        f"{who} was asked to augment a tensor that is none of its expected sources (shape {tuple(images.shape)}): "
+        "the update feeds this augmentation something else than the original does."
+    )
+
+
+class ReplayCallable:
+    """Replaces an original's augmentation callable: returns the pre-drawn view of each source, in order."""
+
+    def __init__(self, pairs: Pairs, name: str) -> None:
+        self.pairs, self.name, self.used = pairs, name, [False] * len(pairs)
+
+    def __call__(self, images: Tensor, *args: Any, **kwargs: Any) -> Tensor:
+        return _find(self.pairs, self.used, images, f"original {self.name}")
+
+
+def replay_augmentation(pairs: Pairs, name: str) -> Any:
+    """A vigen ``ImageAugmentation`` whose ``make_params`` picks the pre-drawn view of its input."""
+    from vigen.transforms import ImageAugmentation
+
+    class ReplayViews(ImageAugmentation):
+        def __init__(self) -> None:
+            super().__init__(max_value=255)
+            self.pairs, self.name, self.used = pairs, name, [False] * len(pairs)
+
+        def make_params(self, images: Tensor) -> dict[str, Tensor]:
+            return {"view": _find(self.pairs, self.used, images, f"vigen {self.name}")}
+
+        def apply(self, images: Tensor, params: dict[str, Tensor]) -> Tensor:
+            return params["view"].reshape(images.shape).to(images.dtype)
+
+    return ReplayViews()
+
+
+class Draws:
+    """One stream of standard normals (handed out in call order) and one uniform scalar ``u``."""
+
+    def __init__(self, seed: int, size: int = 100_000) -> None:
+        g = torch.Generator().manual_seed(seed + 1)
+        self.normals = torch.randn(size, generator=g, dtype=torch.float64)
+        self.u = float(torch.rand((), generator=g, dtype=torch.float64))
+        self.cursor = 0
+        self.uniform_calls = 0
+
+    def normal(self, shape: Sequence[int], dtype: torch.dtype | None) -> Tensor:
+        count = math.prod(shape)
+        if self.cursor + count > self.normals.numel():
+            raise RuntimeError("parity.py: the noise stream ran out; raise Draws(size=...).")
+        out = self.normals[self.cursor: self.cursor + count].reshape(tuple(shape))
+        self.cursor += count
+        return out.to(dtype or torch.get_default_dtype(), copy=True)  # the originals scale it in place
+
+    def uniform(self, low: Any, high: Any) -> Any:
+        self.uniform_calls += 1
+        return low + (high - low) * self.u
+
+    @contextmanager
+    def patched(self, python_random_modules: Sequence[types.ModuleType] = ()) -> Iterator[None]:
+        """Route the draws of both sides through this object while the block runs."""
+        import torch.distributions.normal as normal_module
+        import torch.distributions.utils as dist_utils
+
+        draws = self
+        real = {"randn_like": torch.randn_like, "randn": torch.randn, "rand": torch.rand}
+
+        def randn_like(t: Tensor, *args: Any, dtype: torch.dtype | None = None, **kwargs: Any) -> Tensor:
+            return draws.normal(t.shape, dtype or t.dtype).to(t.device)
+
+        def randn(*size: Any, generator: Any = None, dtype: torch.dtype | None = None, **kwargs: Any) -> Tensor:
+            if generator is not None:
+                return real["randn"](*size, generator=generator, dtype=dtype, **kwargs)
+            shape = size[0] if len(size) == 1 and isinstance(size[0], (tuple, list, torch.Size)) else size
+            return draws.normal(shape, dtype)
+
+        def rand(*size: Any, generator: Any = None, **kwargs: Any) -> Tensor:
+            shape = size[0] if len(size) == 1 and isinstance(size[0], (tuple, list, torch.Size)) else size
+            if generator is None and tuple(shape) == ():
+                return torch.tensor(draws.uniform(0.0, 1.0), dtype=kwargs.get("dtype"), device=kwargs.get("device"))
+            return real["rand"](*size, generator=generator, **kwargs)
+
+        def standard_normal(shape: Sequence[int], dtype: torch.dtype, device: Any) -> Tensor:
+            return draws.normal(shape, dtype).to(device)
+
+        shim = types.SimpleNamespace(uniform=self.uniform)
+        targets = [(torch, "randn_like", randn_like), (torch, "randn", randn), (torch, "rand", rand),
+                   (dist_utils, "_standard_normal", standard_normal), (normal_module, "_standard_normal", standard_normal)]
+        for module in python_random_modules:
+            if hasattr(module, "_standard_normal"):
+                targets.append((module, "_standard_normal", standard_normal))
+            if hasattr(module, "random"):
+                targets.append((module, "random", shim))
+        saved = [(obj, name, getattr(obj, name)) for obj, name, _ in targets]
+        for obj, name, value in targets:
+            setattr(obj, name, value)
+        try:
+            yield
+        finally:
+            for obj, name, value in saved:
+                setattr(obj, name, value)
+
+    def reset(self) -> None:
+        self.cursor, self.uniform_calls = 0, 0
+
+
+# -- what an algorithm entry declares ----------------------------------------------------------
+@dataclass(frozen=True)
+class ModuleMap:
+    """An original network (attribute path on the agent) → a vigen network (canonical prefix).
+
+    ``renames`` maps a leading part of the original's parameter names to vigen's (e.g. ``Q1`` →
+    ``q1``). A plain tensor attribute (DrQ's ``log_alpha``) maps to the name ``prefix`` itself.
+    """
+
+    attribute: str
+    prefix: str
+    renames: tuple[tuple[str, str], ...] = ()
+
+    def resolve(self, agent: Any) -> dict[str, Tensor]:
+        obj = agent
+        for part in self.attribute.split("."):
+            obj = getattr(obj, part)
+        if isinstance(obj, Tensor):
+            return {self.prefix: obj}
+        out = {}
+        for name, param in obj.named_parameters():
+            for old, new in self.renames:
+                if name == old or name.startswith(old + "."):
+                    name = new + name[len(old):]
+                    break
+            out[f"{self.prefix}.{name}"] = param
+        return out
+
+
+@dataclass(frozen=True)
+class StepMap:
+    """An update step of the original (its optimizers' k-th ``step()`` calls) and vigen's ``loss_*`` for it."""
+
+    name: str
+    loss: str
+    optimizers: tuple[tuple[str, int], ...]
+
+
+@dataclass
+class Case:
+    """Both sides of one algorithm, ready to run, and what the comparison needs to know."""
+
+    name: str
+    agent: Any
+    loss: Any
+    modules: list[ModuleMap]
+    steps: list[StepMap]
+    agent_views: dict[str, Pairs]
+    module_views: list[tuple[types.ModuleType, str, Pairs]]
+    draw_modules: list[types.ModuleType]
+    metrics: list[tuple[str, str]]  # (vigen output key, original metric key)
+    departures: list[str]
+    reference: Reference
+    batch: Batch
+    setup: Setup
+
+
+def canonical(vigen_name: str) -> str:
+    """``encoder_params.convnet.0.weight`` → ``encoder.convnet.0.weight`` (the table's names)."""
+    head, _, rest = vigen_name.partition(".")
+    head = head[: -len("_params")] if head.endswith("_params") else head
+    return f"{head}.{rest}" if rest else head
+
+
+def copy_weights(case: Case) -> None:
+    """Original → vigen, by mapped names; every vigen parameter must be covered, shapes must agree."""
+    original = {}
+    for module_map in case.modules:
+        original.update(module_map.resolve(case.agent))
+    vigen = {canonical(n): p for n, p in case.loss.named_parameters()}
+    missing = sorted(set(vigen) - set(original))
+    extra = sorted(set(original) - set(vigen))
+    if missing or extra:
+        raise RuntimeError(f"{case.name}: parameter names do not map: vigen only {missing}, original only {extra}.")
+    with torch.no_grad():
+        for name, param in vigen.items():
+            if param.shape != original[name].shape:
+                raise RuntimeError(f"{case.name}: {name} has shape {tuple(param.shape)} in vigen, {tuple(original[name].shape)} in the original.")
+            param.copy_(original[name])
+        target = getattr(case.loss, "target_critic_params", None)
+        if target is not None:  # from the original's own target critic (equal to its critic at start)
+            critic_target = ModuleMap("critic_target", "critic", next(m.renames for m in case.modules if m.prefix == "critic"))
+            source = critic_target.resolve(case.agent)
+            for key, value in target.items(True, True):
+                name = "critic." + ".".join(key if isinstance(key, tuple) else (key,))
+                value.data.copy_(source[name])
+
+
+# -- running both sides ------------------------------------------------------------------------
+@dataclass
+class StepRecord:
+    optimizer: str
+    loss_index: int
+    grads: dict[int, Tensor]
+
+
+@dataclass
+class OriginalRun:
+    losses: list[Tensor]
+    steps: list[StepRecord]
+    metrics: dict[str, float]
+    names: dict[int, str]  # id(parameter) → canonical name
+    normals: int
+    uniforms: int
+
+
+def run_original(case: Case, draws: Draws, take_steps: bool) -> OriginalRun:
+    agent = copy.deepcopy(case.agent)
+    names = {}
+    for module_map in case.modules:
+        names.update({id(p): n for n, p in module_map.resolve(agent).items()})
+    optimizers = {k: v for k, v in vars(agent).items() if isinstance(v, torch.optim.Optimizer)}
+    losses: list[Tensor] = []
+    steps: list[StepRecord] = []
+    real_backward = torch.Tensor.backward
+
+    def backward(self: Tensor, *args: Any, **kwargs: Any) -> None:
+        losses.append(self.detach().clone())
+        real_backward(self, *args, **kwargs)
+
+    def recorder(name: str, optimizer: torch.optim.Optimizer) -> Callable[..., Any]:
+        def step(*args: Any, **kwargs: Any) -> Any:
+            grads = {id(p): p.grad.detach().clone() for group in optimizer.param_groups for p in group["params"] if p.grad is not None}
+            steps.append(StepRecord(name, len(losses) - 1, grads))
+            return type(optimizer).step(optimizer, *args, **kwargs) if take_steps else None
+        return step
+
+    for attr, pairs in case.agent_views.items():
+        setattr(agent, attr, ReplayCallable(pairs, attr))
+    for name, optimizer in optimizers.items():
+        optimizer.step = recorder(name, optimizer)  # type: ignore[method-assign]
+    saved = [(module, attr, getattr(module, attr)) for module, attr, _ in case.module_views]
+    for module, attr, pairs in case.module_views:
+        setattr(module, attr, ReplayCallable(pairs, f"{module.__name__}.{attr}"))
+    draws.reset()
+    torch.Tensor.backward = backward  # type: ignore[method-assign]
+    try:
+        with draws.patched(case.draw_modules):
+            metrics = agent.update(iter([case.batch.for_original()]), case.setup.step)
+    finally:
+        torch.Tensor.backward = real_backward  # type: ignore[method-assign]
+        for module, attr, value in saved:
+            setattr(module, attr, value)
+    return OriginalRun(losses, steps, dict(metrics or {}), names, draws.cursor, draws.uniform_calls)
+
+
+@dataclass
+class VigenRun:
+    values: dict[str, float]
+    grads: dict[str, dict[str, Tensor | None]]  # loss key → canonical name → gradient
+    normals: int
+    uniforms: int
+
+
+def run_vigen(case: Case, draws: Draws) -> VigenRun:
+    loss = case.loss
+    draws.reset()
+    params = dict(loss.named_parameters())
+    with draws.patched():
+        out = loss(case.batch.for_vigen())
+    grads: dict[str, dict[str, Tensor | None]] = {}
+    for key in [k for k in out.keys() if k.startswith("loss_")]:
+        result = torch.autograd.grad(out[key], list(params.values()), retain_graph=True, allow_unused=True)
+        grads[key] = {canonical(n): g for n, g in zip(params, result)}
+    values = {k: float(v.detach()) for k, v in out.items() if v.numel() == 1}
+    return VigenRun(values, grads, draws.cursor, draws.uniform_calls)
+
+
+# -- comparison --------------------------------------------------------------------------------
+TINY = torch.finfo(torch.float64).tiny
+
+
+def relative(a: Tensor | float, b: Tensor | float) -> float:
+    a, b = torch.as_tensor(a, dtype=torch.float64), torch.as_tensor(b, dtype=torch.float64)
+    scale = b.abs().max().item() if b.numel() else 0.0
+    diff = (a - b).abs().max().item() if a.numel() else 0.0
+    return diff / max(scale, TINY) if diff else 0.0
+
+
+@dataclass
+class Row:
+    quantity: str
+    vigen: float
+    original: float
+    rel: float
+    stepped: float | None = None  # rel. diff against the original with its optimizer steps taken
+    kind: str = "grad"  # "loss", "metric", "grad", "stray"
+
+
+def _step_records(run: OriginalRun, step: StepMap, case: Case) -> list[StepRecord]:
+    records = []
+    for optimizer, index in step.optimizers:
+        calls = [r for r in run.steps if r.optimizer == optimizer]
+        if index >= len(calls):
+            raise RuntimeError(f"{case.name}: the original called {optimizer}.step() {len(calls)} times, the map expects call #{index}.")
+        records.append(calls[index])
+    if len({r.loss_index for r in records}) != 1:
+        raise RuntimeError(f"{case.name}: the optimizers of step {step.name!r} consumed different backward passes.")
+    return records
+
+
+def compare(case: Case, fixed: OriginalRun, stepped: OriginalRun, ours: VigenRun) -> list[Row]:
+    rows: list[Row] = []
+    for step in case.steps:
+        records = _step_records(fixed, step, case)
+        records_stepped = _step_records(stepped, step, case)
+        value, value_stepped = fixed.losses[records[0].loss_index], stepped.losses[records_stepped[0].loss_index]
+        mine = ours.values[step.loss]
+        rows.append(Row(f"{step.loss} ({step.name} step)", mine, float(value), relative(mine, value), relative(mine, value_stepped), "loss"))
+    for vigen_key, original_key in case.metrics:
+        if original_key in fixed.metrics and vigen_key in ours.values:
+            mine, theirs = ours.values[vigen_key], fixed.metrics[original_key]
+            rows.append(Row(f"{vigen_key} ({original_key})", mine, theirs, relative(mine, theirs),
+                            relative(mine, stepped.metrics[original_key]), "metric"))
+    for step in case.steps:
+        owned: set[str] = set()
+        stepped_grads = {}
+        for record in _step_records(stepped, step, case):
+            stepped_grads.update({stepped.names[i]: g for i, g in record.grads.items()})
+        for record in _step_records(fixed, step, case):
+            for pid, theirs in record.grads.items():
+                name = fixed.names[pid]
+                owned.add(name)
+                mine = ours.grads[step.loss].get(name)
+                mine = torch.zeros_like(theirs) if mine is None else mine
+                rows.append(Row(f"∂{step.loss}/∂{name}", mine.norm().item(), theirs.norm().item(), relative(mine, theirs),
+                                relative(mine, stepped_grads[name]) if name in stepped_grads else None))
+        for name, mine in ours.grads[step.loss].items():
+            if name not in owned and mine is not None and mine.abs().max().item() > 0:
+                rows.append(Row(f"stray ∂{step.loss}/∂{name}", mine.norm().item(), 0.0, math.inf, None, "stray"))
+    return rows
+
+
+def _fmt(x: float | None) -> str:
+    if x is None:
+        return "—"
+    return f"{x:.3e}" if x else "0"
+
+
+def report(case: Case, rows: list[Row], fixed: OriginalRun, ours: VigenRun, seconds: float, tolerance: float) -> bool:
+    print(f"\n## {case.name}  (reference: {case.reference.root})\n")
+    print("| quantity | vigen | original | rel. diff | rel. diff, steps taken |")
+    print("| --- | ---: | ---: | ---: | ---: |")
+    for row in rows:
+        print(f"| {row.quantity} | {_fmt(row.vigen)} | {_fmt(row.original)} | {_fmt(row.rel)} | {_fmt(row.stepped)} |")
+    values = [r.rel for r in rows if r.kind in ("loss", "metric")]
+    grads = [r.rel for r in rows if r.kind in ("grad", "stray")]
+    worst = max(values + grads)
+    draws_ok = fixed.normals == ours.normals and fixed.uniforms == ours.uniforms
+    ok = worst <= tolerance and draws_ok
+    print(f"\nnoise draws: vigen {ours.normals} normals, {ours.uniforms} uniform; original {fixed.normals} normals, {fixed.uniforms} uniform")
+    for note in case.reference.notes:
+        print(f"note: {note}")
+    if case.reference.stubbed:
+        print(f"stubbed (not used by the update): {', '.join(case.reference.stubbed)}")
+    print("departures (documented; how they are compared):")
+    for departure in case.departures:
+        print(f"- {departure}")
+    print(f"\nSUMMARY {case.name}: max rel. diff losses/metrics {max(values):.2e} ({len(values)}), "
+          f"gradients {max(grads):.2e} ({len(grads)} tensors); {'OK' if ok else 'MISMATCH'} at tolerance {tolerance:g}"
+          f"{'' if draws_ok else ' (draw counts differ)'}; {seconds:.1f} s")
+    return ok
+
+
+# -- RL-ViGen (gemcollector/RL-ViGen, master): the six current losses ---------------------------
+RLVIGEN_OPTIONAL = ("hydra", "omegaconf", "torchvision", "torchvision.transforms", "torchvision.datasets",
+                    "torchvision.utils", "kornia")
+DDPG_DEPARTURE = (
+    "RL-ViGen computes the actor loss after its critic/encoder Adam step; vigen's actor loss sees the critic "
+    "before the step (TorchRL's DDPG). Compared at the same parameters (steps recorded, not taken); "
+    "'steps taken' shows the effect of the order."
+)
+CRITIC_STEPS = [
+    StepMap("critic", "loss_critic", (("critic_opt", 0), ("encoder_opt", 0))),
+    StepMap("actor", "loss_actor", (("actor_opt", 0),)),
+]
+CRITIC_MODULES = [
+    ModuleMap("actor", "actor"),
+    ModuleMap("critic", "critic", (("Q1", "q1"), ("Q2", "q2"))),
+]
+DDPG_METRICS = [("target_mean", "critic_target_q"), ("q_mean", "critic_q1")]
+
+
+def _rlvigen(reference: Path, names: Sequence[str], captum: bool = False) -> Reference:
+    substitutes, notes = captum_substitute() if captum else ({}, [])
+    ref = import_reference(reference, names, paths=("", "algos"), optional=RLVIGEN_OPTIONAL, substitutes=substitutes)
+    ref.notes.extend(notes)
+    return ref
+
+
+def _agent_kwargs(setup: Setup) -> dict[str, Any]:
+    return dict(
+        obs_shape=setup.obs_shape, action_shape=(setup.action_dim,), device="cpu", lr=setup.lr,
+        feature_dim=setup.feature_dim, hidden_dim=setup.hidden_dim, critic_target_tau=0.01, num_expl_steps=2000,
+        update_every_steps=2, stddev_schedule="linear(1.0,0.1,100000)", stddev_clip=0.3, use_tb=True,
+    )
+
+
+def _heads(setup: Setup, repr_dim: int) -> tuple[nn.Module, nn.Module]:
+    from vigen.models import Actor, Critic
+
+    return (Actor(repr_dim, setup.action_dim, setup.feature_dim, setup.hidden_dim),
+            Critic(repr_dim, setup.action_dim, setup.feature_dim, setup.hidden_dim))
+
+
+def _ddpg_options() -> dict[str, Any]:
+    from vigen.losses import LinearSchedule
+
+    return dict(std=LinearSchedule(1.0, 0.1, 100_000), std_clip=0.3)
+
+
+def _finish(loss: Any, setup: Setup) -> Any:
+    loss.make_value_estimator(gamma=setup.gamma)
+    loss.set_step(setup.step)
+    return loss
+
+
+class Views:
+    """The views of one batch, drawn once with vigen's augmentations (seeded), float64 on 0–255."""
+
+    def __init__(self, batch: Batch, setup: Setup) -> None:
+        from vigen.transforms import RandomFrequencyMask, RandomOverlay, RandomShift
+
+        self.batch = batch
+        seed = setup.seed + 100
+        self._shift = lambda k, x: RandomShift(pad=4, max_value=255, seed=seed + k).augment(x)
+        self._overlay = lambda k, x: RandomOverlay(alpha=0.5, max_value=255, seed=seed + 10 + k).augment(x)
+        # p=1 so that the frequency ring is really cut in this one batch (RL-ViGen draws p=0.5 per batch)
+        self._srm = lambda x: RandomFrequencyMask(p=1.0, max_value=255, seed=seed + 20).augment(x)
+        self.obs = self._shift(0, batch.pixels)
+        self.next_obs = self._shift(1, batch.next_pixels)
+
+    def weak(self) -> Pairs:
+        return [(self.batch.pixels, self.obs), (self.batch.next_pixels, self.next_obs)]
+
+    def shift(self, k: int) -> Tensor:
+        return self._shift(2 + k, self.batch.pixels)
+
+    def overlay(self, k: int, x: Tensor) -> Tensor:
+        return self._overlay(k, x)
+
+    def srm(self, x: Tensor) -> Tensor:
+        return self._srm(x)
+
+
+def build_drqv2(reference: Path, setup: Setup) -> Case:
+    from vigen.losses import DrQv2Loss
+    from vigen.models import DrQv2Encoder
+
+    ref = _rlvigen(reference, ["utils", "drqv2"])
+    agent = ref.modules["drqv2"].DrQV2Agent(**_agent_kwargs(setup))
+    batch = Batch.draw(setup, setup.nstep)
+    views = Views(batch, setup)
+    encoder = DrQv2Encoder(setup.channels, max_value=255)
+    loss = DrQv2Loss(encoder, *_heads(setup, 32 * 35 * 35), augmentation=replay_augmentation(views.weak(), "shift"), **_ddpg_options())
+    return Case("drqv2", agent, _finish(loss, setup), [ModuleMap("encoder", "encoder"), *CRITIC_MODULES], CRITIC_STEPS,
+                {"aug": views.weak()}, [], [ref.modules["utils"]], DDPG_METRICS, [DDPG_DEPARTURE], ref, batch, setup)
+
+
+def _svea_like(reference: Path, setup: Setup, name: str) -> Case:
+    from vigen.losses import SRMLoss, SVEALoss
+    from vigen.models import SharedCNN
+
+    ref = _rlvigen(reference, ["utils", "svea", "srm"])
+    module = ref.modules[name]
+    agent = (module.SRMAgent if name == "srm" else module.SVEAAgent)(**_agent_kwargs(setup))
+    batch = Batch.draw(setup, setup.nstep)
+    views = Views(batch, setup)
+    overlaid = views.overlay(0, views.obs)
+    overlay_pairs: Pairs = [(views.obs, overlaid)]
+    module_views = [(module, "random_overlay", overlay_pairs)]
+    strong = [replay_augmentation(overlay_pairs, "overlay")]
+    departures = [
+        DDPG_DEPARTURE,
+        "vigen rounds the overlay blend of uint8 frames to uint8 (RL-ViGen blends floats); the views here are float "
+        "and replayed to both sides, so the rounding is not exercised.",
+    ]
+    if name == "srm":
+        masked = views.srm(overlaid)
+        mask_pairs: Pairs = [(overlaid, masked)]
+        module_views.append((module, "random_mask_freq_v2", mask_pairs))
+        strong.append(replay_augmentation(mask_pairs, "frequency mask"))
+        departures.append("RL-ViGen's frequency mask is not clamped to [0, 255] and applies with p=0.5 per batch; the "
+                          "replayed view is vigen's RandomFrequencyMask(p=1) draw (clamped), given to both sides.")
+    cls = SRMLoss if name == "srm" else SVEALoss
+    encoder = SharedCNN(setup.channels, max_value=255)
+    loss = cls(encoder, *_heads(setup, 32 * 21 * 21), augmentation=replay_augmentation(views.weak(), "shift"),
+               strong_augmentation=strong, **_ddpg_options())
+    modules = [ModuleMap("encoder", "encoder", (("layers", "convnet"),)), *CRITIC_MODULES]
+    return Case(name, agent, _finish(loss, setup), modules, CRITIC_STEPS, {"aug": views.weak()}, module_views,
+                [ref.modules["utils"]], DDPG_METRICS, departures, ref, batch, setup)
+
+
+def build_svea(reference: Path, setup: Setup) -> Case:
+    return _svea_like(reference, setup, "svea")
+
+
+def build_srm(reference: Path, setup: Setup) -> Case:
+    return _svea_like(reference, setup, "srm")
+
+
+def build_curl(reference: Path, setup: Setup) -> Case:
+    from vigen.losses import CURLLoss
+    from vigen.models import CURLHead, ProjectedEncoder
+
+    ref = _rlvigen(reference, ["utils", "drqv2", "drq", "curl"])
+    agent = ref.modules["curl"].CURLAgent(aux_lr=1e-4, aux_beta=0.99, **_agent_kwargs(setup))
+    batch = Batch.draw(setup, setup.nstep)
+    views = Views(batch, setup)
+    anchor, positive = views.shift(0), views.shift(1)
+    contrastive: Pairs = [(batch.pixels, anchor), (batch.pixels, positive)]
+    original_order = views.weak() + contrastive  # obs, next_obs, anchor, positive: the order of CURLAgent.update
+    encoder = ProjectedEncoder(setup.channels, image_size=setup.image_size, max_value=255)
+    loss = CURLLoss(encoder, *_heads(setup, 512), CURLHead(512), augmentation=replay_augmentation(views.weak(), "shift"),
+                    contrastive_augmentation=replay_augmentation(contrastive, "contrastive shift"), **_ddpg_options())
+    modules = [ModuleMap("encoder", "encoder", (("projector", "projection"),)), ModuleMap("curl_head", "head"), *CRITIC_MODULES]
+    steps = CRITIC_STEPS + [StepMap("curl", "loss_curl", (("curl_optimizer", 0), ("encoder_opt", 1)))]
+    departures = [
+        DDPG_DEPARTURE,
+        "RL-ViGen encodes the contrastive anchor after the critic step and steps the encoder a second time "
+        "(encoder_opt, plus curl_optimizer with betas (0.99, 0.999)); vigen takes loss_curl from the same "
+        "parameters as loss_critic, in one backward. Compared: ∂loss_curl against the gradients of that second "
+        "step, at unchanged parameters ('steps taken': after the critic step).",
+        "Positives come from the online encoder without gradient on both sides (no momentum key encoder).",
+    ]
+    return Case("curl", agent, _finish(loss, setup), modules, steps, {"aug": original_order}, [], [ref.modules["utils"]],
+                DDPG_METRICS, departures, ref, batch, setup)
+
+
+def build_sgqn(reference: Path, setup: Setup) -> Case:
+    from vigen.losses import SGQNLoss
+    from vigen.models import AttributionDecoder, ProjectedEncoder
+
+    ref = _rlvigen(reference, ["utils", "rl_utils", "drqv2", "sgqn"], captum=True)
+    module = ref.modules["sgqn"]
+    agent = module.SGQNAgent(aux_lr=1e-4, aux_beta=0.99, sgqn_quantile=0.93, **_agent_kwargs(setup))
+    batch = Batch.draw(setup, setup.nstep)
+    views = Views(batch, setup)
+    overlay_pairs: Pairs = [(views.obs, views.overlay(0, views.obs))]
+    encoder = ProjectedEncoder(setup.channels, image_size=setup.image_size, max_value=255)
+    decoder = AttributionDecoder(setup.action_dim, embedding_dim=512, image_size=setup.image_size)
+    loss = SGQNLoss(encoder, *_heads(setup, 512), decoder, quantile=0.93, consistency_weight=0.9,
+                    augmentation=replay_augmentation(views.weak(), "shift"),
+                    attribution_augmentation=replay_augmentation(overlay_pairs, "overlay"), **_ddpg_options())
+    modules = [ModuleMap("encoder", "encoder", (("projector", "projection"),)),
+               ModuleMap("attribution_predictor.decoder", "decoder"), *CRITIC_MODULES]
+    steps = CRITIC_STEPS + [StepMap("attribution", "loss_attribution", (("aux_optimizer", 0),))]
+    departures = [
+        DDPG_DEPARTURE,
+        "RL-ViGen recomputes the guided-backprop mask after the critic step and trains the attribution head "
+        "with its own Adam over encoder + decoder (aux_lr, betas (0.99, 0.999)); vigen uses the mask of the "
+        "critic step and one backward. At unchanged parameters both masks are the same; 'steps taken' shows "
+        "the recomputed mask's effect.",
+        "The fill of non-salient pixels is one scalar U(min s, max s) on both sides (the same u).",
+    ]
+    return Case("sgqn", agent, _finish(loss, setup), modules, steps, {"aug": views.weak()},
+                [(module, "random_overlay", overlay_pairs)], [ref.modules["utils"], module], DDPG_METRICS, departures,
+                ref, batch, setup)
+
+
+def build_drq(reference: Path, setup: Setup) -> Case:
+    from vigen.losses import DrQLoss
+    from vigen.models import Critic, DrQv2Encoder, GaussianActor
+
+    ref = _rlvigen(reference, ["utils", "drq"])
+    kwargs = _agent_kwargs(setup)
+    kwargs["use_tb"] = False  # its metrics call SquashedNormal.entropy(), which torch does not implement
+    agent = ref.modules["drq"].DrQAgent(init_temperature=0.1, log_std_bounds=[-10, 2], hidden_depth=2, **kwargs)
+    batch = Batch.draw(setup, 1)
+    views = Views(batch, setup)
+    repr_dim = 32 * 35 * 35
+    loss = DrQLoss(DrQv2Encoder(setup.channels, max_value=255),
+                   GaussianActor(repr_dim, setup.action_dim, setup.hidden_dim, hidden_depth=2, log_std_bounds=(-10.0, 2.0)),
+                   Critic(repr_dim, setup.action_dim, setup.feature_dim, setup.hidden_dim),
+                   init_temperature=0.1, augmentation=replay_augmentation(views.weak(), "shift"))
+    loss.make_value_estimator(gamma=setup.gamma)
+    modules = [ModuleMap("encoder", "encoder"), ModuleMap("actor", "actor", (("trunk", "policy"),)),
+               ModuleMap("critic", "critic", (("Q1", "q1"), ("Q2", "q2"))), ModuleMap("log_alpha", "log_alpha")]
+    steps = [
+        StepMap("critic", "loss_critic", (("critic_opt", 0), ("encoder_opt", 0))),
+        StepMap("actor", "loss_actor", (("actor_opt", 0),)),
+        StepMap("alpha", "loss_alpha", (("log_alpha_optimizer", 0),)),
+    ]
+    departures = [
+        "Like RL-ViGen (and unlike the original DrQ's K = M = 2 shifted views), vigen's default pairs the raw "
+        "view with one shifted view; DrQLoss(clean_view=False, target_encoder=True) is the original DrQ and is "
+        "not compared here.",
+        "RL-ViGen computes the actor and temperature losses after its critic step; compared at the same "
+        "parameters ('steps taken' shows the order's effect). nstep = 1 as in RL-ViGen's DrQ config.",
+    ]
+    return Case("drq", agent, loss, modules, steps, {"aug": views.weak()}, [], [ref.modules["utils"]], [],
+                departures, ref, batch, setup)
+
+
+ALGORITHMS: dict[str, Callable[[Path, Setup], Case]] = {
+    "drqv2": build_drqv2,
+    "svea": build_svea,
+    "srm": build_srm,
+    "sgqn": build_sgqn,
+    "curl": build_curl,
+    "drq": build_drq,
+}
+
+
+# -- command line ------------------------------------------------------------------------------
+def parse_references(values: Sequence[str], algos: Sequence[str]) -> dict[str, Path]:
+    """``PATH`` gives every algorithm its reference, ``NAME=PATH`` one algorithm (it wins over ``PATH``)."""
+    default: Path | None = None
+    per_algo: dict[str, Path] = {}
+    for value in values:
+        name, sep, path = value.partition("=")
+        if sep and name in ALGORITHMS:
+            per_algo[name] = Path(path)
+        elif sep and name.isidentifier() and not Path(value).exists():
+            raise ValueError(f"--reference {value!r}: {name!r} is not an algorithm; choose from {', '.join(ALGORITHMS)}.")
+        else:
+            default = Path(value)
+    out = {algo: per_algo.get(algo, default) for algo in algos}
+    return {algo: path for algo, path in out.items() if path is not None}
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--reference", action="append", required=True,
+                        help="checkout of the original repository: PATH (every algorithm) or NAME=PATH (one); repeatable")
+    parser.add_argument("--algos", nargs="+", default=list(ALGORITHMS), choices=list(ALGORITHMS))
+    parser.add_argument("--pythonpath", action="append", default=[], help="extra import directory for the originals' dependencies (e.g. captum)")
+    parser.add_argument("--tolerance", type=float, default=1e-10, help="max relative difference counted as equal")
+    parser.add_argument("--batch-size", type=int, default=Setup.batch_size)
+    parser.add_argument("--seed", type=int, default=Setup.seed)
+    args = parser.parse_args(argv)
+    sys.path[1:1] = args.pythonpath
+    try:
+        references = parse_references(args.reference, args.algos)
+    except ValueError as error:
+        parser.error(str(error))
+    missing = [a for a in args.algos if a not in references]
+    if missing:
+        parser.error(f"no --reference for {', '.join(missing)}: give PATH or NAME=PATH.")
+    for algo, path in references.items():
+        if not path.is_dir():
+            parser.error(f"--reference for {algo}: {path} is not a directory; give a plain checkout of the original repository.")
+    # the originals' deprecation notices and TorchRL's note on target parameters without an updater
+    warnings.filterwarnings("ignore", category=UserWarning, message=".*(upsample|target network updater|required_grads|backward hooks on ReLU).*")
+    torch.set_num_threads(1)
+    setup = Setup(batch_size=args.batch_size, seed=args.seed)
+    print(f"# vigen parity: one update in float64, batch {setup.batch_size}, {setup.image_size}×{setup.image_size}×"
+          f"{setup.channels}, action dim {setup.action_dim}, hidden {setup.hidden_dim}, feature {setup.feature_dim}, step {setup.step}")
+    print("rel. diff = max|vigen − original| / max|original| per quantity (gradients: over the tensor; the value "
+          "columns show its L2 norm). The original's optimizer steps are recorded, not taken; 'steps taken' "
+          "compares against its real sequential update.")
+    results = {}
+    for name in args.algos:
+        start = time.perf_counter()
+        torch.manual_seed(setup.seed)
+        with float64_mode():
+            case = ALGORITHMS[name](references[name], setup)
+            copy_weights(case)
+            draws = Draws(setup.seed)
+            fixed = run_original(case, draws, take_steps=False)
+            stepped = run_original(case, draws, take_steps=True)
+            ours = run_vigen(case, draws)
+        rows = compare(case, fixed, stepped, ours)
+        results[name] = report(case, rows, fixed, ours, time.perf_counter() - start, args.tolerance)
+    print("\n" + " ".join(f"{n}: {'OK' if ok else 'MISMATCH'}" for n, ok in results.items()))
+    return 0 if all(results.values()) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
