@@ -49,7 +49,7 @@ class _PixelEncoder(nn.Module):
         batch, image = pixels.shape[:-3], pixels.shape[-3:]
         x = pixels.reshape(-1, *image)
         parts = x.split(self.chunk_size) if self.chunk_size and x.shape[0] > self.chunk_size else (x,)
-        features = [self.convnet(part.float() / white - 0.5).flatten(1) for part in parts]
+        features = [self.convnet(_as_float(part) / white - 0.5).flatten(1) for part in parts]
         features = features[0] if len(features) == 1 else torch.cat(features)
         return self.project(features).reshape(*batch, -1)
 
@@ -176,6 +176,11 @@ class ProjectedEncoder(_PixelEncoder):
         return self.projection(features)
 
 
+def _as_float(pixels: Tensor) -> Tensor:
+    """Floating pixels as they are (float32 or float64), integer pixels as float32."""
+    return pixels if pixels.is_floating_point() else pixels.float()
+
+
 def _positive_or_none(max_value: float | None, name: str) -> float | None:
     if max_value is not None and not max_value > 0:
         raise ValueError(f"{name}: max_value is the white of float pixels and must be positive (or None for 1.0), "
@@ -220,10 +225,13 @@ class Actor(nn.Module):
 
 
 class GaussianActor(nn.Module):
-    """RL-ViGen's DrQ (SAC) actor: an MLP straight on the encoder features (no LayerNorm trunk).
+    """A SAC actor: an MLP on the encoder features, with an optional LayerNorm trunk in front.
 
     Returns the mean μ and log σ of a tanh-squashed Gaussian; log σ is ``tanh`` rescaled into
     ``log_std_bounds`` as in DrQ. ``hidden_depth`` hidden layers of ``hidden_dim`` units.
+    Without ``feature_dim`` the MLP reads the features directly (RL-ViGen's DrQ actor); with it,
+    a Linear → LayerNorm → Tanh trunk to ``feature_dim`` comes first (DMC-GB's and DMC-GB2's SAC
+    actor, as in SADA).
 
     Paper: DrQ, https://arxiv.org/abs/2004.13649.
 
@@ -241,18 +249,21 @@ class GaussianActor(nn.Module):
         hidden_dim: int = 1024,
         hidden_depth: int = 2,
         log_std_bounds: tuple[float, float] = (-10.0, 2.0),
+        feature_dim: int | None = None,
     ) -> None:
         super().__init__()
+        self.trunk = nn.Identity() if feature_dim is None else _trunk(repr_dim, feature_dim)
+        in_dim = repr_dim if feature_dim is None else feature_dim
         layers: list[nn.Module] = []
         for index in range(hidden_depth):
-            layers += [nn.Linear(repr_dim if index == 0 else hidden_dim, hidden_dim), nn.ReLU(inplace=True)]
-        layers.append(nn.Linear(hidden_dim if hidden_depth else repr_dim, 2 * action_dim))
+            layers += [nn.Linear(in_dim if index == 0 else hidden_dim, hidden_dim), nn.ReLU(inplace=True)]
+        layers.append(nn.Linear(hidden_dim if hidden_depth else in_dim, 2 * action_dim))
         self.policy = nn.Sequential(*layers)
         self.log_std_bounds = log_std_bounds
         self.apply(weight_init)
 
     def forward(self, hidden: Tensor) -> tuple[Tensor, Tensor]:
-        mean, log_std = self.policy(hidden).chunk(2, dim=-1)
+        mean, log_std = self.policy(self.trunk(hidden)).chunk(2, dim=-1)
         low, high = self.log_std_bounds
         return mean, low + 0.5 * (high - low) * (torch.tanh(log_std) + 1)
 
