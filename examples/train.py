@@ -58,8 +58,7 @@ from vigen.envs import available_envs, make_env
 from vigen.envs.levels import resolve_levels
 from vigen.evaluation import evaluate
 from vigen.io import atomic_write, unused_path
-from vigen.losses import ALGOS, LinearSchedule, make_loss
-from vigen.policies import make_policy
+from vigen.losses import ALGOS, LinearSchedule, SoftActorCritic, make_loss
 from vigen.rendering import RenderSettings
 from vigen.seeding import ENV_SEED_LIMIT, derive_seed
 
@@ -179,9 +178,9 @@ def main() -> None:
     # the agent: a vigen loss on the paper's networks, its acting policy, Adam and the target-critic update
     std = LinearSchedule(1.0, 0.1, config["std_duration"])
     loss = make_loss(config["algo"], observation_shape, config["action_dim"], feature_dim=config["feature_dim"],
-                     hidden_dim=config["hidden_dim"], **({} if config["algo"] == "drq" else {"std": std}))
+                     hidden_dim=config["hidden_dim"], seed=config["seed"], **({} if issubclass(ALGOS[config["algo"]], SoftActorCritic) else {"std": std}))
     loss.make_value_estimator(gamma=config["gamma"])
-    policy = make_policy(loss, action_spec)
+    policy = loss.make_policy(action_spec)
     noise = next((module for module in policy.modules() if isinstance(module, AdditiveGaussianModule)), None)
     optimizer = torch.optim.Adam(loss.parameters(), lr=config["lr"])
     target_update = SoftUpdate(loss, tau=config["tau"])

@@ -7,15 +7,16 @@ from typing import Any
 import torch
 from tensordict import TensorDict
 
-from vigen.losses import CURLLoss, DrQLoss, DrQv2Loss, SGQNLoss, SRMLoss, SVEALoss
+from vigen.losses import ActorCriticLoss, CURLLoss, DrQLoss, DrQv2Loss, SADALoss, SGQNLoss, SRMLoss, SVEALoss
 from vigen.models import Actor, AttributionDecoder, Critic, CURLHead, DrQv2Encoder, GaussianActor, ProjectedEncoder
 from vigen.transforms import RandomShift
 
 SIZE, ACTIONS, EMBEDDING = 16, 2, 16
-LOSSES = ["drqv2", "svea", "srm", "sgqn", "curl", "drq"]
+LOSSES = ["drqv2", "svea", "srm", "sgqn", "curl", "drq", "sada"]
+SAC_LOSSES = ("drq", "sada")  # sample from their policy: no std
 
 
-def make_loss(name: str, max_value: float | None = None, **kwargs: Any) -> DrQv2Loss:
+def make_loss(name: str, max_value: float | None = None, **kwargs: Any) -> ActorCriticLoss:
     """A loss of each kind on networks small enough for unit tests (``max_value`` goes to the encoder)."""
     kwargs.setdefault("augmentation", RandomShift(pad=1))
     scale = {} if max_value is None else {"max_value": max_value}
@@ -39,6 +40,8 @@ def make_loss(name: str, max_value: float | None = None, **kwargs: Any) -> DrQv2
         loss = CURLLoss(encoder, actor, critic, CURLHead(EMBEDDING), **kwargs)
     elif name == "drq":
         loss = DrQLoss(encoder, GaussianActor(features, ACTIONS, hidden_dim=16), critic, **kwargs)
+    elif name == "sada":
+        loss = SADALoss(encoder, GaussianActor(features, ACTIONS, hidden_dim=16), critic, **kwargs)
     else:
         raise ValueError(name)
     loss.make_value_estimator(gamma=0.9)

@@ -115,7 +115,7 @@ def test_state_dict_round_trip(name):
         for value in loss.target_critic_params.values(True, True):
             value.add_(0.01)
     other.load_state_dict(loss.state_dict())
-    assert other.stddev == loss.stddev and int(other.schedule_step) == 5000
+    assert getattr(other, "stddev", None) == getattr(loss, "stddev", None) and int(other.schedule_step) == 5000
     assert (other.target_critic_params == loss.target_critic_params).all()
     a, b = _output(loss), _output(other)
     assert all(torch.allclose(a[key], b[key]) for key in a.keys())

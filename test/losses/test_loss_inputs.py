@@ -10,20 +10,22 @@ from tensordict.nn import InteractionType, set_interaction_type
 from torchrl.data import Bounded
 from torchrl.objectives import SoftUpdate
 
-from loss_helpers import LOSSES, SIZE, make_batch, make_loss
+from loss_helpers import SAC_LOSSES, LOSSES, SIZE, make_batch, make_loss
 from vigen.losses import make_loss as make_paper_loss
 from vigen.policies import make_policy
 from vigen.transforms import ImageAugmentation, RandomShift
 
 pytestmark = pytest.mark.filterwarnings("ignore:No target network updater")
-CLASS_NAMES = {"drqv2": "DrQv2Loss", "svea": "SVEALoss", "srm": "SRMLoss", "sgqn": "SGQNLoss", "curl": "CURLLoss", "drq": "DrQLoss"}
+CLASS_NAMES = {"drqv2": "DrQv2Loss", "svea": "SVEALoss", "srm": "SRMLoss", "sgqn": "SGQNLoss", "curl": "CURLLoss", "drq": "DrQLoss",
+               "sada": "SADALoss"}
 
 
 def _deterministic(name: str, **kwargs):
     """No random view at all, so that two batches holding the same images must give the same losses."""
     extra = {"svea": {"strong_augmentation": []}, "srm": {"strong_augmentation": []},
-             "sgqn": {"attribution_augmentation": []}, "curl": {"contrastive_augmentation": []}}.get(name, {})
-    if name != "drq":
+             "sgqn": {"attribution_augmentation": []}, "curl": {"contrastive_augmentation": []},
+             "sada": {"strong_augmentation": []}}.get(name, {})
+    if name not in SAC_LOSSES:
         extra["std"] = 0.0
     return make_loss(name, augmentation=None, **extra, **kwargs)
 

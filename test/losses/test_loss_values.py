@@ -322,3 +322,39 @@ def test_drq_temperature_gradient_goes_to_log_alpha_only():
     out["loss_alpha"].backward()
     assert loss.log_alpha.grad is not None and loss.log_alpha.grad != 0
     assert all(p.grad is None for p in loss.actor_params.values(True, True))
+
+
+# -- SADA --------------------------------------------------------------------------------------
+def test_sada_equals_dmcgb2_update_rule():
+    """DMC-GB2 ``algos/sada.py``: critic 0.5·[MSE(cat(Q1, Q2), y) + MSE(cat(Q̃1, Q̃2), y)]; actor on
+    ``[h, h̃]`` scored by the critic on ``[h, h]``; α-loss over the same 2B samples."""
+    loss = make_loss("sada", augmentation=None, strong_augmentation=Invert())
+    batch = make_batch()
+    torch.manual_seed(5)
+    out = loss(batch)
+    alpha = 0.1
+    torch.manual_seed(5)
+    with torch.no_grad():
+        next_hidden = loss.encoder(batch["next", "pixels"])
+        next_action, next_log_prob = squashed_normal_sample(*loss.actor(next_hidden))
+        target = batch["next", "reward"] + GAMMA * (torch.min(*loss.critic(next_hidden, next_action)) - alpha * next_log_prob)
+        pixels = batch["pixels"]
+        hidden, strong = loss.encoder(pixels), loss.encoder(255 - pixels)
+        q1, q2 = loss.critic(hidden, batch["action"])
+        s1, s2 = loss.critic(strong, batch["action"])
+        critic = 0.5 * (F.mse_loss(torch.cat([q1, q2]), torch.cat([target, target]))
+                        + F.mse_loss(torch.cat([s1, s2]), torch.cat([target, target])))
+        action, log_prob = squashed_normal_sample(*loss.actor(torch.cat([hidden, strong])))
+        actor_q = torch.min(*loss.critic(torch.cat([hidden, hidden]), action))
+    assert torch.allclose(out["loss_critic"], critic, atol=1e-5)
+    assert torch.allclose(out["loss_actor"], (alpha * log_prob - actor_q).mean(), atol=1e-5)
+    assert torch.allclose(out["loss_alpha"], (alpha * (-log_prob + 2)).mean(), atol=1e-5)
+    assert torch.allclose(out["q_strong_mean"], s1.mean(), atol=1e-5)
+
+
+def test_sada_actor_gradient_reaches_only_the_actor():
+    loss = make_loss("sada")
+    loss(make_batch())["loss_actor"].backward()
+    assert all(p.grad is None for p in loss.encoder_params.values(True, True))
+    assert all(p.grad is None for p in loss.critic_params.values(True, True))
+    assert any(p.grad is not None and p.grad.abs().sum() > 0 for p in loss.actor_params.values(True, True))

@@ -9,7 +9,13 @@ loss                  what it adds to DrQ-v2's update                           
 ``SGQNLoss``          saliency consistency term and an attribution head           SGQN
 ``CURLLoss``          InfoNCE over the batch with a bilinear head                 CURL
 ``DrQLoss``           (SAC instead) clean + shifted views, learned temperature     DrQ
+``SADALoss``          (SAC) SVEA's critic; actor on clean + strong views           SADA
 ====================  ==========================================================  ===========
+
+All of them run the steps of :class:`ActorCriticLoss` (:mod:`vigen.losses.base`) in DrQ-v2's
+order: augment, critic target, critic loss, actor loss, auxiliary losses; a method changes named
+hooks (its critic views, the actor's inputs, an input mask, extra terms). Each builds its acting
+policy with ``loss.make_policy(action_spec)``.
 
 Each takes plain ``nn.Module`` networks (see :mod:`vigen.models`) and a TensorDict batch from a
 TorchRL replay buffer, returns ``loss_*`` entries and detached metrics, and has target critic
@@ -22,10 +28,21 @@ pixels must follow :mod:`vigen.pixel_format` at the encoder's ``max_value``. A N
 raises before it can reach an optimizer (``check_finite=False`` turns that off).
 """
 
+from vigen.losses.base import (
+    ActorCriticLoss,
+    ActorResult,
+    AuxiliaryResult,
+    CriticResult,
+    Observations,
+    View,
+    td_error,
+)
 from vigen.losses.curl import CURLLoss
 from vigen.losses.drq import DrQLoss
 from vigen.losses.drqv2 import DrQv2Loss
 from vigen.losses.registry import ALGOS, make_loss
+from vigen.losses.sac import SoftActorCritic
+from vigen.losses.sada import SADALoss
 from vigen.losses.sampling import clipped_normal_sample, squashed_normal_sample
 from vigen.losses.saliency import GuidedBackprop, attribution_mask
 from vigen.losses.schedule import LinearSchedule
@@ -35,12 +52,21 @@ from vigen.losses.svea import SVEALoss
 
 __all__ = [
     "ALGOS",
+    "ActorCriticLoss",
+    "ActorResult",
+    "AuxiliaryResult",
+    "CriticResult",
+    "Observations",
+    "View",
+    "td_error",
     "CURLLoss",
     "DrQLoss",
     "DrQv2Loss",
     "GuidedBackprop",
     "LinearSchedule",
+    "SADALoss",
     "SGQNLoss",
+    "SoftActorCritic",
     "SRMLoss",
     "SVEALoss",
     "attribution_mask",

@@ -8,7 +8,8 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from vigen.losses.drqv2 import Augmentations, DrQv2Loss
+from vigen.losses.base import ActorResult, Augmentations, AuxiliaryResult, CriticResult, Observations
+from vigen.losses.drqv2 import DrQv2Loss
 from vigen.models import CURLHead
 from vigen.transforms import RandomShift
 
@@ -22,8 +23,14 @@ class CURLLoss(DrQv2Loss):
 
         ``loss_curl = CrossEntropy(logits, labels=arange(B))``:
 
-    each anchor must pick its own positive among the batch. The critic gets its own shifted view
-    (encoded in the same pass as the anchors). ``curl_accuracy`` is the fraction of anchors
+    each anchor must pick its own positive among the batch. The critic gets its own shifted view,
+    encoded in the same pass as the anchors (:meth:`auxiliary_views`).
+
+    RL-ViGen's agent takes this step after the critic step: it encodes the anchor with the
+    encoder the critic step has just moved and steps the encoder a second time, with its own
+    Adam (``aux_lr`` 1e-4, betas (0.99, 0.999)). Here both losses come from one set of
+    parameters and one ``backward()``, as a TorchRL loss does; ``examples/train.py`` steps one
+    Adam over all parameters. ``curl_accuracy`` is the fraction of anchors
     whose highest logit is their positive.
 
     RL-ViGen encodes the positives with the online encoder (``key_encoder=False``, the default).
@@ -84,23 +91,19 @@ class CURLLoss(DrQv2Loss):
         if key_encoder:
             self.convert_to_functional(encoder, "encoder", create_target_params=True)
 
-    def _critic_terms(self, pixels: Tensor, action: Tensor, target: Tensor) -> dict[str, Tensor]:
-        obs = self._augment(self.augmentation, pixels)
-        anchor = self._augment(self.contrastive_augmentation, pixels)
-        batch = obs.shape[0]
-        if obs.shape == anchor.shape:
-            hidden, anchor_z = self._encode(torch.cat([obs, anchor])).split(batch)
-        else:
-            hidden, anchor_z = self._encode(obs), self._encode(anchor)
-        q1, q2 = self._q(hidden, action)
+    def auxiliary_views(self, batch: Observations) -> list[Tensor]:
+        """The anchors ``aug₁(obs)``, encoded with gradient in the critic's encoder pass."""
+        return [self._augment(self.contrastive_augmentation, batch.pixels)]
+
+    def auxiliary_losses(self, batch: Observations, critic: CriticResult, actor: ActorResult) -> AuxiliaryResult:
+        """InfoNCE of the anchors against positives ``aug₂(obs)`` encoded without gradient."""
+        (anchor,) = critic.auxiliary_features
         with torch.no_grad():
             keys = self.target_encoder_params if self.key_encoder else None
-            positive_z = self._encode(self._augment(self.contrastive_augmentation, pixels), params=keys)
-        logits = self.head.logits(anchor_z, positive_z)
-        labels = torch.arange(batch, device=logits.device)
-        return {
-            "critic": ((q1 - target).pow(2) + (q2 - target).pow(2)).squeeze(-1),
-            "hidden": hidden, "q1": q1, "q2": q2,
-            "loss_curl": F.cross_entropy(logits, labels, reduction="none"),
-            "curl_accuracy": (logits.argmax(dim=1) == labels).float().mean(),
-        }
+            positive = self.encode(self._augment(self.contrastive_augmentation, batch.pixels), params=keys)
+        logits = self.head.logits(anchor, positive)
+        labels = torch.arange(batch.batch_size, device=logits.device)
+        return AuxiliaryResult(
+            {"loss_curl": F.cross_entropy(logits, labels, reduction="none")},
+            {"curl_accuracy": (logits.argmax(dim=1) == labels).float().mean()},
+        )

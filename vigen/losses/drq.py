@@ -2,18 +2,18 @@
 
 from __future__ import annotations
 
-import math
 from typing import Any, Literal
 
 import torch
 from tensordict import TensorDictBase
 from torch import Tensor, nn
 
-from vigen.losses.drqv2 import DrQv2Loss
-from vigen.losses.sampling import squashed_normal_sample
+from vigen.losses.base import ActorCriticLoss, Augmentations, Observations, View
+from vigen.losses.sac import SoftActorCritic
+from vigen.transforms import RandomShift
 
 
-class DrQLoss(DrQv2Loss):
+class DrQLoss(SoftActorCritic, ActorCriticLoss):
     """DrQ as in RL-ViGen: SAC on a clean and a randomly shifted view of every observation.
 
     With ``h₀ = encoder(obs)``, ``h₁ = encoder(shift(obs))`` and the same two views of the next
@@ -28,10 +28,13 @@ class DrQLoss(DrQv2Loss):
     * ``loss_alpha = α·(−log π(ã|h₀) − H̄)`` with target entropy ``H̄ = −|A|``; α = exp(``log_alpha``),
       initialised at 0.1.
 
-    The original DrQ averages K = M = 2 *shifted* views instead; RL-ViGen replaces one of them by
-    the raw observation, which is what this loss does (``augmentation=None`` makes both views
-    clean). The actor is :class:`~vigen.models.GaussianActor` (mean, log σ of a tanh-squashed
-    Gaussian), the critic DrQ-v2's.
+    RL-ViGen replaces one of the original DrQ's two shifted views by the raw observation; that is
+    the default here. The original DrQ (K = M = 2 independently shifted views, and a target
+    encoder in the target critic) is ``clean_view=False, target_encoder=True``: the views are
+    then ``shift₁(obs)`` and ``shift₂(obs)`` (and of next obs), the actor reads the first, and
+    ``SoftUpdate`` moves the target encoder with the target critic. The actor is
+    :class:`~vigen.models.GaussianActor` (mean, log σ of a tanh-squashed Gaussian), the critic
+    DrQ-v2's.
 
     Paper: DrQ, https://arxiv.org/abs/2004.13649.
 
@@ -40,8 +43,13 @@ class DrQLoss(DrQv2Loss):
         actor: features → (mean, log σ).
         init_temperature: initial α.
         target_entropy: ``"auto"`` for ``−action_dim``, or a number.
-        **kwargs: ``augmentation``, ``channels_last``, ``reduction``, ``check_finite``
-            (see :class:`DrQv2Loss`).
+        augmentation: the shift; ``"default"`` is ``RandomShift(pad=4)``.
+        clean_view: pair the raw observation with one shifted view (RL-ViGen); ``False`` draws
+            two shifted views (the original DrQ's K = M = 2).
+        target_encoder: encode the next views with a target copy of the encoder (the original
+            DrQ) instead of the online encoder (RL-ViGen).
+        **kwargs: ``input_mask``, ``channels_last``, ``reduction``, ``check_finite``
+            (see :class:`~vigen.losses.ActorCriticLoss`).
 
     Examples:
         >>> import torch
@@ -64,7 +72,7 @@ class DrQLoss(DrQv2Loss):
         (['loss_actor', 'loss_alpha', 'loss_critic'], 0.1)
     """
 
-    out_keys = ["loss_critic", "loss_actor", "loss_alpha", "q_mean", "target_mean", "target_std", "alpha", "entropy"]
+    out_keys = ActorCriticLoss.out_keys + ["loss_alpha", "alpha", "entropy"]
 
     def __init__(
         self,
@@ -74,53 +82,36 @@ class DrQLoss(DrQv2Loss):
         *,
         init_temperature: float = 0.1,
         target_entropy: float | Literal["auto"] = "auto",
+        augmentation: Augmentations | Literal["default"] = "default",
+        clean_view: bool = True,
+        target_encoder: bool = False,
         **kwargs: Any,
     ) -> None:
-        for name in ("std", "std_clip"):
-            if name in kwargs:
-                raise TypeError(f"DrQLoss samples from its SAC policy and takes no {name!r} (DrQ-v2's noise).")
-        if init_temperature <= 0:
-            raise ValueError(f"init_temperature must be positive, got {init_temperature}.")
-        super().__init__(encoder, actor, critic, std=0.0, std_clip=None, **kwargs)
-        self.log_alpha = nn.Parameter(torch.tensor(math.log(init_temperature)))
-        self.target_entropy = target_entropy
+        if isinstance(augmentation, str):
+            if augmentation != "default":
+                raise ValueError(f"augmentation must be an ImageAugmentation, a list of them, None or 'default', got {augmentation!r}.")
+            augmentation = RandomShift(pad=4)
+        super().__init__(
+            encoder, actor, critic, augmentation=augmentation, init_temperature=init_temperature,
+            target_entropy=target_entropy, **kwargs,
+        )
+        self.clean_view = clean_view
+        self.target_encoder = target_encoder
+        if target_encoder:
+            self.convert_to_functional(encoder, "encoder", create_target_params=True)
 
-    @property
-    def alpha(self) -> Tensor:
-        """The temperature α = exp(log_alpha)."""
-        return self.log_alpha.exp()
+    def _two_views(self, pixels: Tensor, shifted: Tensor) -> tuple[Tensor, Tensor]:
+        """(raw or a second shift, the first shift): RL-ViGen's pair, or the original DrQ's."""
+        return (pixels, shifted) if self.clean_view else (shifted, self.augment(pixels))
 
-    def _target(self, next_pixels: Tensor, tensordict: TensorDictBase) -> Tensor:
-        views = self._views(next_pixels)
-        hidden = self._encode(views)
-        action, log_prob = squashed_normal_sample(*self._policy(hidden))
-        with self.target_critic_params.to_module(self.critic):
-            next_value = torch.min(*self.critic(hidden, action)) - self.alpha * log_prob
-        clean, shifted = next_value.chunk(2)
+    def critic_target(self, batch: Observations, tensordict: TensorDictBase) -> Tensor:
+        """The mean of the SAC targets of both next views."""
+        views = torch.cat(self._two_views(batch.next_pixels, batch.next_obs))
+        params = self.target_encoder_params if self.target_encoder else None
+        first, second = self.next_value(self.encode(views, params=params)).chunk(2)
         estimate = self.value_estimator.value_estimate
-        return 0.5 * (estimate(tensordict, next_value=clean) + estimate(tensordict, next_value=shifted))
+        return 0.5 * (estimate(tensordict, next_value=first) + estimate(tensordict, next_value=second))
 
-    def _critic_terms(self, pixels: Tensor, action: Tensor, target: Tensor) -> dict[str, Tensor]:
-        batch = pixels.shape[0]
-        hidden = self._encode(self._views(pixels))
-        q1, q2 = self._q(hidden, action.repeat(2, 1))
-        errors = ((q1 - target.repeat(2, 1)).pow(2) + (q2 - target.repeat(2, 1)).pow(2)).squeeze(-1)
-        return {
-            "critic": errors[:batch] + errors[batch:], "hidden": hidden[:batch],
-            "q1": q1[:batch], "q2": q2[:batch],
-        }
-
-    def _actor_terms(self, hidden: Tensor, terms: dict[str, Tensor]) -> Tensor:
-        action, log_prob = squashed_normal_sample(*self._policy(hidden))
-        with self.critic_params.detach().to_module(self.critic):
-            q = torch.min(*self.critic(hidden, action))
-        target_entropy = -action.shape[-1] if self.target_entropy == "auto" else float(self.target_entropy)
-        terms["loss_alpha"] = (self.alpha * (-log_prob - target_entropy).detach()).squeeze(-1)
-        terms["entropy"] = -log_prob.detach().mean()
-        return (self.alpha.detach() * log_prob - q).squeeze(-1)
-
-    def _metrics(self) -> dict[str, Tensor]:
-        return {"alpha": self.alpha.detach()}
-
-    def _views(self, pixels: Tensor) -> Tensor:
-        return torch.cat([pixels, self._augment(self.augmentation, pixels)])
+    def critic_views(self, batch: Observations) -> list[View]:
+        """Both views, each with weight 1 (the MSEs are summed, not averaged)."""
+        return [View(view) for view in self._two_views(batch.pixels, batch.obs)]

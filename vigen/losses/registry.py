@@ -6,9 +6,11 @@ from typing import Any
 
 from torch import nn
 
+from vigen.losses.base import ActorCriticLoss
 from vigen.losses.curl import CURLLoss
 from vigen.losses.drq import DrQLoss
 from vigen.losses.drqv2 import DrQv2Loss
+from vigen.losses.sada import SADALoss
 from vigen.losses.sgqn import SGQNLoss
 from vigen.losses.srm import SRMLoss
 from vigen.losses.svea import SVEALoss
@@ -23,13 +25,14 @@ from vigen.models import (
     SharedCNN,
 )
 
-ALGOS: dict[str, type[DrQv2Loss]] = {
+ALGOS: dict[str, type[ActorCriticLoss]] = {
     "drqv2": DrQv2Loss,
     "svea": SVEALoss,
     "srm": SRMLoss,
     "sgqn": SGQNLoss,
     "curl": CURLLoss,
     "drq": DrQLoss,
+    "sada": SADALoss,
 }
 """Algorithm name -> loss class."""
 
@@ -42,8 +45,9 @@ def make_loss(
     feature_dim: int = 50,
     hidden_dim: int = 1024,
     max_value: float | None = None,
+    seed: int | None = None,
     **loss_options: Any,
-) -> DrQv2Loss:
+) -> ActorCriticLoss:
     """The loss of ``algo`` on fresh networks shaped as in RL-ViGen.
 
     Encoders: DrQ-v2's 4-layer CNN for ``drqv2`` and ``drq``; SVEA's 11-layer shared CNN for
@@ -61,6 +65,9 @@ def make_loss(
         max_value: the white of float pixels, given to the encoder and through it to the loss and
             its augmentations: ``None`` for uint8 pixels or TorchRL's ``ToTensorImage()`` floats on
             0–1, 255 for float pixels on the 0–255 scale (see :mod:`vigen.pixel_format`).
+        seed: seeds every augmentation the loss owns (each its own stream, see
+            :meth:`~vigen.losses.ActorCriticLoss.seed_augmentations`), so its views do not depend
+            on the global RNG; ``None`` leaves them on torch's global RNG.
         **loss_options: keyword arguments of the loss class (e.g. ``std``, ``strong_augmentation``).
 
     Examples:
@@ -83,12 +90,19 @@ def make_loss(
         encoder = DrQv2Encoder(channels, max_value=max_value)
     features = encoder.output_dim(channels, height, width)
     critic = Critic(features, action_dim, feature_dim=feature_dim, hidden_dim=hidden_dim)
-    if algo == "drq":
-        return DrQLoss(encoder, GaussianActor(features, action_dim, hidden_dim=hidden_dim), critic, **loss_options)
-    actor = Actor(features, action_dim, feature_dim=feature_dim, hidden_dim=hidden_dim)
-    if algo == "sgqn":
-        decoder = AttributionDecoder(action_dim, embedding_dim=features, out_channels=channels, image_size=height)
-        return SGQNLoss(encoder, actor, critic, decoder, **loss_options)
-    if algo == "curl":
-        return CURLLoss(encoder, actor, critic, CURLHead(features), **loss_options)
-    return ALGOS[algo](encoder, actor, critic, **loss_options)
+    loss: ActorCriticLoss
+    if algo in ("drq", "sada"):
+        actor = GaussianActor(features, action_dim, hidden_dim=hidden_dim)
+        loss = ALGOS[algo](encoder, actor, critic, **loss_options)
+    else:
+        actor = Actor(features, action_dim, feature_dim=feature_dim, hidden_dim=hidden_dim)
+        if algo == "sgqn":
+            decoder = AttributionDecoder(action_dim, embedding_dim=features, out_channels=channels, image_size=height)
+            loss = SGQNLoss(encoder, actor, critic, decoder, **loss_options)
+        elif algo == "curl":
+            loss = CURLLoss(encoder, actor, critic, CURLHead(features), **loss_options)
+        else:
+            loss = ALGOS[algo](encoder, actor, critic, **loss_options)
+    if seed is not None:
+        loss.seed_augmentations(seed)
+    return loss

@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from vigen.losses.drqv2 import Augmentations, DrQv2Loss
+from vigen.losses.base import ActorResult, Augmentations, AuxiliaryResult, CriticResult, Observations, td_error
+from vigen.losses.drqv2 import DrQv2Loss
 from vigen.losses.saliency import GuidedBackprop, attribution_mask
 from vigen.transforms import RandomOverlay
 
@@ -28,8 +30,10 @@ class SGQNLoss(DrQv2Loss):
        learns to predict the mask from an overlaid view; its gradient reaches the shared encoder.
 
     The saliency reuses the critic's own forward pass (one input-only backward pass on top). In
-    RL-ViGen the attribution step recomputes the mask after the critic step; here both terms use
-    the mask of the same parameters, as everything in one call of a TorchRL loss does.
+    RL-ViGen the attribution step comes after the critic step: it recomputes the mask with the
+    updated critic and steps the encoder a second time, with its own Adam (``aux_lr`` 1e-4, betas
+    (0.99, 0.999)). Here both terms use the mask of the same parameters and one ``backward()``,
+    as everything in one call of a TorchRL loss does.
 
     Defaults follow RL-ViGen: ``quantile=0.93``, ``consistency_weight=0.9``. The original SGQN
     uses ``quantile=0.9`` (0.98 for cartpole) and ``consistency_weight=0.5``; RL-ViGen's Adroit
@@ -97,30 +101,37 @@ class SGQNLoss(DrQv2Loss):
 
     _schedulable_buffers = frozenset({"consistency_weight"})
 
-    def _critic_terms(self, pixels: Tensor, action: Tensor, target: Tensor) -> dict[str, Tensor]:
-        weak = self._augment(self.augmentation, pixels)
-        obs = self._to_float(weak)  # saliency is a gradient with respect to these pixels
+    def critic_loss(self, batch: Observations, target: Tensor) -> SaliencyCriticResult:
+        """TD loss of ``s`` plus ``λ·`` the consistency of Q on ``s`` and on its salient pixels ``s_M``."""
+        obs = self._to_float(batch.obs)  # saliency is a gradient with respect to these pixels
         if self.channels_last:
             obs = obs.contiguous(memory_format=torch.channels_last)
         obs.requires_grad_(True)
         guided = GuidedBackprop(self.encoder, self.critic)
         with guided.recording():
-            hidden = self._encode(obs)
-            q1, q2 = self._q(hidden, action)
+            features = self.encode(obs)
+            q1, q2 = self.q_values(features, batch.action)
         mask = attribution_mask(guided.saliency(q1, obs, retain_graph=True), self.quantile)
 
         low, high = obs.detach().min(), obs.detach().max()
         fill = low + (high - low) * torch.rand((), device=obs.device)
-        masked_q1, masked_q2 = self._q(self._encode(torch.where(mask, obs.detach(), fill)), action)
-        td = (q1 - target).pow(2) + (q2 - target).pow(2)
-        consistency = (q1 - masked_q1).pow(2) + (q2 - masked_q2).pow(2)
+        masked_q1, masked_q2 = self.q_values(self.encode(torch.where(mask, obs.detach(), fill)), batch.action)
+        consistency = ((q1 - masked_q1).pow(2) + (q2 - masked_q2).pow(2)).squeeze(-1)
+        loss = td_error(q1, q2, target) + self.consistency_weight * consistency
+        metrics = {"mask_fraction": mask.float().mean(), "consistency": consistency.mean()}
+        return SaliencyCriticResult(loss, q1, q2, (features,), metrics=metrics, mask=mask)
 
-        overlaid = self._augment(self.attribution_augmentation, weak)
-        logits = self.decoder(self._encode(overlaid), action)
-        attribution = F.binary_cross_entropy_with_logits(logits, mask.to(logits.dtype), reduction="none")
-        return {
-            "critic": (td + self.consistency_weight * consistency).squeeze(-1),
-            "hidden": hidden, "q1": q1, "q2": q2,
-            "loss_attribution": attribution.flatten(1).mean(1),
-            "mask_fraction": mask.float().mean(), "consistency": consistency.mean(),
-        }
+    def auxiliary_losses(self, batch: Observations, critic: CriticResult, actor: ActorResult) -> AuxiliaryResult:
+        """The attribution head's BCE against the mask, from an overlaid view of ``s``."""
+        assert isinstance(critic, SaliencyCriticResult)
+        overlaid = self._augment(self.attribution_augmentation, batch.obs)
+        logits = self.decoder(self.encode(overlaid), batch.action)
+        attribution = F.binary_cross_entropy_with_logits(logits, critic.mask.to(logits.dtype), reduction="none")
+        return AuxiliaryResult({"loss_attribution": attribution.flatten(1).mean(1)})
+
+
+@dataclass
+class SaliencyCriticResult(CriticResult):
+    """SGQN's critic result, with the saliency mask ``M`` of the weak view (boolean, like the pixels)."""
+
+    mask: Tensor | None = None

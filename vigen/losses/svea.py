@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from typing import Any
 
-import torch
-from torch import Tensor, nn
+from torch import nn
 
-from vigen.losses.drqv2 import Augmentations, DrQv2Loss
+from vigen.losses.base import Augmentations, Observations, View
+from vigen.losses.drqv2 import DrQv2Loss
 from vigen.transforms import RandomOverlay
 
 
@@ -22,7 +22,9 @@ class SVEALoss(DrQv2Loss):
     with α = β = 0.5. Both views go through the encoder with gradient, batched into one pass
     (as DMC-GB concatenates them). The actor sees the weak view only.
 
-    RL-ViGen's SVEA uses the random overlay as strong augmentation (the default here); DMC-GB's
+    RL-ViGen's SVEA uses the random overlay as strong augmentation (the default here): the blend
+    ``0.5·x + 0.5·image`` of uint8 frames is rounded back to uint8 (the originals blend floats, a
+    difference of at most half a grey level). DMC-GB's
     original uses random convolution: pass ``strong_augmentation=RandomConv()``. Either way the
     encoder in the papers is the 11-layer :class:`~vigen.models.SharedCNN`.
 
@@ -84,15 +86,7 @@ class SVEALoss(DrQv2Loss):
     def _default_strong_augmentation() -> Augmentations:
         return RandomOverlay(alpha=0.5)
 
-    def _critic_terms(self, pixels: Tensor, action: Tensor, target: Tensor) -> dict[str, Tensor]:
-        weak = self._augment(self.augmentation, pixels)
-        strong = self._augment(self.strong_augmentation, weak)
-        batch = weak.shape[0]
-        hidden = self._encode(torch.cat([weak, strong]))
-        q1, q2 = self._q(hidden, action.repeat(2, 1))
-        errors = ((q1 - target.repeat(2, 1)).pow(2) + (q2 - target.repeat(2, 1)).pow(2)).squeeze(-1)
-        critic = self.alpha * errors[:batch] + self.beta * errors[batch:]
-        return {
-            "critic": critic, "hidden": hidden[:batch], "q1": q1[:batch], "q2": q2[:batch],
-            "q_strong_mean": q1[batch:].mean(),
-        }
+    def critic_views(self, batch: Observations) -> list[View]:
+        """The weak view with weight α and its strongly augmented copy with weight β."""
+        strong = self._augment(self.strong_augmentation, batch.obs)
+        return [View(batch.obs, self.alpha), View(strong, self.beta, name="strong")]
