@@ -400,6 +400,14 @@ class ActorCriticLoss(LossModule):
         """Loss-wide values logged with every update (e.g. the noise std)."""
         return {}
 
+    def optimizer_groups(self, lr: float) -> list[dict[str, Any]]:
+        """Parameter groups for one optimizer over the whole loss: ``torch.optim.Adam(loss.optimizer_groups(lr))``.
+
+        One group at ``lr`` here; a method whose paper gives a module its own learning rate or
+        betas (MaDi's masker) returns that module's parameters as a group of their own.
+        """
+        return [{"params": list(self.parameters()), "lr": lr}]
+
     def seed_augmentations(self, seed: int | None) -> None:
         """Seed every augmentation this loss owns, each with its own stream below ``seed``.
 
