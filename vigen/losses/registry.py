@@ -54,7 +54,7 @@ def make_loss(
     ``svea`` and ``srm``; the 4-layer CNN with a linear projection to 512 (an embedding for the
     attribution decoder and the contrastive head) for ``sgqn`` and ``curl``. Heads: the actor and
     twin critic with a ``feature_dim`` trunk and ``hidden_dim`` MLPs (DrQ's SAC actor has no
-    trunk); SGQN's attribution decoder; CURL's bilinear head.
+    trunk; SADA's, DMC-GB2's, has one); SGQN's attribution decoder; CURL's bilinear head.
 
     Args:
         algo: one of :data:`ALGOS`.
@@ -91,9 +91,12 @@ def make_loss(
     features = encoder.output_dim(channels, height, width)
     critic = Critic(features, action_dim, feature_dim=feature_dim, hidden_dim=hidden_dim)
     loss: ActorCriticLoss
-    if algo in ("drq", "sada"):
+    if algo == "drq":
         actor = GaussianActor(features, action_dim, hidden_dim=hidden_dim)
-        loss = ALGOS[algo](encoder, actor, critic, **loss_options)
+        loss = DrQLoss(encoder, actor, critic, **loss_options)
+    elif algo == "sada":
+        actor = GaussianActor(features, action_dim, hidden_dim=hidden_dim, feature_dim=feature_dim)
+        loss = SADALoss(encoder, actor, critic, **loss_options)
     else:
         actor = Actor(features, action_dim, feature_dim=feature_dim, hidden_dim=hidden_dim)
         if algo == "sgqn":
