@@ -44,7 +44,7 @@ from torch.utils.flop_counter import FlopCounterMode
 from torchrl.objectives import SoftUpdate
 
 from augmentations import drqv2_shift, float_overlay, rlvigen_random_mask_freq_v2, seconds
-from vigen.losses import CURLLoss, DrQLoss, DrQv2Loss, SGQNLoss, SRMLoss, SVEALoss, attribution_mask
+from vigen.losses import ActorCriticLoss, CURLLoss, DrQLoss, DrQv2Loss, SADALoss, SGQNLoss, SRMLoss, SVEALoss, attribution_mask
 from vigen.models import (
     Actor,
     AttributionDecoder,
@@ -58,7 +58,7 @@ from vigen.models import (
 from vigen.transforms import ImageBank, RandomOverlay
 
 ACTIONS, GAMMA, STD, CLIP, TAU, LR = 6, 0.99, 0.2, 0.3, 0.01, 1e-4
-ALGOS = ["drqv2", "svea", "srm", "sgqn", "curl", "drq"]
+ALGOS = ["drqv2", "svea", "srm", "sgqn", "curl", "drq", "sada"]
 RLVIGEN_MS_AT_64 = {"drqv2": 280, "svea": 640, "srm": 1050, "curl": 760, "sgqn": 2540}  # RL-ViGen's own agents at batch 64, timed on a machine like this one (issue 5)
 
 
@@ -71,7 +71,12 @@ def networks(algo: str) -> dict[str, nn.Module]:
     else:
         encoder = DrQv2Encoder(9)
     features = encoder.output_dim(9, 84, 84)
-    actor = GaussianActor(features, ACTIONS) if algo == "drq" else Actor(features, ACTIONS)
+    if algo == "drq":
+        actor: nn.Module = GaussianActor(features, ACTIONS)
+    elif algo == "sada":
+        actor = GaussianActor(features, ACTIONS, feature_dim=50)
+    else:
+        actor = Actor(features, ACTIONS)
     nets = {"encoder": encoder, "actor": actor, "critic": Critic(features, ACTIONS)}
     if algo == "sgqn":
         nets["decoder"] = AttributionDecoder(ACTIONS)
@@ -133,7 +138,7 @@ class Reference:
         self.encoder_opt = torch.optim.Adam(self.encoder.parameters(), lr=LR)
         self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=LR)
         self.critic_opt = torch.optim.Adam(self.critic.parameters(), lr=LR)
-        if algo == "drq":
+        if algo in ("drq", "sada"):
             self.log_alpha = torch.tensor(0.1).log().requires_grad_()
             self.alpha_opt = torch.optim.Adam([self.log_alpha], lr=LR)
         if algo == "sgqn":
@@ -152,6 +157,8 @@ class Reference:
         next_obs, reward = batch["next", "pixels"], batch["next", "reward"]
         if self.algo == "drq":
             return self.update_drq(obs, action, reward, next_obs)
+        if self.algo == "sada":
+            return self.update_sada(obs, action, reward, next_obs)
         if self.algo == "curl":
             anchor, positive = drqv2_shift(obs), drqv2_shift(obs)
         obs, next_obs = drqv2_shift(obs), drqv2_shift(next_obs)
@@ -243,6 +250,39 @@ class Reference:
         self.alpha_opt.step()
         self.soft_update()
 
+    def update_sada(self, obs: Tensor, action: Tensor, reward: Tensor, next_obs: Tensor) -> None:
+        """DMC-GB2's SADA: one encoder call per view, separate critic / actor / temperature steps."""
+        obs, next_obs = drqv2_shift(obs), drqv2_shift(next_obs)
+        strong = self.overlay(obs)
+        alpha = self.log_alpha.exp()
+        with torch.no_grad():
+            h = self.encoder(next_obs)
+            next_action, log_prob = squashed(*self.actor(h))
+            target = reward + GAMMA * (torch.min(*self.critic_target(h, next_action)) - alpha * log_prob)
+        h, h_strong = self.encoder(obs), self.encoder(strong)
+        q1, q2 = self.critic(h, action)
+        sq1, sq2 = self.critic(h_strong, action)
+        critic_loss = 0.5 * (F.mse_loss(torch.cat([q1, q2]), torch.cat([target, target]))
+                             + F.mse_loss(torch.cat([sq1, sq2]), torch.cat([target, target])))
+        self.encoder_opt.zero_grad(set_to_none=True)
+        self.critic_opt.zero_grad(set_to_none=True)
+        critic_loss.backward()
+        self.critic_opt.step()
+        self.encoder_opt.step()
+
+        h, h_strong = h.detach(), h_strong.detach()
+        new_action, log_prob = squashed(*self.actor(torch.cat([h, h_strong])))
+        actor_q = torch.min(*self.critic(torch.cat([h, h]), new_action))
+        actor_loss = (alpha.detach() * log_prob - actor_q).mean()
+        self.actor_opt.zero_grad(set_to_none=True)
+        actor_loss.backward()
+        self.actor_opt.step()
+        alpha_loss = (alpha * (-log_prob - -ACTIONS).detach()).mean()
+        self.alpha_opt.zero_grad(set_to_none=True)
+        alpha_loss.backward()
+        self.alpha_opt.step()
+        self.soft_update()
+
     def soft_update(self) -> None:
         with torch.no_grad():
             for p, tp in zip(self.critic.parameters(), self.critic_target.parameters()):
@@ -257,7 +297,7 @@ class Vigen:
         common = {"std": STD}
         encoder, actor, critic = nets["encoder"], nets["actor"], nets["critic"]
         if algo == "drqv2":
-            self.loss: DrQv2Loss = DrQv2Loss(encoder, actor, critic, **common)
+            self.loss: ActorCriticLoss = DrQv2Loss(encoder, actor, critic, **common)
         elif algo == "svea":
             self.loss = SVEALoss(encoder, actor, critic, strong_augmentation=RandomOverlay(images=bank), **common)
         elif algo == "srm":
@@ -269,6 +309,8 @@ class Vigen:
             self.loss = SGQNLoss(encoder, actor, critic, nets["decoder"], attribution_augmentation=RandomOverlay(images=bank), **common)
         elif algo == "curl":
             self.loss = CURLLoss(encoder, actor, critic, nets["head"], **common)
+        elif algo == "sada":
+            self.loss = SADALoss(encoder, actor, critic, strong_augmentation=RandomOverlay(images=bank))
         else:
             self.loss = DrQLoss(encoder, actor, critic)
         self.loss.make_value_estimator(gamma=GAMMA)
