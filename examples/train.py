@@ -9,7 +9,9 @@ replay buffer (memory-mapped in ``replay_buffer/storage``). ``--frames`` counts 
 (agent steps × action repeat), as in DrQ-v2's curves. Presets: ``paper`` is DrQ-v2 / RL-ViGen's
 setup (batch 256, 1M-transition buffer, lr 1e-4, 3-step returns, τ = 0.01, 4000 seed frames, an
 update every 2 agent steps); ``cpu`` is the same agent with batch 64 and a 100k buffer, to learn
-easy tasks on a laptop CPU.
+easy tasks on a laptop CPU. An algorithm whose paper changes some of these settings gets them from
+``algo_defaults`` (VRL3: a fixed exploration std of 0.01 and, on Adroit, RL-ViGen's reward scale,
+door ×1/20, hammer ×1/100, pen ×1/50); flags override them and ``config.json`` records them.
 
 What a run guarantees (``vigen.checkpoint`` does the work):
 
@@ -59,19 +61,29 @@ from vigen.envs.levels import resolve_levels
 from vigen.evaluation import evaluate
 from vigen.io import atomic_write, unused_path
 from vigen.losses import ALGOS, LinearSchedule, SoftActorCritic, make_loss
+from vigen.losses.vrl3 import ADROIT_REWARD_SCALES
 from vigen.rendering import RenderSettings
 from vigen.seeding import ENV_SEED_LIMIT, derive_seed
 
 PRESETS = {
     "paper": dict(batch_size=256, buffer_size=1_000_000, lr=1e-4, hidden_dim=1024, feature_dim=50, n_step=3,
                   gamma=0.99, tau=0.01, seed_frames=4000, update_every=2, std_duration=100_000,
-                  eval_every=10_000, eval_episodes=10),
+                  eval_every=10_000, eval_episodes=10, std_init=1.0, std_final=0.1, reward_scale=1.0),
     "cpu": dict(batch_size=64, buffer_size=100_000, lr=1e-4, hidden_dim=1024, feature_dim=50, n_step=3,
                 gamma=0.99, tau=0.01, seed_frames=4000, update_every=2, std_duration=100_000,
-                eval_every=10_000, eval_episodes=5),
+                eval_every=10_000, eval_episodes=5, std_init=1.0, std_final=0.1, reward_scale=1.0),
 }
 DEFAULTS = dict(algo="drqv2", env="dmc/cartpole-balance", preset="cpu", seed=0, workers=1, eval_levels=["train"],
                 logger="csv", episode_length=None)  # a new run's values of the flags a resumed run takes from config.json
+
+
+def algo_defaults(algo: str, env: str) -> dict:
+    """The preset values an algorithm's paper changes (std: linear std_init → std_final; reward_scale: of stored rewards)."""
+    if algo == "vrl3":  # RL-ViGen's Adroit VRL3: std linear(0.01, 0.01), rewards rescaled (as its safe-Q threshold assumes)
+        suite, _, task = env.partition("/")
+        scale = ADROIT_REWARD_SCALES.get(task, 1.0) if suite == "adroit" else 1.0
+        return dict(std_init=0.01, std_final=0.01, reward_scale=scale)
+    return {}
 
 
 def training_env(name: str, seed: int, episode_length: int | None = None) -> TransformedEnv:
@@ -106,12 +118,14 @@ def configure(args: argparse.Namespace) -> dict:
     given = {name: getattr(args, name) for name in [*DEFAULTS, *PRESETS["paper"]] if getattr(args, name) is not None}
     if args.resume is None:
         preset = given.get("preset", DEFAULTS["preset"])
-        return {**DEFAULTS, **PRESETS[preset], **given, "frames": args.frames}
+        algo = algo_defaults(given.get("algo", DEFAULTS["algo"]), given.get("env", DEFAULTS["env"]))
+        return {**DEFAULTS, **PRESETS[preset], **algo, **given, "frames": args.frames}
     if args.out is not None:
         raise SystemExit("--out and --resume: a resumed run stays in its folder; drop --out.")
     if not (args.resume / "config.json").is_file():
         raise SystemExit(f"--resume {args.resume}: no config.json there; pass a run folder of examples/train.py.")
-    config = json.loads((args.resume / "config.json").read_text())
+    saved = json.loads((args.resume / "config.json").read_text())
+    config = {**PRESETS[DEFAULTS["preset"]], **saved}  # a setting newer than the run: the run had its default
     conflicts = [f"--{name.replace('_', '-')} {value} (the run has {config.get(name)})"
                  for name, value in given.items() if config.get(name) != value]
     if conflicts:
@@ -135,6 +149,9 @@ def validate(config: dict, threads: int | None) -> None:
                          "the buffer could never fill one batch; raise it.")
     if not (config["lr"] > 0 and 0 < config["gamma"] <= 1 and 0 < config["tau"] <= 1):
         raise SystemExit(f"--lr must be > 0 and --gamma, --tau in (0, 1], got {config['lr']}, {config['gamma']}, {config['tau']}.")
+    if not (config["std_init"] >= 0 and config["std_final"] >= 0 and 0 < config["reward_scale"] < float("inf")):
+        raise SystemExit(f"--std-init and --std-final must be >= 0 and --reward-scale positive, got {config['std_init']}, "
+                         f"{config['std_final']} and {config['reward_scale']}.")
     if config["episode_length"] is not None and config["episode_length"] < 1:
         raise SystemExit(f"--episode-length must be >= 1, got {config['episode_length']}.")
     if threads is not None and threads < 1:
@@ -176,7 +193,7 @@ def main() -> None:
     print(f"run folder: {run_dir}", flush=True)
 
     # the agent: a vigen loss on the paper's networks, its acting policy, Adam and the target-critic update
-    std = LinearSchedule(1.0, 0.1, config["std_duration"])
+    std = LinearSchedule(config["std_init"], config["std_final"], config["std_duration"])
     loss = make_loss(config["algo"], observation_shape, config["action_dim"], feature_dim=config["feature_dim"],
                      hidden_dim=config["hidden_dim"], seed=config["seed"], **({} if issubclass(ALGOS[config["algo"]], SoftActorCritic) else {"std": std}))
     loss.make_value_estimator(gamma=config["gamma"])
@@ -240,6 +257,8 @@ def main() -> None:
                 batch["next", "done"][..., -1, :] = True
             transitions = n_step.inv(batch)  # [time] or [workers, time], with n-step rewards and next pixels
             if transitions is not None:
+                if config["reward_scale"] != 1:
+                    transitions.set(("next", "reward"), transitions["next", "reward"] * config["reward_scale"])
                 journal.protect(transitions.numel())
                 buffer.extend(transitions.reshape(-1))
             if noise is not None:

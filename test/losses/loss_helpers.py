@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import torch
@@ -9,10 +10,14 @@ from tensordict import TensorDict
 
 from vigen.losses import ActorCriticLoss, CURLLoss, DrQLoss, DrQv2Loss, SADALoss, SGQNLoss, SRMLoss, SVEALoss
 from vigen.models import Actor, AttributionDecoder, Critic, CURLHead, DrQv2Encoder, GaussianActor, ProjectedEncoder
+from vigen.losses import MaDiLoss, SimGRLLoss
+from vigen.models import MaDiMasker, PerFrameEncoder
+from vigen.losses import VRL3Loss
+from vigen.models import VRL3Encoder
 from vigen.transforms import RandomShift
 
 SIZE, ACTIONS, EMBEDDING = 16, 2, 16
-LOSSES = ["drqv2", "svea", "srm", "sgqn", "curl", "drq", "sada"]
+LOSSES = ["drqv2", "svea", "srm", "sgqn", "curl", "drq", "sada", "madi", "simgrl", "vrl3"]
 SAC_LOSSES = ("drq", "sada")  # sample from their policy: no std
 
 
@@ -22,6 +27,12 @@ def make_loss(name: str, max_value: float | None = None, **kwargs: Any) -> Actor
     scale = {} if max_value is None else {"max_value": max_value}
     if name in ("sgqn", "curl"):
         encoder = ProjectedEncoder(9, image_size=SIZE, out_dim=EMBEDDING, **scale)
+    elif name == "simgrl":  # per-frame convs 3→4→4, stacked 12→8: 8×3×3 features
+        encoder = PerFrameEncoder(9, num_layers=3, frame_layers=2, frame_filters=4, channels=8, **scale)
+    elif name == "vrl3":  # stem 9→4, stages 4, 8, 16, 32: 32 pooled features
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # random weights (no stage-1 checkpoint), as in RL-ViGen
+            encoder = VRL3Encoder(9, channels=4, **scale)
     else:
         encoder = DrQv2Encoder(9, **scale)
     features = encoder.output_dim(9, SIZE, SIZE)
@@ -42,6 +53,12 @@ def make_loss(name: str, max_value: float | None = None, **kwargs: Any) -> Actor
         loss = DrQLoss(encoder, GaussianActor(features, ACTIONS, hidden_dim=16), critic, **kwargs)
     elif name == "sada":
         loss = SADALoss(encoder, GaussianActor(features, ACTIONS, hidden_dim=16), critic, **kwargs)
+    elif name == "madi":
+        loss = MaDiLoss(encoder, actor, critic, MaDiMasker(num_filters=4), **kwargs)
+    elif name == "simgrl":
+        loss = SimGRLLoss(encoder, actor, critic, **kwargs)
+    elif name == "vrl3":
+        loss = VRL3Loss(encoder, actor, critic, **kwargs)
     else:
         raise ValueError(name)
     loss.make_value_estimator(gamma=0.9)

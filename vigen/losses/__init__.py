@@ -10,6 +10,9 @@ loss                  what it adds to DrQ-v2's update                           
 ``CURLLoss``          InfoNCE over the batch with a bilinear head                 CURL
 ``DrQLoss``           (SAC instead) clean + shifted views, learned temperature     DrQ
 ``SADALoss``          (SAC) SVEA's critic; actor on clean + strong views           SADA
+``VRL3Loss``          safe Q target, pre-tanh penalty, std 0.01, small ResNet     VRL3
+``MaDiLoss``          SVEA behind a per-frame soft mask trained by the critic     MaDi
+``SimGRLLoss``        SVEA with a shifted overlay, on a per-frame encoder         SimGRL
 ====================  ==========================================================  ===========
 
 All of them run the steps of :class:`ActorCriticLoss` (:mod:`vigen.losses.base`) in DrQ-v2's
@@ -40,6 +43,7 @@ from vigen.losses.base import (
 from vigen.losses.curl import CURLLoss
 from vigen.losses.drq import DrQLoss
 from vigen.losses.drqv2 import DrQv2Loss
+from vigen.losses.madi import MaDiLoss
 from vigen.losses.registry import ALGOS, make_loss
 from vigen.losses.sac import SoftActorCritic
 from vigen.losses.sada import SADALoss
@@ -47,8 +51,10 @@ from vigen.losses.sampling import clipped_normal_sample, squashed_normal_sample
 from vigen.losses.saliency import GuidedBackprop, attribution_mask
 from vigen.losses.schedule import LinearSchedule
 from vigen.losses.sgqn import SGQNLoss
+from vigen.losses.simgrl import SimGRLLoss
 from vigen.losses.srm import SRMLoss
 from vigen.losses.svea import SVEALoss
+from vigen.losses.vrl3 import VRL3Loss
 
 __all__ = [
     "ALGOS",
@@ -64,11 +70,14 @@ __all__ = [
     "DrQv2Loss",
     "GuidedBackprop",
     "LinearSchedule",
+    "MaDiLoss",
     "SADALoss",
     "SGQNLoss",
+    "SimGRLLoss",
     "SoftActorCritic",
     "SRMLoss",
     "SVEALoss",
+    "VRL3Loss",
     "attribution_mask",
     "clipped_normal_sample",
     "make_loss",

@@ -10,10 +10,13 @@ from vigen.losses.base import ActorCriticLoss
 from vigen.losses.curl import CURLLoss
 from vigen.losses.drq import DrQLoss
 from vigen.losses.drqv2 import DrQv2Loss
+from vigen.losses.madi import MaDiLoss
 from vigen.losses.sada import SADALoss
 from vigen.losses.sgqn import SGQNLoss
+from vigen.losses.simgrl import SimGRLLoss
 from vigen.losses.srm import SRMLoss
 from vigen.losses.svea import SVEALoss
+from vigen.losses.vrl3 import VRL3Loss
 from vigen.models import (
     Actor,
     AttributionDecoder,
@@ -21,8 +24,10 @@ from vigen.models import (
     CURLHead,
     DrQv2Encoder,
     GaussianActor,
+    PerFrameEncoder,
     ProjectedEncoder,
     SharedCNN,
+    VRL3Encoder,
 )
 
 ALGOS: dict[str, type[ActorCriticLoss]] = {
@@ -33,6 +38,9 @@ ALGOS: dict[str, type[ActorCriticLoss]] = {
     "curl": CURLLoss,
     "drq": DrQLoss,
     "sada": SADALoss,
+    "vrl3": VRL3Loss,
+    "madi": MaDiLoss,
+    "simgrl": SimGRLLoss,
 }
 """Algorithm name -> loss class."""
 
@@ -55,6 +63,9 @@ def make_loss(
     attribution decoder and the contrastive head) for ``sgqn`` and ``curl``. Heads: the actor and
     twin critic with a ``feature_dim`` trunk and ``hidden_dim`` MLPs (DrQ's SAC actor has no
     trunk; SADA's, DMC-GB2's, has one); SGQN's attribution decoder; CURL's bilinear head.
+    ``vrl3`` uses VRL3's small ResNet (:class:`~vigen.models.VRL3Encoder`; ``stage1_weights=path`` loads its
+    stage-1 checkpoint, without it the encoder starts from random weights as in RL-ViGen).
+    ``madi`` puts MaDi's masker in front of SVEA's CNN; ``simgrl`` uses SimGRL's per-frame encoder.
 
     Args:
         algo: one of :data:`ALGOS`.
@@ -84,6 +95,12 @@ def make_loss(
     encoder: nn.Module
     if algo in ("svea", "srm"):
         encoder = SharedCNN(channels, max_value=max_value)
+    elif algo == "madi":  # MaDiLoss builds its masker on the encoder's max_value
+        encoder = SharedCNN(channels, max_value=max_value)
+    elif algo == "simgrl":
+        encoder = PerFrameEncoder(channels, max_value=max_value)
+    elif algo == "vrl3":
+        encoder = VRL3Encoder(channels, max_value=max_value, stage1_weights=loss_options.pop("stage1_weights", None))
     elif algo in ("sgqn", "curl"):
         encoder = ProjectedEncoder(channels, image_size=height, max_value=max_value)
     else:

@@ -2,8 +2,11 @@
 
 ``networks``: DrQ-v2's encoder, actor and twin critic, SVEA's 11-layer CNN, the CURL/SGQN
 projection encoder, SGQN's attribution decoder, CURL's bilinear head and the SAC actor.
+``masker``: MaDi's per-frame masker. ``per_frame``: SimGRL's encoder with feature-level frame stacking.
+``vrl3``: VRL3's small ResNet encoder (BatchNorm, ImageNet normalisation, optional stage-1 weights).
 """
 
+from vigen.models.masker import MaDiMasker
 from vigen.models.networks import (
     Actor,
     AttributionDecoder,
@@ -15,6 +18,8 @@ from vigen.models.networks import (
     SharedCNN,
     weight_init,
 )
+from vigen.models.per_frame import PerFrameEncoder
+from vigen.models.vrl3 import VRL3Encoder
 
 __all__ = [
     "Actor",
@@ -23,7 +28,10 @@ __all__ = [
     "Critic",
     "DrQv2Encoder",
     "GaussianActor",
+    "MaDiMasker",
+    "PerFrameEncoder",
     "ProjectedEncoder",
     "SharedCNN",
+    "VRL3Encoder",
     "weight_init",
 ]

@@ -15,6 +15,7 @@ transform                 what it does                                          
 ========================  ==========================================================  ==========
 ``RandomShift``           replicate-pad 4, random integer translation                 DrQ(-v2)
 ``RandomOverlay``         ``(1-α)·x + α·I`` with a natural image per sample            SVEA
+``RandomShiftedOverlay``  overlay whose image crop drifts by (dy, dx) per frame       SimGRL
 ``RandomConv``            random 3×3 RGB filter per sample, sigmoid                   DMC-GB
 ``RandomFrequencyMask``   remove a random square ring of spatial frequencies         SRM
 ``RandomCrop``            random window (render larger, crop to 84)                  CURL
@@ -35,6 +36,7 @@ from vigen.transforms.augmentations import (
     RandomCrop,
     RandomFrequencyMask,
     RandomOverlay,
+    RandomShiftedOverlay,
     RandomShift,
 )
 from vigen.transforms.corruptions import PixelCorruption
@@ -61,6 +63,7 @@ __all__ = [
     "RandomCrop",
     "RandomFrequencyMask",
     "RandomOverlay",
+    "RandomShiftedOverlay",
     "RandomShift",
     "RandomCamera",
     "RandomLighting",

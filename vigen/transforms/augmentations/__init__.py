@@ -11,6 +11,7 @@ from vigen.transforms.augmentations.conv import RandomConv
 from vigen.transforms.augmentations.crop import CenterCrop, RandomCrop
 from vigen.transforms.augmentations.frequency import RandomFrequencyMask
 from vigen.transforms.augmentations.overlay import RandomOverlay
+from vigen.transforms.augmentations.shifted_overlay import RandomShiftedOverlay
 from vigen.transforms.augmentations.shift import RandomShift
 
 __all__ = [
@@ -21,5 +22,6 @@ __all__ = [
     "RandomCrop",
     "RandomFrequencyMask",
     "RandomOverlay",
+    "RandomShiftedOverlay",
     "RandomShift",
 ]

@@ -1,0 +1,266 @@
+"""VRL3's stage-3 update: DrQ-v2's DDPG with a safe Q target, a pre-tanh penalty and a small fixed std."""
+
+from __future__ import annotations
+
+import math
+import numbers
+from typing import Any
+
+import torch
+from tensordict import TensorDictBase
+from tensordict.nn import TensorDictModuleBase
+from tensordict.utils import NestedKey
+from torch import Tensor, nn
+from torchrl.data import TensorSpec
+
+from vigen.losses.base import ActorResult, CriticResult, Observations
+from vigen.losses.drqv2 import DrQv2Loss
+from vigen.losses.sampling import clipped_normal_sample
+from vigen.losses.schedule import LinearSchedule
+
+ADROIT_REWARD_SCALES = {"door": 1 / 20, "hammer": 1 / 100, "pen": 1 / 50, "relocate": 1 / 30}
+"""RL-ViGen's (and VRL3's) Adroit reward rescaling (``reward_rescale: true``), by task: the rewards
+VRL3's safe-Q threshold of 200 is meant for. Multiply the env's rewards by it before the loss
+(``examples/train.py --algo vrl3`` does, through ``--reward-scale``)."""
+
+
+def safe_q_target(target: Tensor, threshold: float = 200.0, factor: float = 0.5) -> Tensor:
+    """VRL3's safe Q target: targets above ``threshold + 1`` grow only as ``(y − threshold)^factor``.
+
+    ``y ↦ y`` where ``y ≤ threshold + 1``, else ``threshold + (y − threshold)^factor``; the two
+    pieces meet at ``threshold + 1``. ``factor`` 0 caps the target at ``threshold + 1``; ``factor``
+    1 (or more) leaves it alone, as in VRL3's code.
+
+    Paper: VRL3, https://arxiv.org/abs/2202.10324.
+
+    Examples:
+        >>> import torch
+        >>> safe_q_target(torch.tensor([100.0, 201.0, 209.0, 300.0]))
+        tensor([100., 201., 203., 210.])
+        >>> safe_q_target(torch.tensor([100.0, 300.0]), factor=0.0)
+        tensor([100., 201.])
+    """
+    if factor >= 1:
+        return target
+    compressed = threshold + (target - threshold).clamp(min=1.0).pow(factor)
+    return torch.where(target > threshold + 1, compressed, target)
+
+
+def pretanh_penalty(pre_tanh: Tensor, threshold: float = 5.0) -> Tensor:
+    """VRL3's penalty on the actor's pre-tanh output: ``mean_j max(|u_j| − threshold, 0)²`` per sample, ``[B]``.
+
+    It keeps the actor's mean out of tanh's flat tails, where its gradient vanishes; VRL3 weighs it
+    by 0.001 and takes the batch mean.
+
+    Paper: VRL3, https://arxiv.org/abs/2202.10324.
+
+    Examples:
+        >>> import torch
+        >>> pretanh_penalty(torch.tensor([[7.0, -1.0], [-8.0, 5.5]]))
+        tensor([2.0000, 4.6250])
+    """
+    return (pre_tanh.abs() - threshold).clamp(min=0.0).pow(2).mean(-1)
+
+
+class VRL3Loss(DrQv2Loss):
+    """VRL3's stage-3 (online) update, as RL-ViGen runs it on Adroit: DrQ-v2 with a safe Q target and a pre-tanh penalty.
+
+    One call computes, on a replay-buffer batch (``h = encoder(shift(obs))``,
+    ``h' = encoder(shift(next obs))`` without gradient, ``Q'`` the target critic):
+
+    * ``loss_critic`` = MSE(Q1(h, a), ỹ) + MSE(Q2(h, a), ỹ) with the safe target
+      ``ỹ = y`` if ``y ≤ c + 1`` else ``c + (y − c)^ρ`` (:func:`safe_q_target`; ``c`` =
+      ``safe_q_threshold`` = 200, ``ρ`` = ``safe_q_factor`` = 0.5), where
+      ``y = r + γⁿ·(1 − terminated)·min(Q1', Q2')(h', a')`` and ``a' = tanh(u(h')) + ε``,
+      ``ε ~ N(0, σ²)`` clipped to ±0.3;
+    * ``loss_actor`` = −min(Q1, Q2)(h̄, tanh(u) + ε) + λ·mean_j max(|u_j| − t, 0)², with
+      ``h̄ = h.detach()``, ``u`` the actor's output before its tanh at ``h̄``
+      (:func:`pretanh_penalty`; ``t`` = ``pretanh_threshold`` = 5, ``λ`` = ``pretanh_penalty`` =
+      0.001), through a frozen critic.
+
+    The noise std σ is fixed at 0.01 (VRL3's ``linear(0.01, 0.01, 500000)``), for the target, the
+    actor step and acting. The encoder (VRL3's small ResNet, :class:`~vigen.models.VRL3Encoder`)
+    learns from the critic loss only, at ``lr · encoder_lr_scale`` (:meth:`optimizer_groups`;
+    VRL3: 1, 0.01 for relocate). The acting policy (:meth:`make_policy`) runs the encoder's
+    BatchNorms on their running statistics, as VRL3 acts in eval mode; the update uses the
+    statistics of each batch.
+
+    The safe-Q threshold is in the units of the rewards the loss sees: VRL3 and RL-ViGen scale
+    Adroit's rewards (door by 1/20, hammer 1/100, pen 1/50: :data:`ADROIT_REWARD_SCALES`), so
+    scale them before the loss (``examples/train.py --algo vrl3`` does).
+
+    What is left out of VRL3 (stage 3 as RL-ViGen runs it: ``stage1_use_pretrain=False``,
+    ``stage2_n_update=0``): stage 1 (ImageNet pretraining; load a checkpoint with
+    ``VRL3Encoder(stage1_weights=...)``), stage 2 (conservative Q-learning on demonstrations) and
+    the behaviour-cloning terms (weight 0 in both). RL-ViGen also fills the replay buffer with 25
+    demonstrations before stage 3 and feeds the actor and critic the hand's 24 joint positions
+    next to the image features; vigen trains from pixels alone, without demonstrations (they are
+    VRL3's data, not downloadable here). As in :class:`DrQv2Loss`, one ``backward()`` of the sum
+    of the ``loss_*`` entries replaces VRL3's separate critic and actor steps (the actor sees the
+    critic before this step's update), and the next observation is encoded before the current
+    one, so the BatchNorms' running statistics see the two batches in the other order.
+
+    Paper: VRL3, https://arxiv.org/abs/2202.10324; RL-ViGen, https://arxiv.org/abs/2307.10224.
+
+    Args:
+        encoder: pixels → features, e.g. :class:`~vigen.models.VRL3Encoder` (``make_loss("vrl3")``).
+        actor: features → action mean ``tanh(u)``; for the penalty the loss reads ``u`` through
+            :meth:`pre_tanh`, which takes vigen's :class:`~vigen.models.Actor` (``tanh(policy(trunk(h)))``).
+        critic: (features, action) → (Q1, Q2), e.g. :class:`~vigen.models.Critic`.
+        std: the noise std, fixed (0.01) or a :class:`LinearSchedule`.
+        safe_q_threshold: ``c`` of the safe target (200).
+        safe_q_factor: ``ρ`` in [0, 1] (0.5); 1 turns the safe target off, 0 is a hard cap at ``c + 1``.
+        pretanh_threshold: ``t`` of the penalty (5).
+        pretanh_penalty: ``λ`` (0.001); 0 turns the penalty off (and any actor works).
+        encoder_lr_scale: the encoder's learning rate over the others' (1).
+        **kwargs: the options of :class:`DrQv2Loss` (``augmentation`` (default ``RandomShift(pad=4)``),
+            ``std_clip`` (0.3), ``input_mask``, ``channels_last``, ``reduction``, ``check_finite``).
+
+    Examples:
+        >>> import torch, warnings
+        >>> from tensordict import TensorDict
+        >>> from torchrl.objectives import SoftUpdate
+        >>> from vigen.models import Actor, Critic, VRL3Encoder
+        >>> with warnings.catch_warnings():
+        ...     warnings.simplefilter("ignore")  # no stage-1 weights: random initialisation, as RL-ViGen
+        ...     encoder = VRL3Encoder(9)
+        >>> features = encoder.output_dim(9, 84, 84)
+        >>> loss = VRL3Loss(encoder, Actor(features, 2, hidden_dim=32), Critic(features, 2, hidden_dim=32))
+        >>> loss.make_value_estimator(gamma=0.99)
+        VRL3Loss(...)
+        >>> updater = SoftUpdate(loss, tau=0.01)
+        >>> pixels = torch.randint(0, 256, (4, 9, 84, 84), dtype=torch.uint8)
+        >>> batch = TensorDict({
+        ...     "pixels": pixels, "action": torch.rand(4, 2) * 2 - 1,
+        ...     "next": {"pixels": pixels, "reward": torch.ones(4, 1),
+        ...              "done": torch.zeros(4, 1, dtype=torch.bool),
+        ...              "terminated": torch.zeros(4, 1, dtype=torch.bool)},
+        ... }, batch_size=[4])
+        >>> out = loss(batch)
+        >>> sorted(key for key in out.keys() if key.startswith("loss_")), loss.stddev
+        (['loss_actor', 'loss_critic'], 0.01)
+        >>> optimizer = torch.optim.Adam(loss.optimizer_groups(lr=1e-4))
+        >>> sum(out[key] for key in ("loss_actor", "loss_critic")).backward()
+        >>> optimizer.step()
+    """
+
+    out_keys = DrQv2Loss.out_keys + ["actor_pretanh_penalty", "abs_pretanh", "max_abs_pretanh"]
+
+    def __init__(
+        self,
+        encoder: nn.Module,
+        actor: nn.Module,
+        critic: nn.Module,
+        *,
+        std: float | LinearSchedule = 0.01,
+        safe_q_threshold: float = 200.0,
+        safe_q_factor: float = 0.5,
+        pretanh_threshold: float = 5.0,
+        pretanh_penalty: float = 1e-3,
+        encoder_lr_scale: float = 1.0,
+        **kwargs: Any,
+    ) -> None:
+        name = type(self).__name__
+        for arg, value in (("safe_q_threshold", safe_q_threshold), ("pretanh_threshold", pretanh_threshold),
+                           ("pretanh_penalty", pretanh_penalty), ("encoder_lr_scale", encoder_lr_scale)):
+            if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+                raise ValueError(f"{name}: {arg} must be a finite number, got {value!r}.")
+        if not (isinstance(safe_q_factor, numbers.Real) and 0 <= safe_q_factor <= 1):
+            raise ValueError(f"{name}: safe_q_factor must be in [0, 1] (1 turns the safe Q target off, 0 caps it at "
+                             f"safe_q_threshold + 1), got {safe_q_factor!r}.")
+        for arg, value in (("pretanh_threshold", pretanh_threshold), ("pretanh_penalty", pretanh_penalty),
+                           ("encoder_lr_scale", encoder_lr_scale)):
+            if value < 0:
+                raise ValueError(f"{name}: {arg} must be >= 0, got {value!r}.")
+        readable = all(isinstance(getattr(actor, part, None), nn.Module) for part in ("trunk", "policy"))
+        if pretanh_penalty > 0 and type(self).pre_tanh is VRL3Loss.pre_tanh and not readable:
+            raise TypeError(
+                f"{name} penalises the actor's output before its tanh, which it reads as actor.policy(actor.trunk(h)) "
+                f"(vigen.models.Actor); {type(actor).__name__} has no trunk and policy. Use vigen.models.Actor, "
+                "override VRL3Loss.pre_tanh() for your actor, or pass pretanh_penalty=0."
+            )
+        super().__init__(encoder, actor, critic, std=std, **kwargs)
+        self.safe_q_threshold = float(safe_q_threshold)
+        self.safe_q_factor = float(safe_q_factor)
+        self.pretanh_threshold = float(pretanh_threshold)
+        self.pretanh_penalty = float(pretanh_penalty)
+        self.encoder_lr_scale = float(encoder_lr_scale)
+
+    def critic_target(self, batch: Observations, tensordict: TensorDictBase) -> Tensor:
+        """DrQ-v2's target ``y`` (:meth:`DrQv2Loss.critic_target`), made safe: :func:`safe_q_target`."""
+        return safe_q_target(super().critic_target(batch, tensordict), self.safe_q_threshold, self.safe_q_factor)
+
+    def actor_loss(self, batch: Observations, critic: CriticResult) -> ActorResult:
+        """``−min(Q1, Q2)(h̄, tanh(u) + ε)`` plus ``λ`` times :func:`pretanh_penalty` of ``u``, per sample."""
+        policy_features, critic_features = self.actor_features(batch, critic)
+        if self.pretanh_penalty > 0:
+            pre_tanh = self.pre_tanh(policy_features)
+            mean = torch.tanh(pre_tanh)
+        else:
+            pre_tanh, mean = None, self.policy(policy_features)
+        action = clipped_normal_sample(mean, self.stddev, self.std_clip)
+        q1, q2 = self.q_values(critic_features, action, frozen=True)
+        loss = -torch.min(q1, q2).squeeze(-1)
+        if pre_tanh is None:
+            return ActorResult(loss)
+        penalty = self.pretanh_penalty * pretanh_penalty(pre_tanh, self.pretanh_threshold)
+        size = pre_tanh.detach().abs()
+        metrics = {"actor_pretanh_penalty": penalty.mean(), "abs_pretanh": size.mean(), "max_abs_pretanh": size.max()}
+        return ActorResult(loss + penalty, None, metrics)
+
+    def pre_tanh(self, features: Tensor) -> Tensor:
+        """The actor's output before its final tanh: ``policy(trunk(h))`` of vigen's :class:`~vigen.models.Actor`.
+
+        Override it for an actor of another shape (its forward must be ``tanh`` of this).
+        """
+        with self.actor_params.to_module(self.actor):
+            return self.actor.policy(self.actor.trunk(features))
+
+    def optimizer_groups(self, lr: float) -> list[dict[str, Any]]:
+        """Everything at ``lr`` and the encoder at ``lr · encoder_lr_scale`` (one group when the scale is 1)."""
+        if self.encoder_lr_scale == 1:
+            return super().optimizer_groups(lr)
+        encoder = list(self.encoder_params.parameters())
+        own = {id(parameter) for parameter in encoder}
+        rest = [parameter for parameter in self.parameters() if id(parameter) not in own]
+        return [{"params": rest, "lr": lr}, {"params": encoder, "lr": lr * self.encoder_lr_scale}]
+
+    def make_policy(self, action_spec: TensorSpec, *, pixels_key: NestedKey = "pixels") -> TensorDictModuleBase:
+        """DrQ-v2's acting policy (:meth:`DrQv2Loss.make_policy`, σ = the loss's std), BatchNorms on running statistics."""
+        policy = super().make_policy(action_spec, pixels_key=pixels_key)
+        policy[0].module = RunningStatistics(policy[0].module)
+        return policy
+
+
+_BATCH_NORMS = (nn.BatchNorm1d, nn.BatchNorm2d, nn.BatchNorm3d, nn.SyncBatchNorm)
+
+
+class RunningStatistics(nn.Module):
+    """Runs ``module`` with every BatchNorm in it on its running statistics, then puts them back in their mode.
+
+    VRL3 acts (and evaluates) with its agent in eval mode while its updates run in training mode;
+    a policy sharing the loss's encoder does the same through this wrapper, without touching the
+    rest of the module's mode.
+
+    Examples:
+        >>> import torch
+        >>> from torch import nn
+        >>> net = RunningStatistics(nn.Sequential(nn.Conv2d(3, 4, 3), nn.BatchNorm2d(4)))
+        >>> out = net(torch.rand(1, 3, 8, 8))
+        >>> net.module[1].training, int(net.module[1].num_batches_tracked)  # still training, stats untouched
+        (True, 0)
+    """
+
+    def __init__(self, module: nn.Module) -> None:
+        super().__init__()
+        self.module = module
+
+    def forward(self, *args: Any) -> Any:
+        norms = [m for m in self.module.modules() if isinstance(m, _BATCH_NORMS) and m.training]
+        for norm in norms:
+            norm.train(False)
+        try:
+            return self.module(*args)
+        finally:
+            for norm in norms:
+                norm.train(True)
