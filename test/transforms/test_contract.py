@@ -31,9 +31,24 @@ from vigen.transforms import (
     RandomOverlay,
     RandomShift,
 )
+from vigen.transforms import AugmentationChain, RandomChoice, RandomRotate, RandomShiftedOverlay
 
 SIZE, CROP = 16, 12
 BANK = ImageBank.builtin(size=SIZE)  # loaded once for the module; RandomOverlay() alone loads its own
+
+class RotateShift(AugmentationChain):
+    """DMC-GB2's rotate_shift at this test's size (a chain with default arguments, for the shared checks)."""
+
+    def __init__(self, **kwargs):
+        super().__init__([RandomRotate(180), RandomShift(pad=2)], **kwargs)
+
+
+class RotateOrConv(RandomChoice):
+    """One of a geometric and a colour augmentation per sample (DMC-GB2's compose_augs)."""
+
+    def __init__(self, **kwargs):
+        super().__init__([RandomRotate(180), RandomConv()], **kwargs)
+
 
 # name -> (class, constructor kwargs); crops cut CROP×CROP windows out of SIZE×SIZE frames.
 AUGMENTATIONS = {
@@ -50,6 +65,10 @@ AUGMENTATIONS = {
     "jpeg": (PixelCorruption, {"corruption": "jpeg_compression", "severity": 5}),
     "contrast": (PixelCorruption, {"corruption": "contrast", "severity": 5}),
     "brightness": (PixelCorruption, {"corruption": "brightness", "severity": 5}),
+    "rotate": (RandomRotate, {}),
+    "rotate_shift": (RotateShift, {}),
+    "rotate_or_conv": (RotateOrConv, {}),
+    "shifted_overlay": (RandomShiftedOverlay, {"images": BANK}),
 }
 RANDOM = [name for name in AUGMENTATIONS if name not in ("center_crop", "blur", "jpeg", "contrast", "brightness")]
 

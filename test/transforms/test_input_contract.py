@@ -29,9 +29,24 @@ from vigen.transforms import (
     RandomOverlay,
     RandomShift,
 )
+from vigen.transforms import AugmentationChain, RandomChoice, RandomRotate, RandomShiftedOverlay
 
 SIZE, CROP = 12, 9
 BANK = ImageBank.procedural(4, size=SIZE)
+
+class RotateShift(AugmentationChain):
+    """DMC-GB2's rotate_shift at this test's size (a chain with default arguments, for the shared checks)."""
+
+    def __init__(self, **kwargs):
+        super().__init__([RandomRotate(180), RandomShift(pad=2)], **kwargs)
+
+
+class RotateOrConv(RandomChoice):
+    """One of a geometric and a colour augmentation per sample (DMC-GB2's compose_augs)."""
+
+    def __init__(self, **kwargs):
+        super().__init__([RandomRotate(180), RandomConv()], **kwargs)
+
 
 # name -> (class, constructor kwargs, needs RGB frames)
 AUGMENTATIONS = {
@@ -48,6 +63,11 @@ AUGMENTATIONS = {
     "jpeg": (PixelCorruption, {"corruption": "jpeg_compression"}, True),
     "contrast": (PixelCorruption, {"corruption": "contrast"}, True),
     "brightness": (PixelCorruption, {"corruption": "brightness"}, True),
+    "rotate": (RandomRotate, {}, False),
+    "rotate_per_call": (RandomRotate, {"per_sample": False}, False),
+    "rotate_shift": (RotateShift, {}, False),
+    "rotate_or_conv": (RotateOrConv, {}, True),
+    "shifted_overlay": (RandomShiftedOverlay, {"images": BANK}, True),
 }
 ANY_CHANNELS = [name for name, (_, _, rgb) in AUGMENTATIONS.items() if not rgb]
 RGB_ONLY = [name for name, (_, _, rgb) in AUGMENTATIONS.items() if rgb]

@@ -27,8 +27,8 @@ class SADALoss(SoftActorCritic, ActorCriticLoss):
     * ``loss_alpha`` over the same ``2B`` samples.
 
     DMC-GB2 draws its strong augmentation among rotate, shift, rotate+shift, conv, overlay and
-    conv+overlay (its ``all``); the default here is the overlay: pass the geometric
-    augmentations of :mod:`vigen.transforms` for its setting. Its networks are DrQ-v2's encoder
+    conv+overlay (its ``all``); the default here is the overlay: pass
+    ``strong_augmentation=dmcgb2_strong_augmentation("all")`` (:mod:`vigen.transforms`) for its setting. Its networks are DrQ-v2's encoder
     and twin critic with DrQ's SAC actor (:class:`~vigen.models.GaussianActor` on a trunk);
     ``make_loss("sada", ...)`` builds them.
 

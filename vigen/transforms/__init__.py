@@ -13,7 +13,7 @@ Augmentations sample per-sample parameters (``make_params``) apart from applying
 ========================  ==========================================================  ==========
 transform                 what it does                                                paper
 ========================  ==========================================================  ==========
-``RandomShift``           replicate-pad 4, random integer translation                 DrQ(-v2)
+``RandomShift``           replicate-pad 4, random integer translation (pad 16: DMC-GB2)  DrQ(-v2)
 ``RandomOverlay``         ``(1-α)·x + α·I`` with a natural image per sample            SVEA
 ``RandomShiftedOverlay``  overlay whose image crop drifts by (dy, dx) per frame       SimGRL
 ``RandomConv``            random 3×3 RGB filter per sample, sigmoid                   DMC-GB
@@ -21,6 +21,9 @@ transform                 what it does                                          
 ``RandomCrop``            random window (render larger, crop to 84)                  CURL
 ``CenterCrop``            central window (evaluation counterpart of RandomCrop)      CURL
 ``RandomColorJitter``     brightness, contrast, saturation, hue per sample            —
+``RandomRotate``          turn by an angle in [-180°, 180°] per sample, edge fill     DMC-GB2
+``AugmentationChain``     members one after another (rotate+shift, conv+overlay)      DMC-GB2
+``RandomChoice``          one member per sample, uniformly                            DMC-GB2
 ========================  ==========================================================  ==========
 
 This room may import torch, torchrl, tensordict, numpy, OpenCV (image decoding) and mujoco
@@ -29,15 +32,20 @@ This room may import torch, torchrl, tensordict, numpy, OpenCV (image decoding) 
 
 from vigen.assets import ImageBank, VideoSource, load_dmcgb_palette
 from vigen.transforms.augmentations import (
+    DMCGB2_AUGMENTATIONS,
+    AugmentationChain,
     CenterCrop,
     ImageAugmentation,
+    RandomChoice,
     RandomColorJitter,
     RandomConv,
     RandomCrop,
     RandomFrequencyMask,
     RandomOverlay,
+    RandomRotate,
     RandomShiftedOverlay,
     RandomShift,
+    dmcgb2_strong_augmentation,
 )
 from vigen.transforms.corruptions import PixelCorruption
 from vigen.transforms.scene import DistractingCamera, DistractingColors, DMCGB2Camera
@@ -55,8 +63,13 @@ from vigen.transforms.scene import (
 
 __all__ = [
     "DMCGB2Camera", "DistractingCamera", "DistractingColors",
+    "AugmentationChain",
     "CenterCrop",
+    "DMCGB2_AUGMENTATIONS",
     "ImageAugmentation",
+    "RandomChoice",
+    "RandomRotate",
+    "dmcgb2_strong_augmentation",
     "ImageBank",
     "RandomColorJitter",
     "RandomConv",
