@@ -6,7 +6,11 @@ timed against a reference written the way RL-ViGen's agents (``algos/*.py``) do 
 ``grid_sample`` shift, one encoder call per view in NCHW layout, the float overlay and 3-D FFT
 mask, separate critic / actor / auxiliary steps with their own backward passes, and for SGQN a
 captum-style guided backprop (a fresh forward pass with gradient hooks on the ReLUs, run twice:
-before the critic step and again before the attribution step).
+before the critic step and again before the attribution step). The newer methods follow the same
+pattern: SADA as DMC-GB2's update (one encoder call per view; separate critic, actor and
+temperature steps), MaDi as that SVEA with the masker multiplied into the 0–255 views and its own
+Adam, SimGRL with its shifted overlay written as a per-frame loop, VRL3 with its safe-Q target and
+pre-tanh penalty written inline.
 
 vigen's update is ``loss(batch)``, one backward of the summed ``loss_*`` entries, one Adam step,
 ``SoftUpdate.step()``. What it does differently at equal math: views of one update share an
@@ -34,6 +38,7 @@ from __future__ import annotations
 import argparse
 import copy
 import random
+import warnings
 from collections.abc import Callable
 
 import torch
@@ -44,7 +49,10 @@ from torch.utils.flop_counter import FlopCounterMode
 from torchrl.objectives import SoftUpdate
 
 from augmentations import drqv2_shift, float_overlay, rlvigen_random_mask_freq_v2, seconds
-from vigen.losses import ActorCriticLoss, CURLLoss, DrQLoss, DrQv2Loss, SADALoss, SGQNLoss, SRMLoss, SVEALoss, attribution_mask
+from vigen.losses import (
+    ActorCriticLoss, CURLLoss, DrQLoss, DrQv2Loss, MaDiLoss, SADALoss, SGQNLoss, SimGRLLoss, SRMLoss, SVEALoss, VRL3Loss,
+    attribution_mask,
+)
 from vigen.models import (
     Actor,
     AttributionDecoder,
@@ -52,20 +60,29 @@ from vigen.models import (
     CURLHead,
     DrQv2Encoder,
     GaussianActor,
+    MaDiMasker,
+    PerFrameEncoder,
     ProjectedEncoder,
     SharedCNN,
+    VRL3Encoder,
 )
-from vigen.transforms import ImageBank, RandomOverlay
+from vigen.transforms import ImageBank, RandomOverlay, RandomShiftedOverlay
 
 ACTIONS, GAMMA, STD, CLIP, TAU, LR = 6, 0.99, 0.2, 0.3, 0.01, 1e-4
-ALGOS = ["drqv2", "svea", "srm", "sgqn", "curl", "drq", "sada"]
+ALGOS = ["drqv2", "svea", "srm", "sgqn", "curl", "drq", "sada", "madi", "simgrl", "vrl3"]
 RLVIGEN_MS_AT_64 = {"drqv2": 280, "svea": 640, "srm": 1050, "curl": 760, "sgqn": 2540}  # RL-ViGen's own agents at batch 64, timed on a machine like this one (issue 5)
 
 
 # -- networks ----------------------------------------------------------------------------------
 def networks(algo: str) -> dict[str, nn.Module]:
-    if algo in ("svea", "srm"):
+    if algo in ("svea", "srm", "madi"):
         encoder: nn.Module = SharedCNN(9)
+    elif algo == "simgrl":
+        encoder = PerFrameEncoder(9)
+    elif algo == "vrl3":
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # no stage-1 weights: random init, as RL-ViGen runs it
+            encoder = VRL3Encoder(9)
     elif algo in ("sgqn", "curl"):
         encoder = ProjectedEncoder(9, image_size=84)
     else:
@@ -82,6 +99,8 @@ def networks(algo: str) -> dict[str, nn.Module]:
         nets["decoder"] = AttributionDecoder(ACTIONS)
     if algo == "curl":
         nets["head"] = CURLHead(512)
+    if algo == "madi":
+        nets["masker"] = MaDiMasker()
     return nets
 
 
@@ -98,6 +117,20 @@ def squashed(mean: Tensor, log_std: Tensor) -> tuple[Tensor, Tensor]:
     )
     action = dist.rsample()
     return action, dist.log_prob(action).sum(-1, keepdim=True)
+
+
+def float_shifted_overlay(x: Tensor, images: Tensor, max_shift: int = 6) -> Tensor:
+    """SimGRL's overlay written plainly: per sample an image at (H + 2p)² and a shift; frame f blends the window at p + f·shift."""
+    n, c, h, w = x.shape
+    frames, pad = c // 3, (c // 3) * max_shift
+    big = F.interpolate(images[torch.randint(len(images), (n,))].float(), size=(h + 2 * pad, w + 2 * pad), mode="bilinear")
+    shift = torch.randint(-max_shift, max_shift + 1, (n, 2))
+    out = []
+    for f in range(frames):
+        windows = torch.stack([big[i, :, pad + f * shift[i, 0] : pad + f * shift[i, 0] + h, pad + f * shift[i, 1] : pad + f * shift[i, 1] + w]
+                               for i in range(n)])
+        out.append(0.5 * x[:, 3 * f : 3 * f + 3].float() + 0.5 * windows)
+    return torch.cat(out, 1)
 
 
 def guided_backprop(encoder: nn.Module, critic: nn.Module, obs: Tensor, action: Tensor) -> Tensor:
@@ -117,14 +150,23 @@ def guided_backprop(encoder: nn.Module, critic: nn.Module, obs: Tensor, action: 
 
 class RLViGenEncoder(nn.Module):
     """A vigen encoder's layers called as RL-ViGen calls its encoder: ``obs / 255 − 0.5`` on float 0–255
-    views, unchecked (RL-ViGen's float views, e.g. its frequency mask, overshoot 255)."""
+    views, unchecked (RL-ViGen's float views, e.g. its frequency mask, overshoot 255). Encoders
+    without a single ``convnet`` (per-frame, ResNet) are called as they are, on ``max_value=255``
+    floats; MaDi's masker, when given, masks the 0–255 view first (as MaDi's ``x · mask``)."""
 
-    def __init__(self, encoder: nn.Module) -> None:
+    def __init__(self, encoder: nn.Module, masker: nn.Module | None = None) -> None:
         super().__init__()
-        self.encoder = encoder
+        self.encoder, self.masker = encoder, masker
+        if not hasattr(encoder, "convnet"):
+            encoder.max_value = 255.0
 
     def forward(self, obs: Tensor) -> Tensor:
-        return self.encoder.project(self.encoder.convnet(obs.float() / 255.0 - 0.5).flatten(1))
+        obs = obs.float()
+        if self.masker is not None:
+            obs = obs * self.masker.masks(obs).repeat_interleave(3, dim=-3).flatten(-4, -3)
+        if not hasattr(self.encoder, "convnet"):
+            return self.encoder(obs.clamp(0, 255))
+        return self.encoder.project(self.encoder.convnet(obs / 255.0 - 0.5).flatten(1))
 
 
 class Reference:
@@ -132,10 +174,15 @@ class Reference:
 
     def __init__(self, algo: str, nets: dict[str, nn.Module], overlay_images: Tensor) -> None:
         self.algo = algo
-        self.encoder, self.actor, self.critic = RLViGenEncoder(nets["encoder"]), nets["actor"], nets["critic"]
+        masker = nets.get("masker")
+        if masker is not None:
+            masker.max_value = 255.0
+        self.encoder, self.actor, self.critic = RLViGenEncoder(nets["encoder"], masker), nets["actor"], nets["critic"]
         self.critic_target = copy.deepcopy(self.critic)
         self.images = overlay_images
-        self.encoder_opt = torch.optim.Adam(self.encoder.parameters(), lr=LR)
+        self.encoder_opt = torch.optim.Adam(self.encoder.encoder.parameters(), lr=LR)
+        if masker is not None:  # MaDi: the masker steps with the critic, at its own lr and betas
+            self.masker_opt = torch.optim.Adam(masker.parameters(), lr=1e-3, betas=(0.9, 0.999))
         self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=LR)
         self.critic_opt = torch.optim.Adam(self.critic.parameters(), lr=LR)
         if algo in ("drq", "sada"):
@@ -150,6 +197,8 @@ class Reference:
             self.curl_opt = torch.optim.Adam([self.W], lr=LR, betas=(0.99, 0.999))
 
     def overlay(self, x: Tensor) -> Tensor:
+        if self.algo == "simgrl":
+            return float_shifted_overlay(x, self.images)
         return float_overlay(x, self.images)
 
     def update(self, batch: TensorDict) -> None:
@@ -166,6 +215,8 @@ class Reference:
             next_h = self.encoder(next_obs)
             next_action = noisy(self.actor(next_h))
             target = reward + GAMMA * torch.min(*self.critic_target(next_h, next_action))
+            if self.algo == "vrl3":
+                target = torch.where(target > 201, 200 + (target - 200).clamp(min=0).sqrt(), target)
 
         if self.algo == "sgqn":
             mask = attribution_mask(guided_backprop(self.encoder, self.critic, obs, action), 0.93)
@@ -174,7 +225,7 @@ class Reference:
         h = self.encoder(obs)
         q1, q2 = self.critic(h, action)
         critic_loss = F.mse_loss(q1, target) + F.mse_loss(q2, target)
-        if self.algo in ("svea", "srm"):
+        if self.algo in ("svea", "srm", "madi", "simgrl"):
             strong = self.overlay(obs)
             if self.algo == "srm" and random.random() < 0.5:
                 strong = rlvigen_random_mask_freq_v2(strong)
@@ -185,14 +236,24 @@ class Reference:
             critic_loss = critic_loss + 0.9 * (F.mse_loss(q1, mq1) + F.mse_loss(q2, mq2))
         self.encoder_opt.zero_grad(set_to_none=True)
         self.critic_opt.zero_grad(set_to_none=True)
+        if self.algo == "madi":
+            self.masker_opt.zero_grad(set_to_none=True)
         critic_loss.backward()
         self.critic_opt.step()
         self.encoder_opt.step()
+        if self.algo == "madi":
+            self.masker_opt.step()
 
         h = h.detach()
-        actor_q = torch.min(*self.critic(h, noisy(self.actor(h))))
+        if self.algo == "vrl3":
+            pre_tanh = self.actor.policy(self.actor.trunk(h))
+            actor_q = torch.min(*self.critic(h, noisy(torch.tanh(pre_tanh))))
+            penalty = 0.001 * (pre_tanh.abs() - 5).clamp(min=0).pow(2).mean()
+            actor_loss = -actor_q.mean() + penalty
+        else:
+            actor_loss = -torch.min(*self.critic(h, noisy(self.actor(h)))).mean()
         self.actor_opt.zero_grad(set_to_none=True)
-        (-actor_q.mean()).backward()
+        actor_loss.backward()
         self.actor_opt.step()
 
         if self.algo == "curl":
@@ -311,10 +372,16 @@ class Vigen:
             self.loss = CURLLoss(encoder, actor, critic, nets["head"], **common)
         elif algo == "sada":
             self.loss = SADALoss(encoder, actor, critic, strong_augmentation=RandomOverlay(images=bank))
+        elif algo == "madi":
+            self.loss = MaDiLoss(encoder, actor, critic, nets["masker"], strong_augmentation=RandomOverlay(images=bank), **common)
+        elif algo == "simgrl":
+            self.loss = SimGRLLoss(encoder, actor, critic, strong_augmentation=RandomShiftedOverlay(images=bank), **common)
+        elif algo == "vrl3":
+            self.loss = VRL3Loss(encoder, actor, critic, std=STD)
         else:
             self.loss = DrQLoss(encoder, actor, critic)
         self.loss.make_value_estimator(gamma=GAMMA)
-        self.optimizer = torch.optim.Adam(self.loss.parameters(), lr=LR)
+        self.optimizer = torch.optim.Adam(self.loss.optimizer_groups(LR))
         self.updater = SoftUpdate(self.loss, tau=TAU)
 
     def update(self, batch: TensorDict) -> None:
