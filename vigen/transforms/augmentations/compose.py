@@ -17,10 +17,11 @@ class _Composite(ImageAugmentation):
     def __init__(
         self,
         augmentations: Sequence[ImageAugmentation],
-        in_keys: Sequence[NestedKey] | NestedKey | None,
-        out_keys: Sequence[NestedKey] | NestedKey | None,
-        max_value: float | None,
-        seed: int | None,
+        *,
+        in_keys: Sequence[NestedKey] | NestedKey | None = None,
+        out_keys: Sequence[NestedKey] | NestedKey | None = None,
+        max_value: float | None = None,
+        seed: int | None = None,
     ) -> None:
         name = type(self).__name__
         if isinstance(augmentations, ImageAugmentation) or not isinstance(augmentations, Sequence) or not augmentations:
@@ -96,17 +97,6 @@ class AugmentationChain(_Composite):
         True
     """
 
-    def __init__(
-        self,
-        augmentations: Sequence[ImageAugmentation],
-        *,
-        in_keys: Sequence[NestedKey] | NestedKey | None = None,
-        out_keys: Sequence[NestedKey] | NestedKey | None = None,
-        max_value: float | None = None,
-        seed: int | None = None,
-    ) -> None:
-        super().__init__(augmentations, in_keys, out_keys, max_value, seed)
-
     def make_params(self, images: Tensor) -> Params:
         return _flatten(member.make_params(images) for member in self.members)
 
@@ -139,17 +129,6 @@ class RandomChoice(_Composite):
         >>> params["choice"].shape, choice(pixels=pixels).dtype
         (torch.Size([8]), torch.uint8)
     """
-
-    def __init__(
-        self,
-        augmentations: Sequence[ImageAugmentation],
-        *,
-        in_keys: Sequence[NestedKey] | NestedKey | None = None,
-        out_keys: Sequence[NestedKey] | NestedKey | None = None,
-        max_value: float | None = None,
-        seed: int | None = None,
-    ) -> None:
-        super().__init__(augmentations, in_keys, out_keys, max_value, seed)
 
     def make_params(self, images: Tensor) -> Params:
         choice = self.randint(len(self.members), images.shape[0], like=images)
