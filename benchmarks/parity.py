@@ -51,11 +51,23 @@ Reproduce (RL-ViGen master, https://github.com/gemcollector/RL-ViGen):
     # some algorithms, a reference per algorithm:
     .venv/bin/python benchmarks/parity.py --algos curl sgqn --reference curl=/path/RL-ViGen --reference sgqn=/path/RL-ViGen
 
+SADA's original is DMC-GB2's (https://github.com/aalmuzairee/dmcgb2, algos/sada.py): give it as
+``--reference sada=PATH``. Without ``--algos`` every algorithm whose reference holds its original
+runs; the others are listed as skipped (``sada`` beside a plain RL-ViGen ``PATH``):
+
+    # a plain checkout of DMC-GB2's code (its envs and data are not needed)
+    git clone https://github.com/aalmuzairee/dmcgb2 /work/refs/dmcgb2
+    # or from a bare mirror: git --git-dir=<mirror> archive HEAD algos augmentations.py utils.py | tar -x -C /work/refs/dmcgb2
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/parity.py --algos sada --reference sada=/work/refs/dmcgb2
+    # everything: RL-ViGen's six and SADA
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/parity.py --reference /work/refs/RL-ViGen --reference sada=/work/refs/dmcgb2 --pythonpath /work/refs/pydeps
+
 Adding an algorithm: write one ``build_<name>(reference, setup) -> Case`` function that imports the
 original's modules with :func:`import_reference`, builds its agent and vigen's loss, and says which
 original module maps to which vigen network (:class:`ModuleMap`), which optimizer step consumes
 which ``loss_*`` (:class:`StepMap`), which callables of the original are replaced by view replays,
-and its documented departures; then add it to ``ALGORITHMS``.
+and its documented departures; then add it to ``ALGORITHMS`` and its repository and identifying
+files to ``ORIGINALS``.
 """
 
 from __future__ import annotations
@@ -906,6 +918,63 @@ def build_drq(reference: Path, setup: Setup) -> Case:
                 departures, ref, batch, setup)
 
 
+# -- DMC-GB2 (aalmuzairee/dmcgb2, main): SADA -----------------------------------------------------
+DMCGB2_OPTIONAL = ("torchvision", "torchvision.transforms", "torchvision.datasets")
+
+
+def build_sada(reference: Path, setup: Setup) -> Case:
+    from vigen.losses import make_loss
+    from vigen.transforms import DMCGB2_AUGMENTATIONS, dmcgb2_strong_augmentation
+
+    ref = import_reference(reference, ["utils", "augmentations", "sada"], paths=("", "algos"), optional=DMCGB2_OPTIONAL)
+    kwargs = _agent_kwargs(setup)
+    for option in ("stddev_schedule", "stddev_clip", "use_tb"):
+        del kwargs[option]
+    # strong_augs only builds the callable that the replay replaces; "overlay" builds without torchvision
+    agent = ref.modules["sada"].AGENT(init_temperature=0.1, log_std_bounds=[-10, 2], strong_augs=["overlay"], **kwargs)
+    batch = Batch.draw(setup, 1)
+    views = Views(batch, setup)
+    strong, twin = (dmcgb2_strong_augmentation("all", seed=setup.seed + 130) for _ in range(2))
+    strong.max_value = twin.max_value = 255
+    strong_pairs: Pairs = [(views.obs, strong.augment(views.obs))]
+    drawn = sorted({DMCGB2_AUGMENTATIONS[int(i)] for i in twin.make_params(views.obs)["choice"]}, key=DMCGB2_AUGMENTATIONS.index)
+    # make_loss builds DMC-GB2's networks: DrQ-v2's encoder, the LayerNorm-trunk twin critic, the SAC actor on a trunk
+    loss = make_loss("sada", setup.obs_shape, setup.action_dim, feature_dim=setup.feature_dim, hidden_dim=setup.hidden_dim,
+                     max_value=255, init_temperature=0.1, augmentation=replay_augmentation(views.weak(), "shift"),
+                     strong_augmentation=replay_augmentation(strong_pairs, "strong"))
+    loss.make_value_estimator(gamma=setup.gamma)
+    modules = [ModuleMap("encoder", "encoder"), ModuleMap("actor", "actor"),
+               ModuleMap("critic", "critic", (("Q1", "q1"), ("Q2", "q2"))), ModuleMap("log_alpha", "log_alpha")]
+    steps = [
+        StepMap("critic", "loss_critic", (("critic_opt", 0), ("encoder_opt", 0))),
+        StepMap("actor", "loss_actor", (("actor_opt", 0),)),
+        StepMap("alpha", "loss_alpha", (("log_alpha_optimizer", 0),)),
+    ]
+    metrics = [("target_mean", "critic_target_q"), ("q_mean", "reg_critic_q1"), ("q_strong_mean", "aug_critic_q1"),
+               ("entropy", "actor_entropy"), ("alpha", "alpha_value")]
+    departures = [
+        "DMC-GB2 computes the actor and temperature losses after its critic/encoder Adam step (the actor then reads "
+        "the stepped critic); vigen's come from the same parameters as loss_critic. Compared at unchanged "
+        "parameters; 'steps taken' shows the order's effect (default setup: loss_actor 1.4e-1, ∂loss_actor up to "
+        "1.1e-1; loss_alpha and ∂loss_alpha unchanged: their log π comes from before the actor step). The actor, the "
+        "critic and α are all updated on every update call (no delayed actor; update_every_steps=2 gates the whole "
+        "update and is met at this step).",
+        "DMC-GB2's metric alpha_value is read after its temperature step: equal at unchanged parameters, 'steps "
+        "taken' differs by the one Adam step on log α (about lr = 1e-4).",
+        "DMC-GB2's actor loss is backpropagated through the critic (not frozen) and leaves gradients in the critic's "
+        ".grad, which actor_opt does not step and the next critic update zeroes first; vigen freezes the critic. No effect on "
+        "any step (no stray gradient row).",
+        "Strong view: DMC-GB2's compose_augs(['all']) (per sample one of conv, overlay, conv+overlay, rotate, shift, "
+        "rotate+shift; overlay images from Places365 on CUDA, rotation by torchvision) is replaced by one draw of "
+        "vigen's dmcgb2_strong_augmentation('all') (built-in image bank), replayed to both sides; the kernels are "
+        f"checked against DMC-GB2's definitions in vigen's transform tests, not here. This batch's draw: {', '.join(drawn)}.",
+        "nstep = 1 and discount γ as in DMC-GB2's config; the next observation is encoded by the online encoder "
+        "without gradient on both sides (no target encoder).",
+    ]
+    return Case("sada", agent, loss, modules, steps, {"aug": views.weak(), "apply_strong_aug": strong_pairs}, [],
+                [ref.modules["utils"]], metrics, departures, ref, batch, setup)
+
+
 ALGORITHMS: dict[str, Callable[[Path, Setup], Case]] = {
     "drqv2": build_drqv2,
     "svea": build_svea,
@@ -913,6 +982,24 @@ ALGORITHMS: dict[str, Callable[[Path, Setup], Case]] = {
     "sgqn": build_sgqn,
     "curl": build_curl,
     "drq": build_drq,
+    "sada": build_sada,
+}
+
+
+@dataclass(frozen=True)
+class Original:
+    """The repository an algorithm's original lives in, and files that tell a checkout of it apart."""
+
+    repository: str
+    url: str
+    files: tuple[str, ...]
+
+
+RLVIGEN_URL, DMCGB2_URL = "https://github.com/gemcollector/RL-ViGen", "https://github.com/aalmuzairee/dmcgb2"
+ORIGINALS: dict[str, Original] = {
+    **{name: Original("RL-ViGen", RLVIGEN_URL, ("rl_utils.py", f"algos/{name}.py"))
+       for name in ("drqv2", "svea", "srm", "sgqn", "curl", "drq")},
+    "sada": Original("DMC-GB2", DMCGB2_URL, ("augmentations.py", "algos/sada.py")),
 }
 
 
@@ -933,11 +1020,36 @@ def parse_references(values: Sequence[str], algos: Sequence[str]) -> dict[str, P
     return {algo: path for algo, path in out.items() if path is not None}
 
 
+def select_algorithms(requested: Sequence[str] | None, references: dict[str, Path]) -> tuple[list[str], list[str]]:
+    """The algorithms to run, and a note for each one left out.
+
+    Every algorithm of ``requested`` needs a reference holding its original's files (else
+    ``ValueError`` naming the fix). ``requested=None`` (no ``--algos``) runs every algorithm whose
+    reference holds its original and notes the others (e.g. ``sada`` next to an RL-ViGen checkout).
+    """
+    run, skipped = [], []
+    for algo in requested or list(ALGORITHMS):
+        original, path = ORIGINALS[algo], references.get(algo)
+        fix = f"give --reference {algo}=PATH to a checkout of {original.repository} ({original.url})"
+        absent = list(original.files) if path is None else [f for f in original.files if not (path / f).is_file()]
+        if not absent:
+            run.append(algo)
+            continue
+        problem = "no --reference" if path is None else f"{path} has no {', '.join(absent)} (so it is no {original.repository} checkout)"
+        if requested:
+            raise ValueError(f"{algo}: {problem}; {fix}.")
+        skipped.append(f"skipped {algo}: {problem}; {fix}.")
+    if not run:
+        raise ValueError("no algorithm has a checkout of its original: " + " ".join(skipped))
+    return run, skipped
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--reference", action="append", required=True,
                         help="checkout of the original repository: PATH (every algorithm) or NAME=PATH (one); repeatable")
-    parser.add_argument("--algos", nargs="+", default=list(ALGORITHMS), choices=list(ALGORITHMS))
+    parser.add_argument("--algos", nargs="+", choices=list(ALGORITHMS),
+                        help="default: every algorithm whose --reference holds its original")
     parser.add_argument("--pythonpath", action="append", default=[], help="extra import directory for the originals' dependencies (e.g. captum)")
     parser.add_argument("--tolerance", type=float, default=1e-10, help="max relative difference counted as equal")
     parser.add_argument("--batch-size", type=int, default=Setup.batch_size)
@@ -945,15 +1057,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     sys.path[1:1] = args.pythonpath
     try:
-        references = parse_references(args.reference, args.algos)
+        references = parse_references(args.reference, args.algos or list(ALGORITHMS))
     except ValueError as error:
         parser.error(str(error))
-    missing = [a for a in args.algos if a not in references]
-    if missing:
-        parser.error(f"no --reference for {', '.join(missing)}: give PATH or NAME=PATH.")
     for algo, path in references.items():
         if not path.is_dir():
             parser.error(f"--reference for {algo}: {path} is not a directory; give a plain checkout of the original repository.")
+    try:
+        algos, skipped = select_algorithms(args.algos, references)
+    except ValueError as error:
+        parser.error(str(error))
     # the originals' deprecation notices and TorchRL's note on target parameters without an updater
     warnings.filterwarnings("ignore", category=UserWarning, message=".*(upsample|target network updater|required_grads|backward hooks on ReLU).*")
     torch.set_num_threads(1)
@@ -963,8 +1076,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     print("rel. diff = max|vigen − original| / max|original| per quantity (gradients: over the tensor; the value "
           "columns show its L2 norm). The original's optimizer steps are recorded, not taken; 'steps taken' "
           "compares against its real sequential update.")
+    for note in skipped:
+        print(note)
     results = {}
-    for name in args.algos:
+    for name in algos:
         start = time.perf_counter()
         torch.manual_seed(setup.seed)
         with float64_mode():

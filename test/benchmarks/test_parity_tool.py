@@ -1,9 +1,14 @@
-"""The helpers of benchmarks/parity.py, without a checkout of any original repository."""
+"""The helpers of benchmarks/parity.py, without a checkout of any original repository.
+
+One end-to-end run (SADA against DMC-GB2) needs a checkout: it is skipped unless the environment
+variable VIGEN_PARITY_DMCGB2 names one.
+"""
 
 from __future__ import annotations
 
 import importlib.util
 import math
+import os
 import random
 import sys
 import types
@@ -194,3 +199,58 @@ def test_step_map_refuses_a_call_the_original_did_not_make(parity):
     case.steps = [parity.StepMap("curl", "loss_critic", (("critic_opt", 1),))]
     with pytest.raises(RuntimeError, match="called critic_opt.step\\(\\) 1 times"):
         parity.compare(case, original, original, ours)
+
+
+def _checkout(root, *files):
+    for name in files:
+        (root / name).parent.mkdir(parents=True, exist_ok=True)
+        (root / name).write_text("")
+    return root
+
+
+def test_select_algorithms_runs_what_each_checkout_holds_and_notes_the_rest(parity, tmp_path):
+    rlvigen = _checkout(tmp_path / "rlvigen", "rl_utils.py", "algos/drqv2.py", "algos/drq.py")
+    dmcgb2 = _checkout(tmp_path / "dmcgb2", "augmentations.py", "algos/sada.py", "algos/drq.py", "algos/svea.py")
+    run, skipped = parity.select_algorithms(None, {**dict.fromkeys(parity.ALGORITHMS, rlvigen), "sada": dmcgb2})
+    assert run == ["drqv2", "drq", "sada"]
+    assert len(skipped) == len(parity.ALGORITHMS) - 3 and all("RL-ViGen" in note for note in skipped)
+    # DMC-GB2 also has algos/drq.py and algos/svea.py, with other agents: a DMC-GB2 path runs only SADA
+    run, skipped = parity.select_algorithms(None, dict.fromkeys(parity.ALGORITHMS, dmcgb2))
+    assert run == ["sada"]
+    assert any(note.startswith("skipped drq:") and "rl_utils.py" in note for note in skipped)
+
+
+def test_select_algorithms_refuses_a_requested_algorithm_without_its_original(parity, tmp_path):
+    rlvigen = _checkout(tmp_path / "rlvigen", "rl_utils.py", "algos/drqv2.py")
+    assert parity.select_algorithms(["drqv2"], {"drqv2": rlvigen}) == (["drqv2"], [])
+    with pytest.raises(ValueError, match=r"sada: .* no augmentations.py, algos/sada.py .*--reference sada=PATH .*DMC-GB2"):
+        parity.select_algorithms(["drqv2", "sada"], {"drqv2": rlvigen, "sada": rlvigen})
+    with pytest.raises(ValueError, match="sada: no --reference"):
+        parity.select_algorithms(["sada"], {})
+    with pytest.raises(ValueError, match="no algorithm has a checkout of its original"):
+        parity.select_algorithms(None, dict.fromkeys(parity.ALGORITHMS, tmp_path))
+
+
+def test_parse_references_takes_sada_by_name(parity, tmp_path):
+    refs = parity.parse_references([str(tmp_path / "rlvigen"), f"sada={tmp_path / 'dmcgb2'}"], ["drq", "sada"])
+    assert refs == {"drq": tmp_path / "rlvigen", "sada": tmp_path / "dmcgb2"}
+
+
+DMCGB2 = os.environ.get("VIGEN_PARITY_DMCGB2")
+
+
+@pytest.mark.skipif(not DMCGB2, reason="set VIGEN_PARITY_DMCGB2 to a checkout of DMC-GB2 (algos/, augmentations.py, utils.py)")
+def test_sada_matches_dmcgb2_in_one_float64_update(parity):
+    setup = parity.Setup(batch_size=2)
+    with parity.float64_mode():
+        case = parity.build_sada(Path(DMCGB2), setup)
+        parity.copy_weights(case)  # every vigen parameter has a DMC-GB2 counterpart of the same shape
+        draws = parity.Draws(setup.seed)
+        fixed = parity.run_original(case, draws, take_steps=False)
+        ours = parity.run_vigen(case, draws)
+    rows = parity.compare(case, fixed, fixed, ours)
+    assert [row.quantity for row in rows if row.kind == "loss"] == [
+        "loss_critic (critic step)", "loss_actor (actor step)", "loss_alpha (alpha step)"]
+    assert not [row for row in rows if row.kind == "stray"]
+    assert max(row.rel for row in rows) < 1e-10
+    assert fixed.normals == ours.normals == 3 * setup.batch_size * setup.action_dim  # B next actions, 2B actor actions
