@@ -14,10 +14,12 @@ from vigen.losses import MaDiLoss, SimGRLLoss
 from vigen.models import MaDiMasker, PerFrameEncoder
 from vigen.losses import VRL3Loss
 from vigen.models import VRL3Encoder
+from vigen.losses import PIEGLoss
+from vigen.models import PIEGEncoder
 from vigen.transforms import RandomShift
 
 SIZE, ACTIONS, EMBEDDING = 16, 2, 16
-LOSSES = ["drqv2", "svea", "srm", "sgqn", "curl", "drq", "sada", "madi", "simgrl", "vrl3"]
+LOSSES = ["drqv2", "svea", "srm", "sgqn", "curl", "drq", "sada", "madi", "simgrl", "vrl3", "pieg"]
 SAC_LOSSES = ("drq", "sada")  # sample from their policy: no std
 
 
@@ -33,6 +35,10 @@ def make_loss(name: str, max_value: float | None = None, **kwargs: Any) -> Actor
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # random weights (no stage-1 checkpoint), as in RL-ViGen
             encoder = VRL3Encoder(9, channels=4, **scale)
+    elif name == "pieg":  # ResNet-18 to layer2 on 16×16 frames: 128×2×2 maps, 4 of them, Linear to 16
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # random ResNet weights (no ImageNet file in tests)
+            encoder = PIEGEncoder(9, image_size=SIZE, out_dim=EMBEDDING, **scale)
     else:
         encoder = DrQv2Encoder(9, **scale)
     features = encoder.output_dim(9, SIZE, SIZE)
@@ -59,6 +65,8 @@ def make_loss(name: str, max_value: float | None = None, **kwargs: Any) -> Actor
         loss = SimGRLLoss(encoder, actor, critic, **kwargs)
     elif name == "vrl3":
         loss = VRL3Loss(encoder, actor, critic, **kwargs)
+    elif name == "pieg":
+        loss = PIEGLoss(encoder, actor, critic, **kwargs)
     else:
         raise ValueError(name)
     loss.make_value_estimator(gamma=0.9)

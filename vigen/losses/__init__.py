@@ -13,6 +13,7 @@ loss                  what it adds to DrQ-v2's update                           
 ``VRL3Loss``          safe Q target, pre-tanh penalty, std 0.01, small ResNet     VRL3
 ``MaDiLoss``          SVEA behind a per-frame soft mask trained by the critic     MaDi
 ``SimGRLLoss``        SVEA with a shifted overlay, on a per-frame encoder         SimGRL
+``PIEGLoss``          SVEA on a frozen ImageNet ResNet-18 with adapting BNs       PIE-G
 ====================  ==========================================================  ===========
 
 All of them run the steps of :class:`ActorCriticLoss` (:mod:`vigen.losses.base`) in DrQ-v2's
@@ -44,6 +45,7 @@ from vigen.losses.curl import CURLLoss
 from vigen.losses.drq import DrQLoss
 from vigen.losses.drqv2 import DrQv2Loss
 from vigen.losses.madi import MaDiLoss
+from vigen.losses.pieg import PIEGLoss
 from vigen.losses.registry import ALGOS, make_loss
 from vigen.losses.sac import SoftActorCritic
 from vigen.losses.sada import SADALoss
@@ -71,6 +73,7 @@ __all__ = [
     "GuidedBackprop",
     "LinearSchedule",
     "MaDiLoss",
+    "PIEGLoss",
     "SADALoss",
     "SGQNLoss",
     "SimGRLLoss",

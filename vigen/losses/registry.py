@@ -11,6 +11,7 @@ from vigen.losses.curl import CURLLoss
 from vigen.losses.drq import DrQLoss
 from vigen.losses.drqv2 import DrQv2Loss
 from vigen.losses.madi import MaDiLoss
+from vigen.losses.pieg import PIEGLoss
 from vigen.losses.sada import SADALoss
 from vigen.losses.sgqn import SGQNLoss
 from vigen.losses.simgrl import SimGRLLoss
@@ -25,6 +26,7 @@ from vigen.models import (
     DrQv2Encoder,
     GaussianActor,
     PerFrameEncoder,
+    PIEGEncoder,
     ProjectedEncoder,
     SharedCNN,
     VRL3Encoder,
@@ -41,6 +43,7 @@ ALGOS: dict[str, type[ActorCriticLoss]] = {
     "vrl3": VRL3Loss,
     "madi": MaDiLoss,
     "simgrl": SimGRLLoss,
+    "pieg": PIEGLoss,
 }
 """Algorithm name -> loss class."""
 
@@ -66,6 +69,9 @@ def make_loss(
     ``vrl3`` uses VRL3's small ResNet (:class:`~vigen.models.VRL3Encoder`; ``stage1_weights=path`` loads its
     stage-1 checkpoint, without it the encoder starts from random weights as in RL-ViGen).
     ``madi`` puts MaDi's masker in front of SVEA's CNN; ``simgrl`` uses SimGRL's per-frame encoder.
+    ``pieg`` uses PIE-G's frozen ResNet-18 encoder (:class:`~vigen.models.PIEGEncoder`, output 1024);
+    ``encoder_weights=path`` loads torchvision's ImageNet ResNet-18 state dict into it, which PIE-G's
+    results need (without it the ResNet starts from random weights, with a warning).
 
     Args:
         algo: one of :data:`ALGOS`.
@@ -101,6 +107,9 @@ def make_loss(
         encoder = PerFrameEncoder(channels, max_value=max_value)
     elif algo == "vrl3":
         encoder = VRL3Encoder(channels, max_value=max_value, stage1_weights=loss_options.pop("stage1_weights", None))
+    elif algo == "pieg":
+        weights = loss_options.pop("encoder_weights", None)
+        encoder = PIEGEncoder(channels, image_size=height, max_value=max_value, weights=weights)
     elif algo in ("sgqn", "curl"):
         encoder = ProjectedEncoder(channels, image_size=height, max_value=max_value)
     else:

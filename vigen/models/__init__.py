@@ -4,6 +4,7 @@
 projection encoder, SGQN's attribution decoder, CURL's bilinear head and the SAC actor.
 ``masker``: MaDi's per-frame masker. ``per_frame``: SimGRL's encoder with feature-level frame stacking.
 ``vrl3``: VRL3's small ResNet encoder (BatchNorm, ImageNet normalisation, optional stage-1 weights).
+``resnet``: PIE-G's encoder on frozen ImageNet ResNet-18 layers (torchvision's names, weights from a file).
 """
 
 from vigen.models.masker import MaDiMasker
@@ -19,6 +20,7 @@ from vigen.models.networks import (
     weight_init,
 )
 from vigen.models.per_frame import PerFrameEncoder
+from vigen.models.resnet import PIEGEncoder
 from vigen.models.vrl3 import VRL3Encoder
 
 __all__ = [
@@ -30,6 +32,7 @@ __all__ = [
     "GaussianActor",
     "MaDiMasker",
     "PerFrameEncoder",
+    "PIEGEncoder",
     "ProjectedEncoder",
     "SharedCNN",
     "VRL3Encoder",
