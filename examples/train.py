@@ -74,7 +74,8 @@ PRESETS = {
                 eval_every=10_000, eval_episodes=5, std_init=1.0, std_final=0.1, reward_scale=1.0),
 }
 DEFAULTS = dict(algo="drqv2", env="dmc/cartpole-balance", preset="cpu", seed=0, workers=1, eval_levels=["train"],
-                logger="csv", episode_length=None)  # a new run's values of the flags a resumed run takes from config.json
+                logger="csv", episode_length=None, encoder_weights=None)  # a new run's values of the flags a resumed run takes from config.json
+WEIGHTS_OPTION = {"pieg": "encoder_weights", "vrl3": "stage1_weights"}  # --encoder-weights -> make_loss option
 
 
 def algo_defaults(algo: str, env: str) -> dict:
@@ -108,6 +109,8 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--episode-length", type=int, default=None,
                         help="simulator steps per episode (default: the suite's, dm_control 1000, robosuite 500)")
     parser.add_argument("--threads", type=int, default=None, help="torch threads (default: torch's choice)")
+    parser.add_argument("--encoder-weights", default=None,
+                        help="pretrained encoder weights: PIE-G's ImageNet ResNet-18 (a torchvision state dict), VRL3's stage-1 checkpoint")
     for name, value in PRESETS["paper"].items():  # every preset value can be overridden
         parser.add_argument(f"--{name.replace('_', '-')}", type=type(value), default=None)
     return parser.parse_args()
@@ -152,6 +155,12 @@ def validate(config: dict, threads: int | None) -> None:
     if not (config["std_init"] >= 0 and config["std_final"] >= 0 and 0 < config["reward_scale"] < float("inf")):
         raise SystemExit(f"--std-init and --std-final must be >= 0 and --reward-scale positive, got {config['std_init']}, "
                          f"{config['std_final']} and {config['reward_scale']}.")
+    weights = config.get("encoder_weights")
+    if weights is not None:
+        if config["algo"] not in WEIGHTS_OPTION:
+            raise SystemExit(f"--encoder-weights: {config['algo']} has no pretrained encoder; it applies to {', '.join(WEIGHTS_OPTION)}.")
+        if not Path(weights).expanduser().is_file():
+            raise SystemExit(f"--encoder-weights {weights}: no such file; give the path of the weights file.")
     if config["episode_length"] is not None and config["episode_length"] < 1:
         raise SystemExit(f"--episode-length must be >= 1, got {config['episode_length']}.")
     if threads is not None and threads < 1:
@@ -194,8 +203,11 @@ def main() -> None:
 
     # the agent: a vigen loss on the paper's networks, its acting policy, Adam and the target-critic update
     std = LinearSchedule(config["std_init"], config["std_final"], config["std_duration"])
+    options = {} if issubclass(ALGOS[config["algo"]], SoftActorCritic) else {"std": std}
+    if config.get("encoder_weights") is not None:
+        options[WEIGHTS_OPTION[config["algo"]]] = str(Path(config["encoder_weights"]).expanduser())
     loss = make_loss(config["algo"], observation_shape, config["action_dim"], feature_dim=config["feature_dim"],
-                     hidden_dim=config["hidden_dim"], seed=config["seed"], **({} if issubclass(ALGOS[config["algo"]], SoftActorCritic) else {"std": std}))
+                     hidden_dim=config["hidden_dim"], seed=config["seed"], **options)
     loss.make_value_estimator(gamma=config["gamma"])
     policy = loss.make_policy(action_spec)
     noise = next((module for module in policy.modules() if isinstance(module, AdditiveGaussianModule)), None)

@@ -150,6 +150,8 @@ def _fails(*args: str | Path) -> subprocess.CompletedProcess:
     (["--buffer-size", "4"], "--buffer-size 4 is below --batch-size 8"),
     (["--workers", "0"], "--workers must be an integer >= 1"),
     (["--env", "dmc/cartpole-balanse"], "Unknown env"),
+    (["--encoder-weights", "resnet18.pth"], "drqv2 has no pretrained encoder"),
+    (["--algo", "pieg", "--encoder-weights", "no-such-file.pth"], "no such file"),
 ])
 def test_bad_arguments_stop_the_run_before_it_starts(flags, message, tmp_path):
     """Each setting is checked before the first frame; the failed start leaves no run folder."""
