@@ -90,8 +90,8 @@ def test_evaluate_names_a_missing_checkpoint(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("algo", ["svea", pytest.param("srm", marks=pytest.mark.matrix), "sgqn",
-                                  pytest.param("curl", marks=pytest.mark.matrix), pytest.param("drq", marks=pytest.mark.matrix)])
+@pytest.mark.parametrize("algo", ["svea", "sgqn", *(pytest.param(algo, marks=pytest.mark.matrix)
+                                                    for algo in ("srm", "curl", "drq", "sada", "pieg", "madi", "simgrl", "vrl3"))])
 def test_train_every_algorithm(algo, tmp_path):
     run("train.py", "--algo", algo, "--frames", "400", "--out", tmp_path / algo, *TINY)
     assert (tmp_path / algo / "checkpoints" / "frames_00000400.pt").exists()

@@ -48,7 +48,10 @@ def policy_error(loss, x: torch.Tensor) -> float:
     return (action[:, 0] - x).abs().mean().item()
 
 
-@pytest.mark.parametrize("name", LOSSES)
+CI_SAMPLE = {"drqv2", "svea", "curl", "drq", "sada", "simgrl", "vrl3"}  # the rest (the slowest) run with -m matrix
+
+
+@pytest.mark.parametrize("name", [name if name in CI_SAMPLE else pytest.param(name, marks=pytest.mark.matrix) for name in LOSSES])
 def test_loss_learns_the_dot_task(name):
     torch.manual_seed(0)
     options = {} if name in SAC_LOSSES else {"std": 0.2}
