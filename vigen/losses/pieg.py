@@ -60,6 +60,8 @@ class PIEGLoss(SVEALoss):
     RL-ViGen's hyper-parameters (``cfgs/pieg_config.yaml``): encoder output 1024, feature_dim 50,
     hidden_dim 1024, Adam lr 1e-4 for everything, batch 256, n-step 3, γ 0.99, τ 0.01, noise std
     ``linear(1.0, 0.1, ·)`` per task with clip 0.3, three stacked 84×84 frames, action repeat 2.
+    PIE-G's own code (``gemcollector/PIE-G``) is the same but for feature_dim 256 and an
+    orthogonal initialisation (zero bias) of the encoder's Linear layer.
 
     Paper: PIE-G, https://arxiv.org/abs/2212.08860; RL-ViGen, https://arxiv.org/abs/2307.10224.
 

@@ -164,8 +164,9 @@ class PIEGEncoder(nn.Module):
     3. the maps are combined as ``[f_2, …, f_k, f_2 − f_1, …, f_k − f_{k−1}]`` (the later frames
        and their differences with the previous one) and flattened: ``2·(k−1)·128·11·11`` =
        61,952 features for three 84×84 frames;
-    4. a Linear layer (PyTorch's default initialisation, as in RL-ViGen) to ``out_dim`` (1024)
-       and a LayerNorm, without activation.
+    4. a Linear layer (PyTorch's default initialisation, as in RL-ViGen; PIE-G's own code
+       initialises it orthogonally with zero bias) to ``out_dim`` (1024) and a LayerNorm,
+       without activation.
 
     The ResNet's weights are frozen (``requires_grad=False``) and no graph is built through it
     unless the pixels themselves need a gradient; only the Linear layer and the LayerNorm learn.
@@ -174,6 +175,13 @@ class PIEGEncoder(nn.Module):
     their running statistics, although their weights are frozen; in eval mode they use the
     running statistics. A batch is never split into chunks, which would change its statistics.
     :class:`~vigen.losses.PIEGLoss` acts with the running statistics, as RL-ViGen does.
+
+    One departure: RL-ViGen's encoder measures its output size with a forward pass of a random
+    normal batch (32 stacks) in training mode while it is built, so its running statistics start
+    one momentum step (0.1) away from ImageNet's, towards those of that noise. Here the size is
+    computed without a forward pass and the statistics start at the loaded values; the difference
+    fades by a factor 0.9 with every encoder pass of the updates, and the updates' outputs (batch
+    statistics) do not depend on it.
 
     ``weights`` loads torchvision's ImageNet ResNet-18 (a state dict file, see
     :meth:`ResNet18Features.load_torchvision_weights`); PIE-G's results need them. Without them
@@ -250,7 +258,8 @@ class PIEGEncoder(nn.Module):
                 f"{name}: the ResNet-18 starts from random weights; PIE-G's results need ImageNet weights. Pass "
                 f"weights=<file> with torchvision's ResNet-18 state dict ({RESNET18_URL}, or "
                 "torch.save(torchvision.models.resnet18(weights='IMAGENET1K_V1').state_dict(), file)); "
-                "with make_loss: make_loss('pieg', ..., encoder_weights=<file>).",
+                "with make_loss: make_loss('pieg', ..., encoder_weights=<file>); with examples/train.py: "
+                "--encoder-weights <file>.",
                 UserWarning, stacklevel=1,  # one location: shown once per process by the default filter
             )
         else:
