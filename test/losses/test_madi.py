@@ -201,3 +201,14 @@ def test_make_loss_builds_madi_on_sveas_cnn():
     loss = make_paper_loss("madi", (9, 44, 44), action_dim=2, hidden_dim=8, max_value=255)
     assert isinstance(loss, MaDiLoss) and isinstance(loss.encoder, SharedCNN) and isinstance(loss.masker, MaDiMasker)
     assert loss.masker.max_value == 255
+
+
+def test_masker_convolves_large_batches_in_passes_with_the_same_result():
+    from vigen.models import masker as masker_module
+
+    masker = MaDiMasker(num_filters=4)
+    pixels = torch.randint(0, 256, (40, 9, 8, 8), dtype=torch.uint8, generator=torch.Generator().manual_seed(0))
+    assert 40 * 3 > masker_module.FRAMES_PER_PASS
+    frames = pixels.float().reshape(40 * 3, 3, 8, 8) / 255
+    whole = masker.net(frames).reshape(40, 3, 1, 8, 8)
+    torch.testing.assert_close(masker.masks(pixels), whole)

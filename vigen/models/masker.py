@@ -4,10 +4,15 @@ from __future__ import annotations
 
 import numbers
 
+import torch
 from torch import Tensor, nn
 
 from vigen.models.networks import weight_init
 from vigen.pixel_format import check_pixels, white_value
+
+
+FRAMES_PER_PASS = 48
+"""Frames the masker convolves at once (16 stacks of 3)."""
 
 
 class MaDiMasker(nn.Module):
@@ -99,5 +104,8 @@ class MaDiMasker(nn.Module):
     def _masks(self, frames: Tensor) -> Tensor:
         white = 1.0 if self.max_value is None else self.max_value
         *batch, height, width = frames.shape
-        masks = self.net(frames.reshape(-1, self.frame_channels, height, width) / white)
+        flat = frames.reshape(-1, self.frame_channels, height, width) / white
+        # full-resolution 32-channel maps: a few hundred frames at a time stay cache-sized (same math)
+        parts = flat.split(FRAMES_PER_PASS) if flat.shape[0] > FRAMES_PER_PASS else (flat,)
+        masks = torch.cat([self.net(part) for part in parts]) if len(parts) > 1 else self.net(flat)
         return masks.reshape(*batch[:-1], 1, height, width)
