@@ -38,6 +38,9 @@ class SoftActorCritic(ActorCriticLoss):
         *args: the networks and hook options of the loss it is mixed into.
         init_temperature: initial α (DrQ, DMC-GB2: 0.1).
         target_entropy: ``"auto"`` for ``−action_dim``, or a number.
+        squash_epsilon: ``None`` for DrQ's stable ``log(1 − tanh(u)²)``; a number ε for the
+            SAC-AE / DMC-GB form ``log(relu(1 − tanh(u)²) + ε)`` (1e-6 there), see
+            :func:`~vigen.losses.squashed_normal_sample`.
         **kwargs: the options of the loss it is mixed into (not ``std``/``std_clip``: SAC
             samples from its policy).
 
@@ -52,6 +55,7 @@ class SoftActorCritic(ActorCriticLoss):
         *args: Any,
         init_temperature: float = 0.1,
         target_entropy: float | Literal["auto"] = "auto",
+        squash_epsilon: float | None = None,
         **kwargs: Any,
     ) -> None:
         name = type(self).__name__
@@ -60,7 +64,10 @@ class SoftActorCritic(ActorCriticLoss):
                 raise TypeError(f"{name} samples from its SAC policy and takes no {option!r} (DrQ-v2's noise).")
         if not init_temperature > 0:
             raise ValueError(f"{name}: init_temperature must be positive, got {init_temperature}.")
+        if squash_epsilon is not None and not (isinstance(squash_epsilon, (int, float)) and squash_epsilon > 0):
+            raise ValueError(f"{name}: squash_epsilon must be None or a positive number (DMC-GB: 1e-6), got {squash_epsilon!r}.")
         super().__init__(*args, **kwargs)
+        self.squash_epsilon = None if squash_epsilon is None else float(squash_epsilon)
         self.log_alpha = nn.Parameter(torch.tensor(math.log(init_temperature)))
         self.target_entropy = target_entropy
 
@@ -71,12 +78,18 @@ class SoftActorCritic(ActorCriticLoss):
 
     def sample_action(self, features: Tensor) -> tuple[Tensor, Tensor]:
         """A reparameterised sample of the tanh-squashed Gaussian, and its log-probability."""
-        return squashed_normal_sample(*self.policy(features))
+        return squashed_normal_sample(*self.policy(features), epsilon=self.squash_epsilon)
 
-    def next_value(self, next_features: Tensor) -> Tensor:
-        """``min(Q1', Q2')(h', a') − α·log π(a'|h')``."""
+    def next_value(self, next_features: Tensor, critic_features: Tensor | None = None) -> Tensor:
+        """``min(Q1', Q2')(h'_Q, a') − α·log π(a'|h')`` with ``a' ~ π(h')``.
+
+        ``critic_features`` are what the target critic reads (``h'_Q``; default ``h'``): with a
+        target encoder, the policy samples on the online encoder's features and the target
+        critic scores them on the target encoder's, as DMC-GB's SAC does.
+        """
         action, log_prob = self.sample_action(next_features)
-        return torch.min(*self.target_q_values(next_features, action)) - self.alpha * log_prob
+        critic_features = next_features if critic_features is None else critic_features
+        return torch.min(*self.target_q_values(critic_features, action)) - self.alpha * log_prob
 
     def actor_loss(self, batch: Observations, critic: CriticResult) -> ActorResult:
         """``α·log π(ã|h) − min(Q1, Q2)(h_Q, ã)`` (α detached, critic frozen)."""

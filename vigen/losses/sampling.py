@@ -36,11 +36,13 @@ def clipped_normal_sample(mean: Tensor, std: float, clip: float | None, eps: flo
     return action - action.detach() + clamped.detach()
 
 
-def squashed_normal_sample(mean: Tensor, log_std: Tensor) -> tuple[Tensor, Tensor]:
+def squashed_normal_sample(mean: Tensor, log_std: Tensor, *, epsilon: float | None = None) -> tuple[Tensor, Tensor]:
     """A reparameterised sample of ``tanh(N(mean, exp(log_std)))`` and its log-probability.
 
-    The log-probability is summed over the action dims, with ``log(1 - tanh(u)²)`` computed
-    stably as ``2·(log 2 − u − softplus(−2u))``, as in DrQ's ``SquashedNormal``.
+    The log-probability is summed over the action dims. ``log(1 - tanh(u)²)`` is computed stably
+    as ``2·(log 2 − u − softplus(−2u))``, as in DrQ's ``SquashedNormal``; with ``epsilon`` it is
+    ``log(relu(1 − tanh(u)²) + epsilon)`` instead, the SAC-AE / DMC-GB form (``epsilon=1e-6``)
+    that SVEA, SGQN, MaDi, SimGRL and SCPL inherit.
 
     Paper: DrQ, https://arxiv.org/abs/2004.13649 (SAC: https://arxiv.org/abs/1801.01290).
 
@@ -53,5 +55,9 @@ def squashed_normal_sample(mean: Tensor, log_std: Tensor) -> tuple[Tensor, Tenso
     std = log_std.exp()
     pre_tanh = mean + std * torch.randn_like(mean)
     gaussian = -0.5 * ((pre_tanh - mean) / std) ** 2 - log_std - 0.5 * math.log(2 * math.pi)
-    log_det = 2.0 * (math.log(2.0) - pre_tanh - F.softplus(-2.0 * pre_tanh))
-    return torch.tanh(pre_tanh), (gaussian - log_det).sum(-1, keepdim=True)
+    action = torch.tanh(pre_tanh)
+    if epsilon is None:
+        log_det = 2.0 * (math.log(2.0) - pre_tanh - F.softplus(-2.0 * pre_tanh))
+    else:
+        log_det = torch.log(F.relu(1.0 - action.pow(2)) + epsilon)
+    return action, (gaussian - log_det).sum(-1, keepdim=True)

@@ -5,8 +5,10 @@ projection encoder, SGQN's attribution decoder, CURL's bilinear head and the SAC
 ``masker``: MaDi's per-frame masker. ``per_frame``: SimGRL's encoder with feature-level frame stacking.
 ``vrl3``: VRL3's small ResNet encoder (BatchNorm, ImageNet normalisation, optional stage-1 weights).
 ``resnet``: PIE-G's encoder on frozen ImageNet ResNet-18 layers (torchvision's names, weights from a file).
+``dynamics``: SCPL's latent transition and reward model.
 """
 
+from vigen.models.dynamics import LatentDynamics
 from vigen.models.masker import MaDiMasker
 from vigen.models.networks import (
     Actor,
@@ -30,6 +32,7 @@ __all__ = [
     "Critic",
     "DrQv2Encoder",
     "GaussianActor",
+    "LatentDynamics",
     "MaDiMasker",
     "PerFrameEncoder",
     "PIEGEncoder",

@@ -32,7 +32,8 @@ def weight_init(module: nn.Module) -> None:
 class _PixelEncoder(nn.Module):
     """Check and scale pixels, run ``self.convnet`` ``chunk_size`` samples at a time, flatten, ``project``.
 
-    Pixels are scaled to ``x / white − 0.5`` with ``white = white_value(x, self.max_value)``.
+    Pixels are scaled to ``x / white − 0.5`` with ``white = white_value(x, self.max_value)``
+    (``x / white`` when ``centered`` is False).
 
     Convolving a large batch in chunks of about 64 samples keeps each chunk's activations in
     cache: the same math, about twice as fast on CPUs at batch 256. ``chunk_size=None`` convolves
@@ -42,14 +43,16 @@ class _PixelEncoder(nn.Module):
     convnet: nn.Module
     chunk_size: int | None
     max_value: float | None
+    centered: bool = True  # x / white − 0.5 (DrQ-v2, RL-ViGen); False: x / white (DMC-GB)
 
     def forward(self, pixels: Tensor) -> Tensor:
         check_pixels(pixels.detach(), name=type(self).__name__, max_value=self.max_value)
         white = white_value(pixels, self.max_value)
+        offset = 0.5 if self.centered else 0.0
         batch, image = pixels.shape[:-3], pixels.shape[-3:]
         x = pixels.reshape(-1, *image)
         parts = x.split(self.chunk_size) if self.chunk_size and x.shape[0] > self.chunk_size else (x,)
-        features = [self.convnet(_as_float(part) / white - 0.5).flatten(1) for part in parts]
+        features = [self.convnet(_as_float(part) / white - offset).flatten(1) for part in parts]
         features = features[0] if len(features) == 1 else torch.cat(features)
         return self.project(features).reshape(*batch, -1)
 
@@ -112,6 +115,8 @@ class SharedCNN(_PixelEncoder):
     Args:
         in_channels, channels, chunk_size, max_value: as in :class:`DrQv2Encoder`.
         num_layers: number of convolutions.
+        centered: scale pixels to ``x / white − 0.5`` as DrQ-v2 and RL-ViGen do (default); ``False``
+            for DMC-GB's ``x / 255`` (SCPL's original, ``make_loss("scpl")``).
 
     Examples:
         >>> import torch
@@ -127,8 +132,10 @@ class SharedCNN(_PixelEncoder):
         chunk_size: int | None = 64,
         *,
         max_value: float | None = None,
+        centered: bool = True,
     ) -> None:
         super().__init__()
+        self.centered = bool(centered)
         self.chunk_size = chunk_size
         self.max_value = _positive_or_none(max_value, type(self).__name__)
         layers: list[nn.Module] = [nn.Conv2d(in_channels, channels, 3, stride=2)]
@@ -287,8 +294,12 @@ class Critic(nn.Module):
         self.q2 = _mlp(feature_dim + action_dim, hidden_dim, 1)
         self.apply(weight_init)
 
+    def embed(self, hidden: Tensor) -> Tensor:
+        """The trunk's output, ``[..., feature_dim]``: the state embedding both Q heads read (SCPL's latent)."""
+        return self.trunk(hidden)
+
     def forward(self, hidden: Tensor, action: Tensor) -> tuple[Tensor, Tensor]:
-        features = torch.cat([self.trunk(hidden), action], dim=-1)
+        features = torch.cat([self.embed(hidden), action], dim=-1)
         return self.q1(features), self.q2(features)
 
 
