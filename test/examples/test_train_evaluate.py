@@ -91,7 +91,7 @@ def test_evaluate_names_a_missing_checkpoint(tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("algo", ["svea", "sgqn", *(pytest.param(algo, marks=pytest.mark.matrix)
-                                                    for algo in ("srm", "curl", "drq", "sada", "pieg", "madi", "simgrl", "vrl3"))])
+                                                    for algo in ("srm", "curl", "drq", "sada", "pieg", "madi", "simgrl", "vrl3", "scpl"))])
 def test_train_every_algorithm(algo, tmp_path):
     run("train.py", "--algo", algo, "--frames", "400", "--out", tmp_path / algo, *TINY)
     assert (tmp_path / algo / "checkpoints" / "frames_00000400.pt").exists()

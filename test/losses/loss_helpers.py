@@ -16,11 +16,13 @@ from vigen.losses import VRL3Loss
 from vigen.models import VRL3Encoder
 from vigen.losses import PIEGLoss
 from vigen.models import PIEGEncoder
+from vigen.losses import SCPLLoss
+from vigen.models import LatentDynamics
 from vigen.transforms import RandomShift
 
 SIZE, ACTIONS, EMBEDDING = 16, 2, 16
-LOSSES = ["drqv2", "svea", "srm", "sgqn", "curl", "drq", "sada", "madi", "simgrl", "vrl3", "pieg"]
-SAC_LOSSES = ("drq", "sada")  # sample from their policy: no std
+LOSSES = ["drqv2", "svea", "srm", "sgqn", "curl", "drq", "sada", "madi", "simgrl", "vrl3", "pieg", "scpl"]
+SAC_LOSSES = ("drq", "sada", "scpl")  # sample from their policy: no std
 
 
 def make_loss(name: str, max_value: float | None = None, **kwargs: Any) -> ActorCriticLoss:
@@ -67,6 +69,9 @@ def make_loss(name: str, max_value: float | None = None, **kwargs: Any) -> Actor
         loss = VRL3Loss(encoder, actor, critic, **kwargs)
     elif name == "pieg":
         loss = PIEGLoss(encoder, actor, critic, **kwargs)
+    elif name == "scpl":
+        actor = GaussianActor(features, ACTIONS, hidden_dim=16, feature_dim=8)
+        loss = SCPLLoss(encoder, actor, critic, LatentDynamics(8, ACTIONS, hidden_dim=16), **kwargs)
     else:
         raise ValueError(name)
     loss.make_value_estimator(gamma=0.9)

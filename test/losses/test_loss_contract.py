@@ -12,7 +12,8 @@ from torchrl.objectives import SoftUpdate
 from loss_helpers import LOSSES, make_batch, make_loss
 
 pytestmark = pytest.mark.filterwarnings("ignore:No target network updater")
-AUX_LOSSES = {"sgqn": "loss_attribution", "curl": "loss_curl"}
+AUX_LOSSES = {"sgqn": "loss_attribution", "curl": "loss_curl", "scpl": "loss_dynamics"}
+AUX_CRITIC_PART = {"scpl": "trunk"}  # SCPL's dynamics model reads the critic trunk's embedding (DMC-GB's projection)
 
 
 def _grads(loss, name: str) -> dict[str, torch.Tensor | None]:
@@ -59,7 +60,11 @@ def test_gradient_routing(name):
         elif entry == "loss_critic":
             assert _has_grad(encoder) and _has_grad(critic) and not _has_grad(actor)
         else:
-            assert _has_grad(encoder) and not _has_grad(actor) and not _has_grad(critic)
+            part = AUX_CRITIC_PART.get(name)
+            reached = {key: grad for key, grad in critic.items() if key[0] == part}
+            rest = {key: grad for key, grad in critic.items() if key[0] != part}
+            assert _has_grad(encoder) and not _has_grad(actor) and not _has_grad(rest)
+            assert _has_grad(reached) == (part is not None), f"the critic's {part} is trained by {entry}"
         assert all(p.grad is None for p in loss.target_critic_params.values(True, True))
 
 

@@ -18,7 +18,7 @@ from vigen.transforms import ImageAugmentation, RandomShift
 pytestmark = pytest.mark.filterwarnings("ignore:No target network updater")
 CLASS_NAMES = {"drqv2": "DrQv2Loss", "svea": "SVEALoss", "srm": "SRMLoss", "sgqn": "SGQNLoss", "curl": "CURLLoss", "drq": "DrQLoss",
                "sada": "SADALoss", "madi": "MaDiLoss", "simgrl": "SimGRLLoss",
-               "vrl3": "VRL3Loss", "pieg": "PIEGLoss"}
+               "vrl3": "VRL3Loss", "pieg": "PIEGLoss", "scpl": "SCPLLoss"}
 
 
 def _deterministic(name: str, **kwargs):
@@ -26,7 +26,8 @@ def _deterministic(name: str, **kwargs):
     extra = {"svea": {"strong_augmentation": []}, "srm": {"strong_augmentation": []},
              "sgqn": {"attribution_augmentation": []}, "curl": {"contrastive_augmentation": []},
              "sada": {"strong_augmentation": []}, "madi": {"strong_augmentation": []},
-             "simgrl": {"strong_augmentation": []}, "pieg": {"strong_augmentation": []}}.get(name, {})
+             "simgrl": {"strong_augmentation": []}, "pieg": {"strong_augmentation": []},
+             "scpl": {"strong_augmentation": []}}.get(name, {})
     if name not in SAC_LOSSES:
         extra["std"] = 0.0
     return make_loss(name, augmentation=None, **extra, **kwargs)

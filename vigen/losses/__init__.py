@@ -14,6 +14,7 @@ loss                  what it adds to DrQ-v2's update                           
 ``MaDiLoss``          SVEA behind a per-frame soft mask trained by the critic     MaDi
 ``SimGRLLoss``        SVEA with a shifted overlay, on a per-frame encoder         SimGRL
 ``PIEGLoss``          SVEA on a frozen ImageNet ResNet-18 with adapting BNs       PIE-G
+``SCPLLoss``          (SAC) SVEA + masked-Q consistency, policy KL, dynamics     SCPL
 ====================  ==========================================================  ===========
 
 All of them run the steps of :class:`ActorCriticLoss` (:mod:`vigen.losses.base`) in DrQ-v2's
@@ -49,6 +50,7 @@ from vigen.losses.pieg import PIEGLoss
 from vigen.losses.registry import ALGOS, make_loss
 from vigen.losses.sac import SoftActorCritic
 from vigen.losses.sada import SADALoss
+from vigen.losses.scpl import SCPLLoss, diagonal_gaussian_kl
 from vigen.losses.sampling import clipped_normal_sample, squashed_normal_sample
 from vigen.losses.saliency import GuidedBackprop, attribution_mask
 from vigen.losses.schedule import LinearSchedule
@@ -75,6 +77,7 @@ __all__ = [
     "MaDiLoss",
     "PIEGLoss",
     "SADALoss",
+    "SCPLLoss",
     "SGQNLoss",
     "SimGRLLoss",
     "SoftActorCritic",
@@ -83,6 +86,7 @@ __all__ = [
     "VRL3Loss",
     "attribution_mask",
     "clipped_normal_sample",
+    "diagonal_gaussian_kl",
     "make_loss",
     "squashed_normal_sample",
 ]

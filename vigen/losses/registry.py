@@ -13,6 +13,7 @@ from vigen.losses.drqv2 import DrQv2Loss
 from vigen.losses.madi import MaDiLoss
 from vigen.losses.pieg import PIEGLoss
 from vigen.losses.sada import SADALoss
+from vigen.losses.scpl import SCPLLoss
 from vigen.losses.sgqn import SGQNLoss
 from vigen.losses.simgrl import SimGRLLoss
 from vigen.losses.srm import SRMLoss
@@ -25,6 +26,7 @@ from vigen.models import (
     CURLHead,
     DrQv2Encoder,
     GaussianActor,
+    LatentDynamics,
     PerFrameEncoder,
     PIEGEncoder,
     ProjectedEncoder,
@@ -44,6 +46,7 @@ ALGOS: dict[str, type[ActorCriticLoss]] = {
     "madi": MaDiLoss,
     "simgrl": SimGRLLoss,
     "pieg": PIEGLoss,
+    "scpl": SCPLLoss,
 }
 """Algorithm name -> loss class."""
 
@@ -72,6 +75,9 @@ def make_loss(
     ``pieg`` uses PIE-G's frozen ResNet-18 encoder (:class:`~vigen.models.PIEGEncoder`, output 1024);
     ``encoder_weights=path`` loads torchvision's ImageNet ResNet-18 state dict into it, which PIE-G's
     results need (without it the ResNet starts from random weights, with a warning).
+    ``scpl`` uses SVEA's CNN on DMC-GB's pixel scale ``x / 255`` (``centered=False``), the SAC
+    actor with its own ``feature_dim`` trunk (DMC-GB's actor projection; SCPL's is 100) and
+    SCPL's :class:`~vigen.models.LatentDynamics` (512 hidden units) on the critic trunk's embedding.
 
     Args:
         algo: one of :data:`ALGOS`.
@@ -101,6 +107,8 @@ def make_loss(
     encoder: nn.Module
     if algo in ("svea", "srm"):
         encoder = SharedCNN(channels, max_value=max_value)
+    elif algo == "scpl":  # DMC-GB's SharedCNN scales pixels to x / 255
+        encoder = SharedCNN(channels, max_value=max_value, centered=False)
     elif algo == "madi":  # MaDiLoss builds its masker on the encoder's max_value
         encoder = SharedCNN(channels, max_value=max_value)
     elif algo == "simgrl":
@@ -120,9 +128,12 @@ def make_loss(
     if algo == "drq":
         actor = GaussianActor(features, action_dim, hidden_dim=hidden_dim)
         loss = DrQLoss(encoder, actor, critic, **loss_options)
-    elif algo == "sada":
+    elif algo in ("sada", "scpl"):
         actor = GaussianActor(features, action_dim, hidden_dim=hidden_dim, feature_dim=feature_dim)
-        loss = SADALoss(encoder, actor, critic, **loss_options)
+        if algo == "sada":
+            loss = SADALoss(encoder, actor, critic, **loss_options)
+        else:
+            loss = SCPLLoss(encoder, actor, critic, LatentDynamics(feature_dim, action_dim), **loss_options)
     else:
         actor = Actor(features, action_dim, feature_dim=feature_dim, hidden_dim=hidden_dim)
         if algo == "sgqn":
