@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import math
 
 import pytest
@@ -25,6 +26,16 @@ from vigen.transforms import ImageAugmentation
 
 pytestmark = pytest.mark.filterwarnings("ignore:No target network updater")
 GAMMA = 0.9  # what make_loss gives the value estimator
+
+
+class Flip(ImageAugmentation):
+    """A deterministic 'weak augmentation': every view is the left-right mirror of its pixels."""
+
+    def make_params(self, images):
+        return {}
+
+    def apply(self, images, params):
+        return images.flip(-1)
 
 
 class Invert(ImageAugmentation):
@@ -314,6 +325,30 @@ def test_drq_equals_its_update_rule():
     assert torch.allclose(out["loss_actor"], (alpha * log_prob - actor_q).mean(), atol=1e-5)
     assert torch.allclose(out["loss_alpha"], (alpha * (-log_prob + 2)).mean(), atol=1e-5), "target entropy −|A| = −2"
     assert torch.allclose(out["alpha"], torch.tensor(alpha))
+
+
+def test_original_drq_samples_on_the_online_encoder_and_scores_on_the_target_one():
+    """DrQ (K = M = 2, target encoder): a' ~ π(online h'ₖ), y = mean_k r + γ·[min Q'(target h'ₖ, a'ₖ) − α·log π]."""
+    loss = make_loss("drq", augmentation=Flip(), clean_view=False, target_encoder=True)
+    with torch.no_grad():  # a target encoder apart from the online one
+        for value in loss.target_encoder_params.values(True, True):
+            value.mul_(0.8)
+    batch = make_batch()
+    torch.manual_seed(4)
+    out = loss(batch)
+    target_encoder = copy.deepcopy(loss.encoder)
+    with torch.no_grad():
+        for param, value in zip(target_encoder.parameters(), loss.target_encoder_params.values(True, True)):
+            param.copy_(value)
+    alpha, flipped = 0.1, batch["next", "pixels"].flip(-1)
+    torch.manual_seed(4)
+    with torch.no_grad():
+        views = torch.cat([flipped, flipped])
+        next_action, next_log_prob = squashed_normal_sample(*loss.actor(loss.encoder(views)))
+        with loss.target_critic_params.to_module(loss.critic):
+            value = torch.min(*loss.critic(target_encoder(views), next_action)) - alpha * next_log_prob
+        target = (batch["next", "reward"] + GAMMA * value.reshape(2, -1, 1)).mean(0)
+    assert torch.allclose(out["target_mean"], target.mean(), atol=1e-5)
 
 
 def test_drq_temperature_gradient_goes_to_log_alpha_only():

@@ -31,8 +31,9 @@ class DrQLoss(SoftActorCritic, ActorCriticLoss):
     RL-ViGen replaces one of the original DrQ's two shifted views by the raw observation; that is
     the default here. The original DrQ (K = M = 2 independently shifted views, and a target
     encoder in the target critic) is ``clean_view=False, target_encoder=True``: the views are
-    then ``shift₁(obs)`` and ``shift₂(obs)`` (and of next obs), the actor reads the first, and
-    ``SoftUpdate`` moves the target encoder with the target critic. The actor is
+    then ``shift₁(obs)`` and ``shift₂(obs)`` (and of next obs), the actor reads the first, the
+    next action is sampled on the online encoder's features and scored on the target encoder's,
+    and ``SoftUpdate`` moves the target encoder with the target critic. The actor is
     :class:`~vigen.models.GaussianActor` (mean, log σ of a tanh-squashed Gaussian), the critic
     DrQ-v2's.
 
@@ -105,10 +106,16 @@ class DrQLoss(SoftActorCritic, ActorCriticLoss):
         return (pixels, shifted) if self.clean_view else (shifted, self.augment(pixels))
 
     def critic_target(self, batch: Observations, tensordict: TensorDictBase) -> Tensor:
-        """The mean of the SAC targets of both next views."""
+        """The mean of the SAC targets of both next views.
+
+        With ``target_encoder`` the next action is sampled on the online encoder's features and
+        scored by the target critic on the target encoder's, as in the original DrQ (its actor's
+        encoder shares the online critic's convolutions).
+        """
         views = torch.cat(self._two_views(batch.next_pixels, batch.next_obs))
-        params = self.target_encoder_params if self.target_encoder else None
-        first, second = self.next_value(self.encode(views, params=params)).chunk(2)
+        online = self.encode(views)
+        scored = self.encode(views, params=self.target_encoder_params) if self.target_encoder else None
+        first, second = self.next_value(online, scored).chunk(2)
         estimate = self.value_estimator.value_estimate
         return 0.5 * (estimate(tensordict, next_value=first) + estimate(tensordict, next_value=second))
 
