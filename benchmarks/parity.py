@@ -27,14 +27,22 @@ How the update is compared:
   ``torch.randn`` (vigen) and ``_standard_normal`` (the originals' ``TruncatedNormal`` and
   ``Normal.rsample``); one scalar ``u`` serves SGQN's fill value (``random.uniform`` there,
   ``torch.rand(())`` in vigen);
-* float64: ``torch.set_default_dtype(torch.float64)`` and ``Tensor.float()`` keeps float64 while
-  the tool runs (both sides call ``.float()`` on their pixels).
+* float64: ``torch.set_default_dtype(torch.float64)``, ``Tensor.float()`` keeps float64 and
+  ``torch.FloatTensor(...)`` builds float64 while the tool runs (both sides call ``.float()`` on
+  their pixels; VRL3's original adds a ``torch.FloatTensor([0])`` to its actor loss).
 
 Per quantity the relative difference is ``max|a − b| / max(max|b|, tiny)`` (b = original; for a
-gradient tensor the max runs over its elements, and the value columns show its L2 norm).
+gradient tensor the max runs over its elements, and the value columns show its L2 norm). A gradient
+that is 0 in exact arithmetic (VRL3's stem bias, before a training-mode BatchNorm: both sides are
+rounding noise) is measured against the largest gradient of its step instead, and its row says so.
 
 Missing imports of the originals that their update does not use (hydra, omegaconf, torchvision,
-kornia) are stubbed in ``sys.modules`` while they load; every stub is listed in the output.
+kornia) are stubbed in ``sys.modules`` while they load; every stub is listed in the output. PIE-G's
+original builds torchvision's ResNet-18 and VRL3's normalises with torchvision's ``Normalize``: for
+them torchvision is the tool's stand-in (:func:`torchvision_substitute`; said so in the output): a
+ResNet-18 written here in torchvision's layout, whose random BatchNorm weights and statistics stand
+in for ImageNet's (vigen's ``PIEGEncoder`` loads the same state dict from a file), and ``Normalize``
+as ``(x − mean) / std``.
 RL-ViGen's SGQN needs captum's ``GuidedBackprop``: if captum does not import, a stand-in with
 captum's rule (at every ``nn.ReLU`` the gradient is clamped at 0 before the ReLU's own backward)
 is used and said so; put captum on the path (``--pythonpath DIR``) to use the real one.
@@ -53,30 +61,54 @@ Reproduce (RL-ViGen master, https://github.com/gemcollector/RL-ViGen):
 
 SADA's original is DMC-GB2's (https://github.com/aalmuzairee/dmcgb2, algos/sada.py): give it as
 ``--reference sada=PATH``. Without ``--algos`` every algorithm whose reference holds its original
-runs; the others are listed as skipped (``sada`` beside a plain RL-ViGen ``PATH``):
+runs; the others are listed as skipped (``sada`` and ``vrl3`` beside a plain RL-ViGen ``PATH``):
 
     # a plain checkout of DMC-GB2's code (its envs and data are not needed)
     git clone https://github.com/aalmuzairee/dmcgb2 /work/refs/dmcgb2
     # or from a bare mirror: git --git-dir=<mirror> archive HEAD algos augmentations.py utils.py | tar -x -C /work/refs/dmcgb2
     OMP_NUM_THREADS=1 .venv/bin/python benchmarks/parity.py --algos sada --reference sada=/work/refs/dmcgb2
-    # everything: RL-ViGen's six and SADA
+    # RL-ViGen's seven (with PIE-G) and SADA
     OMP_NUM_THREADS=1 .venv/bin/python benchmarks/parity.py --reference /work/refs/RL-ViGen --reference sada=/work/refs/dmcgb2 --pythonpath /work/refs/pydeps
+
+VRL3's original lives only on RL-ViGen's ViGen-adroit branch (``src/algos/vrl3_agent.py``): give
+its ``src`` folder as ``--reference vrl3=PATH``. (That folder also has agents named ``svea``,
+``pieg``, ... built on VRL3's update: it never counts as a master checkout.)
+
+    git clone -b ViGen-adroit https://github.com/gemcollector/RL-ViGen /work/refs/RL-ViGen-adroit
+    # or from a bare mirror: git --git-dir=<mirror> archive ViGen-adroit src | tar -x -C /work/refs/RL-ViGen-adroit
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/parity.py --algos vrl3 --reference vrl3=/work/refs/RL-ViGen-adroit/src
+
+SCPL's original is its authors' DMC-GB-based code (https://github.com/bofusun/SCPL, src/algorithms/SCPL.py,
+which needs captum): give the repository root as ``--reference scpl=PATH``. Its draws of actions it
+never uses are counted apart (``unused_normals``).
+
+    git clone https://github.com/bofusun/SCPL /work/refs/SCPL
+    # or from a bare mirror: git --git-dir=<mirror> archive HEAD src/algorithms src/augmentations.py src/utils.py | tar -x -C /work/refs/SCPL
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/parity.py --algos scpl --reference scpl=/work/refs/SCPL --pythonpath /work/refs/pydeps
+    # everything: RL-ViGen's seven, SADA, VRL3 and SCPL
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/parity.py --reference /work/refs/RL-ViGen --reference sada=/work/refs/dmcgb2 \\
+        --reference vrl3=/work/refs/RL-ViGen-adroit/src --reference scpl=/work/refs/SCPL --pythonpath /work/refs/pydeps
 
 Adding an algorithm: write one ``build_<name>(reference, setup) -> Case`` function that imports the
 original's modules with :func:`import_reference`, builds its agent and vigen's loss, and says which
 original module maps to which vigen network (:class:`ModuleMap`), which optimizer step consumes
 which ``loss_*`` (:class:`StepMap`), which callables of the original are replaced by view replays,
-and its documented departures; then add it to ``ALGORITHMS`` and its repository and identifying
-files to ``ORIGINALS``.
+and its documented departures (optionally: extra arguments of the original's ``update``, gradients
+that are 0 in exact arithmetic, and measures of what the update leaves behind, such as BatchNorm
+statistics); then add it to ``ALGORITHMS`` and its repository and identifying files to
+``ORIGINALS``.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import copy
 import importlib
+import io
 import math
 import sys
+import tempfile
 import time
 import types
 import warnings
@@ -168,18 +200,29 @@ class Batch:
 # -- float64 everywhere ------------------------------------------------------------------------
 @contextmanager
 def float64_mode() -> Iterator[None]:
-    """Default dtype float64, and ``Tensor.float()`` keeps float64 (complex: the real part, as ``.float()`` does)."""
-    real_float, default = torch.Tensor.float, torch.get_default_dtype()
+    """float64 while the block runs: the default dtype, ``Tensor.float()`` and ``torch.FloatTensor(...)``.
+
+    ``Tensor.float()`` keeps float64 (complex: the real part, as ``.float()`` does);
+    ``torch.FloatTensor(...)`` builds float64 (VRL3's zero BC term would make its actor loss float32).
+    """
+    real_float, real_float_tensor, default = torch.Tensor.float, torch.FloatTensor, torch.get_default_dtype()
 
     def as_float64(self: Tensor, *args: Any, **kwargs: Any) -> Tensor:
         return (self.real if self.is_complex() else self).to(torch.float64)
 
+    def float_tensor(*args: Any, **kwargs: Any) -> Tensor:  # torch.FloatTensor(data) or torch.FloatTensor(*size)
+        if len(args) == 1 and not isinstance(args[0], (int, torch.Size)):
+            return torch.as_tensor(args[0], dtype=torch.float64)
+        return torch.empty(*args, dtype=torch.float64)
+
     torch.set_default_dtype(torch.float64)
     torch.Tensor.float = as_float64  # type: ignore[method-assign]
+    torch.FloatTensor = float_tensor  # type: ignore[misc, assignment]
     try:
         yield
     finally:
         torch.Tensor.float = real_float  # type: ignore[method-assign]
+        torch.FloatTensor = real_float_tensor  # type: ignore[misc]
         torch.set_default_dtype(default)
 
 
@@ -312,6 +355,134 @@ def captum_substitute() -> tuple[dict[str, types.ModuleType], list[str]]:
     return {"captum": _stub("captum"), "captum.attr": attr}, [
         "captum not installed: GuidedBackprop is the tool's stand-in with captum's rule (use --pythonpath DIR with captum for the real one)"
     ]
+
+
+# -- torchvision, for the originals that build from it (it need not import here) ----------------
+class _BuildOnly:
+    """A torchvision class the original builds but its update never calls: building works, using it fails."""
+
+    def __init__(self, name: str) -> None:
+        self._name = name
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        return _Unavailable(f"{self._name}(...)")
+
+
+class NormalizeStandIn:
+    """torchvision's ``transforms.Normalize(mean, std)`` on a tensor ``[..., C, H, W]``: ``(x − mean) / std`` per channel."""
+
+    def __init__(self, mean: Sequence[float], std: Sequence[float], inplace: bool = False) -> None:
+        self.mean, self.std = tuple(mean), tuple(std)
+
+    def __call__(self, x: Tensor) -> Tensor:
+        mean = torch.as_tensor(self.mean, dtype=x.dtype, device=x.device).view(-1, 1, 1)
+        std = torch.as_tensor(self.std, dtype=x.dtype, device=x.device).view(-1, 1, 1)
+        return (x - mean) / std
+
+
+class _TorchvisionBasicBlock(nn.Module):
+    """torchvision's ResNet ``BasicBlock``: its module names, order and arithmetic."""
+
+    def __init__(self, in_channels: int, channels: int, stride: int) -> None:
+        super().__init__()
+        self.conv1 = nn.Conv2d(in_channels, channels, 3, stride=stride, padding=1, bias=False)
+        self.bn1 = nn.BatchNorm2d(channels)
+        self.relu = nn.ReLU(inplace=True)
+        self.conv2 = nn.Conv2d(channels, channels, 3, padding=1, bias=False)
+        self.bn2 = nn.BatchNorm2d(channels)
+        self.downsample: nn.Module | None = None
+        if stride != 1 or in_channels != channels:
+            self.downsample = nn.Sequential(nn.Conv2d(in_channels, channels, 1, stride=stride, bias=False),
+                                            nn.BatchNorm2d(channels))
+
+    def forward(self, x: Tensor) -> Tensor:
+        identity = x if self.downsample is None else self.downsample(x)
+        out = self.relu(self.bn1(self.conv1(x)))
+        out = self.bn2(self.conv2(out))
+        out += identity
+        return self.relu(out)
+
+
+class TorchvisionResNet18(nn.Module):
+    """torchvision's ``resnet18()``: the same child modules in the same order, state-dict names and initialisation.
+
+    Written here (not vigen's :class:`~vigen.models.resnet.ResNet18Features`) so that an original
+    that builds ``torchvision.models.resnet18`` runs an independent network. Kaiming-normal
+    convolutions (``fan_out``), BatchNorm weight 1 and bias 0, PyTorch's default Linear.
+    """
+
+    def __init__(self, num_classes: int = 1000) -> None:
+        super().__init__()
+        self.conv1 = nn.Conv2d(3, 64, 7, stride=2, padding=3, bias=False)
+        self.bn1 = nn.BatchNorm2d(64)
+        self.relu = nn.ReLU(inplace=True)
+        self.maxpool = nn.MaxPool2d(3, stride=2, padding=1)
+        width = 64
+        for index, channels in enumerate((64, 128, 256, 512)):
+            stride = 1 if index == 0 else 2
+            setattr(self, f"layer{index + 1}", nn.Sequential(_TorchvisionBasicBlock(width, channels, stride),
+                                                             _TorchvisionBasicBlock(channels, channels, 1)))
+            width = channels
+        self.avgpool = nn.AdaptiveAvgPool2d((1, 1))
+        self.fc = nn.Linear(512, num_classes)
+        for module in self.modules():
+            if isinstance(module, nn.Conv2d):
+                nn.init.kaiming_normal_(module.weight, mode="fan_out", nonlinearity="relu")
+            elif isinstance(module, nn.BatchNorm2d):
+                nn.init.constant_(module.weight, 1)
+                nn.init.constant_(module.bias, 0)
+
+    def forward(self, x: Tensor) -> Tensor:
+        x = self.maxpool(self.relu(self.bn1(self.conv1(x))))
+        x = self.layer4(self.layer3(self.layer2(self.layer1(x))))
+        return self.fc(torch.flatten(self.avgpool(x), 1))
+
+
+def imagenet_stand_in(seed: int) -> TorchvisionResNet18:
+    """A :class:`TorchvisionResNet18` standing in for the ImageNet weights (no download here).
+
+    torchvision's initialisation, then every BatchNorm's weight, bias, running mean and running
+    variance drawn from a seeded generator (weight and variance in [0.5, 1.5), bias and mean
+    N(0, 0.1²)), so that no BatchNorm is the identity and its statistics are distinguishable.
+    """
+    g = torch.Generator().manual_seed(seed)
+    model = TorchvisionResNet18()
+    with torch.no_grad():
+        for module in model.modules():
+            if isinstance(module, nn.BatchNorm2d):
+                size, dtype = module.num_features, module.weight.dtype
+                module.weight.copy_(0.5 + torch.rand(size, generator=g, dtype=dtype))
+                module.bias.copy_(0.1 * torch.randn(size, generator=g, dtype=dtype))
+                module.running_mean.copy_(0.1 * torch.randn(size, generator=g, dtype=dtype))
+                module.running_var.copy_(0.5 + torch.rand(size, generator=g, dtype=dtype))
+    return model
+
+
+def torchvision_substitute(resnet18: nn.Module | None = None) -> tuple[dict[str, types.ModuleType], list[str]]:
+    """Stand-ins for ``torchvision`` and its submodules, as :func:`import_reference` ``substitutes``.
+
+    ``models.resnet18(...)`` returns a copy of ``resnet18`` (whatever its arguments, e.g.
+    ``pretrained=True``); ``transforms.Normalize`` is :class:`NormalizeStandIn`;
+    ``transforms.Compose``, ``Resize`` and ``CenterCrop`` build objects that fail if used. Every
+    other attribute fails if used.
+    """
+    names = ("torchvision", "torchvision.models", "torchvision.transforms", "torchvision.datasets", "torchvision.utils")
+    modules = {name: _stub(name) for name in names}
+    root = modules["torchvision"]
+    for name in names[1:]:
+        setattr(root, name.split(".")[1], modules[name])
+    transforms = modules["torchvision.transforms"]
+    transforms.Normalize = NormalizeStandIn  # type: ignore[attr-defined]
+    for name in ("Compose", "Resize", "CenterCrop"):
+        setattr(transforms, name, _BuildOnly(f"torchvision.transforms.{name}"))
+    notes = ["torchvision is the tool's stand-in: transforms.Normalize is (x − mean) / std per channel; "
+             "Compose, Resize and CenterCrop build but fail if used; everything else fails if used"]
+    if resnet18 is not None:
+        modules["torchvision.models"].resnet18 = lambda *args, **kwargs: copy.deepcopy(resnet18)  # type: ignore[attr-defined]
+        notes.append("torchvision.models.resnet18(pretrained=True) is the tool's TorchvisionResNet18 (torchvision's layout "
+                     "and initialisation) with random BatchNorm weights, biases and statistics standing in for ImageNet's; "
+                     "vigen's encoder loads the same state dict (PIEGEncoder(weights=file)), as it loads torchvision's")
+    return modules, notes
 
 
 # -- replayed draws ----------------------------------------------------------------------------
@@ -462,6 +633,9 @@ class StepMap:
     optimizers: tuple[tuple[str, int], ...]
 
 
+Measure = Callable[[Any, Any], str]  # (the original's agent, vigen's loss), both after their update → a sentence
+
+
 @dataclass
 class Case:
     """Both sides of one algorithm, ready to run, and what the comparison needs to know."""
@@ -479,6 +653,12 @@ class Case:
     reference: Reference
     batch: Batch
     setup: Setup
+    update_kwargs: dict[str, Any] = field(default_factory=dict)  # the original's update(replay_iter, step, **these)
+    # gradients that are 0 in exact arithmetic (name → why): compared on the scale of their step's largest gradient
+    zero_gradients: dict[str, str] = field(default_factory=dict)
+    measures: list[Measure] = field(default_factory=list)  # sentences on what the update leaves behind (not compared)
+    # normals the original draws for outputs it never uses (after all the ones it uses): not owed by vigen
+    unused_normals: int = 0
 
 
 def canonical(vigen_name: str) -> str:
@@ -528,6 +708,7 @@ class OriginalRun:
     names: dict[int, str]  # id(parameter) → canonical name
     normals: int
     uniforms: int
+    agent: Any = None  # the original's agent after the update
 
 
 def run_original(case: Case, draws: Draws, take_steps: bool) -> OriginalRun:
@@ -562,12 +743,12 @@ def run_original(case: Case, draws: Draws, take_steps: bool) -> OriginalRun:
     torch.Tensor.backward = backward  # type: ignore[method-assign]
     try:
         with draws.patched(case.draw_modules):
-            metrics = agent.update(iter([case.batch.for_original()]), case.setup.step)
+            metrics = agent.update(iter([case.batch.for_original()]), case.setup.step, **case.update_kwargs)
     finally:
         torch.Tensor.backward = real_backward  # type: ignore[method-assign]
         for module, attr, value in saved:
             setattr(module, attr, value)
-    return OriginalRun(losses, steps, dict(metrics or {}), names, draws.cursor, draws.uniform_calls)
+    return OriginalRun(losses, steps, dict(metrics or {}), names, draws.cursor, draws.uniform_calls, agent)
 
 
 @dataclass
@@ -582,12 +763,13 @@ def run_vigen(case: Case, draws: Draws) -> VigenRun:
     loss = case.loss
     draws.reset()
     params = dict(loss.named_parameters())
+    trainable = {name: p for name, p in params.items() if p.requires_grad}  # frozen ones (PIE-G's ResNet) get none
     with draws.patched():
         out = loss(case.batch.for_vigen())
     grads: dict[str, dict[str, Tensor | None]] = {}
     for key in [k for k in out.keys() if k.startswith("loss_")]:
-        result = torch.autograd.grad(out[key], list(params.values()), retain_graph=True, allow_unused=True)
-        grads[key] = {canonical(n): g for n, g in zip(params, result)}
+        result = torch.autograd.grad(out[key], list(trainable.values()), retain_graph=True, allow_unused=True)
+        grads[key] = {canonical(n): None for n in params} | {canonical(n): g for n, g in zip(trainable, result)}
     values = {k: float(v.detach()) for k, v in out.items() if v.numel() == 1}
     return VigenRun(values, grads, draws.cursor, draws.uniform_calls)
 
@@ -596,9 +778,11 @@ def run_vigen(case: Case, draws: Draws) -> VigenRun:
 TINY = torch.finfo(torch.float64).tiny
 
 
-def relative(a: Tensor | float, b: Tensor | float) -> float:
+def relative(a: Tensor | float, b: Tensor | float, scale: float | None = None) -> float:
+    """``max|a − b| / max(max|b|, tiny)``; ``scale`` replaces ``max|b|`` (a quantity that is 0 in exact arithmetic)."""
     a, b = torch.as_tensor(a, dtype=torch.float64), torch.as_tensor(b, dtype=torch.float64)
-    scale = b.abs().max().item() if b.numel() else 0.0
+    if scale is None:
+        scale = b.abs().max().item() if b.numel() else 0.0
     diff = (a - b).abs().max().item() if a.numel() else 0.0
     return diff / max(scale, TINY) if diff else 0.0
 
@@ -643,14 +827,19 @@ def compare(case: Case, fixed: OriginalRun, stepped: OriginalRun, ours: VigenRun
         stepped_grads = {}
         for record in _step_records(stepped, step, case):
             stepped_grads.update({stepped.names[i]: g for i, g in record.grads.items()})
-        for record in _step_records(fixed, step, case):
+        records = _step_records(fixed, step, case)
+        largest = max((g.abs().max().item() for r in records for g in r.grads.values() if g.numel()), default=0.0)
+        for record in records:
             for pid, theirs in record.grads.items():
                 name = fixed.names[pid]
                 owned.add(name)
                 mine = ours.grads[step.loss].get(name)
                 mine = torch.zeros_like(theirs) if mine is None else mine
-                rows.append(Row(f"∂{step.loss}/∂{name}", mine.norm().item(), theirs.norm().item(), relative(mine, theirs),
-                                relative(mine, stepped_grads[name]) if name in stepped_grads else None))
+                quantity, scale = f"∂{step.loss}/∂{name}", None
+                if name in case.zero_gradients:  # both sides are rounding noise: measure it against the step's gradients
+                    quantity, scale = f"{quantity} (0 in exact arithmetic; rel. to the step's largest gradient)", largest
+                rows.append(Row(quantity, mine.norm().item(), theirs.norm().item(), relative(mine, theirs, scale),
+                                relative(mine, stepped_grads[name], scale) if name in stepped_grads else None))
         for name, mine in ours.grads[step.loss].items():
             if name not in owned and mine is not None and mine.abs().max().item() > 0:
                 rows.append(Row(f"stray ∂{step.loss}/∂{name}", mine.norm().item(), 0.0, math.inf, None, "stray"))
@@ -663,7 +852,8 @@ def _fmt(x: float | None) -> str:
     return f"{x:.3e}" if x else "0"
 
 
-def report(case: Case, rows: list[Row], fixed: OriginalRun, ours: VigenRun, seconds: float, tolerance: float) -> bool:
+def report(case: Case, rows: list[Row], fixed: OriginalRun, ours: VigenRun, seconds: float, tolerance: float,
+           measured: Sequence[str] = ()) -> bool:
     print(f"\n## {case.name}  (reference: {case.reference.root})\n")
     print("| quantity | vigen | original | rel. diff | rel. diff, steps taken |")
     print("| --- | ---: | ---: | ---: | ---: |")
@@ -672,9 +862,11 @@ def report(case: Case, rows: list[Row], fixed: OriginalRun, ours: VigenRun, seco
     values = [r.rel for r in rows if r.kind in ("loss", "metric")]
     grads = [r.rel for r in rows if r.kind in ("grad", "stray")]
     worst = max(values + grads)
-    draws_ok = fixed.normals == ours.normals and fixed.uniforms == ours.uniforms
+    draws_ok = fixed.normals == ours.normals + case.unused_normals and fixed.uniforms == ours.uniforms
     ok = worst <= tolerance and draws_ok
-    print(f"\nnoise draws: vigen {ours.normals} normals, {ours.uniforms} uniform; original {fixed.normals} normals, {fixed.uniforms} uniform")
+    unused = f" ({case.unused_normals} of them for outputs it never uses)" if case.unused_normals else ""
+    print(f"\nnoise draws: vigen {ours.normals} normals, {ours.uniforms} uniform; original {fixed.normals} normals{unused}, "
+          f"{fixed.uniforms} uniform")
     for note in case.reference.notes:
         print(f"note: {note}")
     if case.reference.stubbed:
@@ -682,6 +874,10 @@ def report(case: Case, rows: list[Row], fixed: OriginalRun, ours: VigenRun, seco
     print("departures (documented; how they are compared):")
     for departure in case.departures:
         print(f"- {departure}")
+    for name, why in case.zero_gradients.items():
+        print(f"0 in exact arithmetic: the gradient of {name} ({why})")
+    for sentence in measured:
+        print(f"measured (not compared): {sentence}")
     print(f"\nSUMMARY {case.name}: max rel. diff losses/metrics {max(values):.2e} ({len(values)}), "
           f"gradients {max(grads):.2e} ({len(grads)} tensors); {'OK' if ok else 'MISMATCH'} at tolerance {tolerance:g}"
           f"{'' if draws_ok else ' (draw counts differ)'}; {seconds:.1f} s")
@@ -975,6 +1171,345 @@ def build_sada(reference: Path, setup: Setup) -> Case:
                 [ref.modules["utils"]], metrics, departures, ref, batch, setup)
 
 
+# -- BatchNorm running statistics: what an update leaves behind ---------------------------------
+_STATISTICS = ("running_mean", "running_var", "num_batches_tracked")
+
+
+def batchnorm_statistics(agent: Any, attribute: str, prefix: str, loss: Any) -> tuple[dict[str, Tensor], dict[str, Tensor]]:
+    """The BatchNorm buffers of vigen's ``loss`` and of the original's module ``attribute`` (under vigen's name ``prefix``).
+
+    Both as ``{canonical name: copy}``: running means, variances and batch counts; every one of
+    vigen's must have its counterpart in the original.
+    """
+    module = agent
+    for part in attribute.split("."):
+        module = getattr(module, part)
+    ours = {canonical(n): b.detach().clone() for n, b in loss.named_buffers() if n.rsplit(".", 1)[-1] in _STATISTICS}
+    theirs = {f"{prefix}.{n}": b.detach().clone() for n, b in module.named_buffers() if f"{prefix}.{n}" in ours}
+    if set(ours) != set(theirs):
+        raise RuntimeError(f"BatchNorm buffers of vigen without a counterpart in the original: {sorted(set(ours) - set(theirs))[:4]}")
+    return theirs, ours
+
+
+class StatisticsGap:
+    """How far vigen's BatchNorm running statistics are from the original's, at build and after the update.
+
+    The running statistics are an exponential average (momentum m): after p passes, ``(1 − m)^p``
+    of a gap at build is left; the rest of the gap after the update comes from the order in which
+    the passes saw their batches. Every gap is relative to the original's statistics after the
+    update (those it acts with), per tensor, then the max over tensors. What the gap changes when
+    acting: the original's deterministic actions (``agent.act(obs, step, eval_mode=True)`` in eval
+    mode) on the observations ``pixels`` with its own statistics and with vigen's. Called as a
+    :data:`Measure`.
+    """
+
+    def __init__(self, agent: Any, attribute: str, prefix: str, loss: Any, pixels: Tensor, step: int) -> None:
+        self.attribute, self.prefix, self.pixels, self.step = attribute, prefix, pixels, step
+        self.original, self.vigen = batchnorm_statistics(agent, attribute, prefix, loss)
+        module = agent
+        for part in attribute.split("."):
+            module = getattr(module, part)
+        momenta = {m.momentum for m in module.modules() if isinstance(m, nn.modules.batchnorm._BatchNorm)}
+        if len(momenta) != 1 or None in momenta:
+            raise RuntimeError(f"StatisticsGap needs one BatchNorm momentum, found {momenta}.")
+        self.momentum = float(momenta.pop())
+
+    def __call__(self, agent: Any, loss: Any) -> str:
+        original, vigen = batchnorm_statistics(agent, self.attribute, self.prefix, loss)
+        count = next(k for k in vigen if k.endswith("num_batches_tracked"))
+        passes = int(original[count] - self.original[count]), int(vigen[count] - self.vigen[count])
+        decay = (1 - self.momentum) ** passes[0]
+        built, after, order = 0.0, 0.0, 0.0
+        running = [k for k in vigen if not k.endswith("num_batches_tracked")]
+        for key in running:
+            scale = max(original[key].abs().max().item(), TINY)
+            start = self.vigen[key] - self.original[key]
+            built = max(built, start.abs().max().item() / scale)
+            after = max(after, (vigen[key] - original[key]).abs().max().item() / scale)
+            order = max(order, (vigen[key] - original[key] - decay * start).abs().max().item() / scale)
+        swapped = copy.deepcopy(agent)
+        module = swapped
+        for part in self.attribute.split("."):
+            module = getattr(module, part)
+        with torch.no_grad():
+            for name, buffer in module.named_buffers():
+                if f"{self.prefix}.{name}" in vigen:
+                    buffer.copy_(vigen[f"{self.prefix}.{name}"])
+        acting = relative(self._actions(swapped), self._actions(agent))
+        return (f"BatchNorm running statistics ({len(running)} tensors; {passes[1]} encoder passes in vigen, {passes[0]} in the "
+                f"original), max rel. diff vigen vs original (to the original's after the update): {built:.1e} at build, "
+                f"{after:.1e} after the update, of which {decay * built:.1e} is what is left of the build-time gap "
+                f"((1 − {self.momentum:g})^{passes[0]} of it) and {order:.1e} comes from the order of the passes. Acting "
+                f"(eval mode, running statistics) on the batch's {len(self.pixels)} observations, the original's "
+                f"deterministic actions with vigen's statistics instead of its own: max rel. diff {acting:.1e}")
+
+    def _actions(self, agent: Any) -> Tensor:
+        agent.train(False)
+        try:
+            with torch.no_grad():
+                return torch.stack([torch.as_tensor(agent.act(obs, self.step, eval_mode=True)) for obs in self.pixels])
+        finally:
+            agent.train(True)
+
+
+# -- PIE-G (RL-ViGen master) and VRL3 (RL-ViGen, branch ViGen-adroit) ------------------------------
+def build_pieg(reference: Path, setup: Setup) -> Case:
+    from vigen.losses import PIEGLoss
+    from vigen.models import PIEGEncoder
+
+    imagenet = imagenet_stand_in(setup.seed + 200)
+    substitutes, notes = torchvision_substitute(imagenet)
+    ref = import_reference(reference, ["utils", "pieg"], paths=("", "algos"), optional=RLVIGEN_OPTIONAL, substitutes=substitutes)
+    ref.notes.extend(notes)
+    module = ref.modules["pieg"]
+    agent = module.PIEGAgent(**_agent_kwargs(setup))
+    batch = Batch.draw(setup, setup.nstep)
+    views = Views(batch, setup)
+    overlay_pairs: Pairs = [(views.obs, views.overlay(0, views.obs))]
+    with tempfile.TemporaryDirectory() as folder:  # vigen loads torchvision's state dict from a file
+        weights = Path(folder) / "resnet18.pth"
+        torch.save(imagenet.state_dict(), weights)
+        encoder = PIEGEncoder(setup.channels, image_size=setup.image_size, out_dim=agent.encoder.repr_dim, weights=weights,
+                              max_value=255)
+    loss = PIEGLoss(encoder, *_heads(setup, encoder.out_dim), augmentation=replay_augmentation(views.weak(), "shift"),
+                    strong_augmentation=replay_augmentation(overlay_pairs, "overlay"), **_ddpg_options())
+    loss = _finish(loss, setup)
+    resnet = [ModuleMap(f"encoder.model.{name}", f"encoder.resnet.{name}") for name in ("conv1", "bn1", "layer1", "layer2")]
+    modules = [*resnet, ModuleMap("encoder.fc", "encoder.fc"), ModuleMap("encoder.ln", "encoder.ln"), *CRITIC_MODULES]
+    gap = StatisticsGap(agent, "encoder.model", "encoder.resnet", loss, batch.pixels, setup.step)
+    departures = [
+        DDPG_DEPARTURE + " Default setup: loss_actor 5.6e-2, ∂loss_actor up to 3.5e-1.",
+        "RL-ViGen's ResEncoder measures its output size with a training-mode forward pass of 32 random-normal stacks "
+        "while it is built, which moves its BatchNorm running statistics one momentum step (0.1) from the loaded "
+        f"weights' towards that noise's; vigen's start at the loaded values. They are left different here: the update "
+        "normalises with batch statistics, so no loss or gradient depends on them (confirmed by the rows above); they "
+        "matter when acting (running statistics), until the gap fades (× 0.9 per encoder pass, 3 per update: below "
+        "1e-6 of it after 44 updates): see 'measured'.",
+        "vigen encodes the next view first (its target comes before the critic loss), then the clean and the overlaid "
+        "view, one pass each; RL-ViGen encodes clean, overlaid, next. Same batch statistics, so the same outputs; the "
+        "running statistics see the three batches in another order (see 'measured').",
+        "The ResNet's weights are frozen on both sides (no gradient; RL-ViGen's encoder_opt holds them but they get "
+        "none); only the encoder's Linear and LayerNorm learn, from the critic loss.",
+        "vigen rounds the overlay blend of uint8 frames to uint8 (RL-ViGen blends floats); the views here are float "
+        "and replayed to both sides, so the rounding is not exercised.",
+        "RL-ViGen's ViGen-adroit branch runs PIE-G on VRL3's stage-3 update (safe Q target, std 0.01, feature_dim 256, "
+        "hand joint positions); this row is the master branch's agent (DMC, robosuite), which PIEGLoss implements.",
+    ]
+    return Case("pieg", agent, loss, modules, CRITIC_STEPS, {"aug": views.weak()}, [(module, "random_overlay", overlay_pairs)],
+                [ref.modules["utils"]], DDPG_METRICS, departures, ref, batch, setup, measures=[gap])
+
+
+# RL-ViGen's thresholds (200 and 5) are not reached by a random initial network: lowered on both sides so that both
+# branches of each run (default setup: 4 of the 8 targets above 0 compressed; 8 of the 32 pre-tanh outputs beyond 0.2)
+VRL3_SAFE_Q_THRESHOLD = -1.0
+VRL3_PRETANH_THRESHOLD = 0.2
+
+
+def build_vrl3(reference: Path, setup: Setup) -> Case:
+    from vigen.losses import VRL3Loss
+    from vigen.models import VRL3Encoder
+
+    substitutes, notes = torchvision_substitute()
+    ref = import_reference(reference, ["utils", "stage1_models", "transfer_util", "vrl3_agent"], paths=("", "algos"),
+                           optional=("hydra", "omegaconf"), substitutes=substitutes)
+    ref.notes.extend(notes)
+    agent = ref.modules["vrl3_agent"].VRL3Agent(
+        obs_shape=setup.obs_shape, action_shape=(setup.action_dim,), device="cpu", use_sensor=False, lr=setup.lr,
+        feature_dim=setup.feature_dim, hidden_dim=setup.hidden_dim, critic_target_tau=0.01, num_expl_steps=0,
+        update_every_steps=2, stddev_clip=0.3, use_tb=False, use_data_aug=True, encoder_lr_scale=1,
+        stage1_model_name="resnet6_32channel", safe_q_target_factor=0.5, safe_q_threshold=VRL3_SAFE_Q_THRESHOLD,
+        pretanh_penalty=0.001, pretanh_threshold=VRL3_PRETANH_THRESHOLD, stage2_update_encoder=True, cql_weight=1,
+        cql_temp=1, cql_n_random=10, stage2_std=0.1, stage2_bc_weight=0, stage3_update_encoder=True, std0=0.01,
+        std1=0.01, std_n_decay=500000, stage3_bc_lam0=0, stage3_bc_lam1=0.95,
+    )
+    agent.switch_to_RL_stages(verbose=False)  # its training script does this before stages 2 and 3
+    batch = Batch.draw(setup, setup.nstep)
+    views = Views(batch, setup)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # random initial weights, as RL-ViGen (stage1_use_pretrain=False)
+        encoder = VRL3Encoder(setup.channels, max_value=255)
+    loss = VRL3Loss(encoder, *_heads(setup, encoder.output_size), augmentation=replay_augmentation(views.weak(), "shift"),
+                    safe_q_threshold=VRL3_SAFE_Q_THRESHOLD, pretanh_threshold=VRL3_PRETANH_THRESHOLD, std=0.01, std_clip=0.3)
+    loss = _finish(loss, setup)
+    modules = [ModuleMap("encoder.model", "encoder"), *CRITIC_MODULES]
+    metrics = [*DDPG_METRICS, ("abs_pretanh", "abs_pretanh"), ("max_abs_pretanh", "max_abs_pretanh")]
+    gap = StatisticsGap(agent, "encoder.model", "encoder", loss, batch.pixels, setup.step)
+    departures = [
+        DDPG_DEPARTURE + " Default setup: loss_actor 1.0e-1, ∂loss_actor up to 8.9e-1.",
+        "RL-ViGen's Adroit config (use_sensor: true) feeds the actor and critic the hand's 24 joint positions next to "
+        "the image features; vigen's loss is pixels only. The original runs here with use_sensor=False, its own "
+        "pixel-only branch: the same math as zero joint positions (the trunks' 24 extra input columns would add "
+        "nothing and get no gradient). With real joint positions the networks' inputs differ: nothing to compare.",
+        "RL-ViGen fills its replay buffer with 25 demonstrations and runs stage 3 alone (train.sh: stage1_use_pretrain="
+        "False, stage2_n_update=0); the demonstrations are data, not the update (both sides get the same synthetic "
+        "batch), and its stage-3 BC weight stage3_bc_lam0 = 0 keeps its BC branch off (vigen has none). Without stage "
+        "1 both encoders start from random weights (here the original's, copied), the one-frame stem tiled over the "
+        "3 frames and divided by 3 (the original's switch_to_RL_stages(), VRL3Encoder's construction).",
+        "encoder_lr_scale (RL-ViGen: 1; relocate 0.01) scales the encoder's Adam learning rate (RL-ViGen's "
+        "encoder_opt, vigen's VRL3Loss.optimizer_groups): it changes the step, not any loss or gradient; 'steps "
+        "taken' uses 1.",
+        "σ = 0.01 on both sides (RL-ViGen: linear(0.01, 0.01, 500000), the same constant); the clip 0.3 is never "
+        "reached at that σ.",
+        f"safe_q_threshold {VRL3_SAFE_Q_THRESHOLD:g} and pretanh_threshold {VRL3_PRETANH_THRESHOLD:g} on both sides "
+        "(RL-ViGen: 200, on Adroit rewards scaled by 1/20 to 1/100, and 5, which random initial networks never reach), "
+        "so that in the default setup the safe target compresses 4 of the 8 targets and the penalty acts on 8 of the "
+        "32 pre-tanh outputs; the penalty weight is RL-ViGen's 0.001.",
+        "vigen encodes the next observation first (its target comes before the critic loss), RL-ViGen the current one: "
+        "the same batch statistics, so the same outputs; the running statistics see the two batches in the other "
+        "order (see 'measured').",
+        "RL-ViGen's zero BC term is torch.FloatTensor([0]), a one-element float32 tensor: under the tool's float64 it "
+        "would make the summed actor loss float32 by type promotion (its value rounded by 2.6e-8, gradients "
+        "unchanged), so the tool builds it float64. In RL-ViGen's float32 training it changes nothing.",
+    ]
+    return Case("vrl3", agent, loss, modules, CRITIC_STEPS, {"aug": views.weak()}, [], [ref.modules["utils"]], metrics,
+                departures, ref, batch, setup, update_kwargs={"stage": 3, "use_sensor": False}, measures=[gap],
+                zero_gradients={"encoder.conv1.bias": "the stem's bias is followed by a training-mode BatchNorm, which "
+                                "subtracts each channel's batch mean"})
+
+# -- SCPL (bofusun/SCPL, main): DMC-GB's SAC agent with SCPL's terms --------------------------------
+SCPL_OPTIONAL = ("torchvision", "torchvision.transforms", "torchvision.datasets", "torchvision.utils", "kornia")
+SCPL_STEP = 2  # even (actor, target and model update), no multiple of 10,000 (SCPL saves images there)
+
+
+class _NoWriter:
+    """``torch.utils.tensorboard.SummaryWriter`` for SCPL's constructor: accepts everything, writes nothing."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        pass
+
+    def add_image(self, *args: Any, **kwargs: Any) -> None:
+        pass
+
+
+class _Log:
+    """SCPL's logger ``L``: keeps the last value of each key."""
+
+    def __init__(self) -> None:
+        self.values: dict[str, float] = {}
+
+    def log(self, key: str, value: Any, step: int) -> None:
+        self.values[key] = float(value.detach()) if isinstance(value, Tensor) else float(value)
+
+
+class SCPLDriver:
+    """SCPL's agent behind the tool's ``update(replay_iter, step)``.
+
+    SCPL's ``update(replay_buffer, L, step)`` samples ``sample_drq()`` (already shifted views);
+    here those come from the tool's replay (the ``aug`` attribute). The driver exposes the
+    agent's optimizers and, as ``critic`` and ``critic_target``, modules holding the original's
+    critic projection and Q networks under vigen's names (``trunk``, ``q1``, ``q2``).
+    """
+
+    def __init__(self, agent: Any) -> None:
+        self.agent = agent
+        for name, value in vars(agent).items():
+            if isinstance(value, torch.optim.Optimizer):
+                setattr(self, name, value)
+        self.critic = self._heads(agent.critic)
+        self.critic_target = self._heads(agent.critic_target)
+        self.aug: Callable[[Tensor], Tensor] | None = None
+
+    @staticmethod
+    def _heads(critic: nn.Module) -> nn.Module:
+        heads = nn.Module()
+        heads.trunk = critic.encoder.projection.projection
+        heads.q1, heads.q2 = critic.Q1.trunk, critic.Q2.trunk
+        return heads
+
+    def update(self, replay_iter: Iterator[tuple[Tensor, ...]], step: int) -> dict[str, float]:
+        obs, action, reward, _, next_obs = next(replay_iter)
+        assert self.aug is not None
+        shifted, shifted_next, not_done = self.aug(obs), self.aug(next_obs), torch.ones_like(reward)
+        buffer = types.SimpleNamespace(sample_drq=lambda: (shifted, action, reward, shifted_next, not_done))
+        log = _Log()
+        self.agent.update(buffer, log, SCPL_STEP)
+        return log.values
+
+
+def build_scpl(reference: Path, setup: Setup) -> Case:
+    from vigen.losses import SCPLLoss
+    from vigen.models import Critic, GaussianActor, LatentDynamics, SharedCNN
+
+    writer = types.ModuleType("torch.utils.tensorboard")
+    writer.SummaryWriter = _NoWriter  # type: ignore[attr-defined]
+    substitutes, notes = captum_substitute()
+    substitutes["torch.utils.tensorboard"] = writer
+    names = ["utils", "augmentations", "algorithms.modules", "algorithms.sac", "algorithms.rl_utils", "algorithms.SCPL"]
+    ref = import_reference(reference, names, paths=("src",), optional=SCPL_OPTIONAL, substitutes=substitutes)
+    ref.notes.extend(notes + ["torch.utils.tensorboard.SummaryWriter is a stand-in that writes nothing"])
+    args = types.SimpleNamespace(
+        discount=setup.gamma, critic_tau=0.01, encoder_tau=0.05, actor_update_freq=2, critic_target_update_freq=2,
+        num_shared_layers=11, num_head_layers=0, num_filters=32, projection_dim=setup.feature_dim,
+        hidden_dim=setup.hidden_dim, actor_log_std_min=-10, actor_log_std_max=2, init_temperature=0.1,
+        actor_lr=setup.lr, actor_beta=0.9, critic_lr=setup.lr, critic_beta=0.9, alpha_lr=setup.lr, alpha_beta=0.5,
+        device="cpu", work_dir=tempfile.gettempdir(), domain_name="walker", task_name="walk", algorithm="scpl", seed=0,
+    )
+    module = ref.modules["algorithms.SCPL"]
+    with contextlib.redirect_stdout(io.StringIO()):  # its transition model prints a line when built
+        driver = SCPLDriver(module.SCPL(setup.obs_shape, (setup.action_dim,), args))
+    batch = Batch.draw(setup, 1)
+    views = Views(batch, setup)
+    pair = torch.cat([views.obs, views.next_obs], dim=1)  # SCPL overlays obs and next obs stacked on the channels
+    overlay_pairs: Pairs = [(pair, views.overlay(0, pair))]
+
+    repr_dim = 32 * 21 * 21
+    networks = {
+        "encoder": SharedCNN(setup.channels, max_value=255, centered=False),
+        "actor": GaussianActor(repr_dim, setup.action_dim, setup.hidden_dim, feature_dim=setup.feature_dim),
+        "critic": Critic(repr_dim, setup.action_dim, setup.feature_dim, setup.hidden_dim),
+        "dynamics": LatentDynamics(setup.feature_dim, setup.action_dim),
+    }
+    convs = tuple((str(2 + 2 * i), str(2 * i)) for i in range(11))  # DMC-GB's layers start with CenterCrop, NormalizeImg
+    modules = [
+        ModuleMap("agent.critic.encoder.shared_cnn.layers", "encoder.convnet", convs),
+        ModuleMap("critic", "critic"),
+        ModuleMap("agent.actor.encoder.projection.projection", "actor.trunk"),
+        ModuleMap("agent.actor.mlp", "actor.policy"),
+        ModuleMap("agent.log_alpha", "log_alpha"),
+        ModuleMap("agent.transition_model", "dynamics",
+                  (("fc_mu", "next_embedding"), ("fc_reward", "reward"), ("fc", "hidden"), ("ln", "norm"))),
+    ]
+    originals: dict[str, Tensor] = {}
+    for module_map in modules:
+        originals.update(module_map.resolve(driver))
+    with torch.no_grad():  # before the loss is built, so that its target encoder starts as the original's (= its encoder)
+        for prefix, network in networks.items():
+            for name, param in network.named_parameters():
+                param.copy_(originals[f"{prefix}.{name}"])
+    loss = SCPLLoss(*networks.values(), init_temperature=0.1, augmentation=replay_augmentation(views.weak(), "shift"),
+                    strong_augmentation=replay_augmentation(overlay_pairs, "overlay"))
+    loss.make_value_estimator(gamma=setup.gamma)
+    steps = [
+        StepMap("critic", "loss_critic", (("critic_optimizer", 0),)),
+        StepMap("actor", "loss_actor", (("actor_optimizer", 0),)),
+        StepMap("alpha", "loss_alpha", (("log_alpha_optimizer", 0),)),
+        StepMap("dynamics", "loss_dynamics", (("encoder_optimizer", 0), ("decoder_optimizer", 0))),
+    ]
+    metrics = [("policy_kl", "train/kl_loss"), ("reward_error", "train_ae/reward_loss"),
+               ("loss_dynamics", "train_ae/transition_loss"), ("alpha", "train_alpha/value")]
+    departures = [
+        "SCPL steps the critic, then the actor and temperature (reading the stepped critic and encoder), then the "
+        "encoder (with the critic's projection) and the dynamics model with their own Adam (lr 3e-4 in SCPL); vigen "
+        "takes every term at the parameters of the batch's start and steps once. Compared at unchanged parameters; "
+        "'steps taken' shows the order's effect.",
+        "The actor, the target networks and the dynamics model are updated on every second update in SCPL "
+        f"(actor_update_freq, critic_target_update_freq, aux_update_freq 2); compared at step {SCPL_STEP}, where all run. "
+        "vigen's loss computes every term at every call. SoftUpdate has one τ (SCPL: 0.01 for the Q heads, 0.05 for "
+        "the encoder and the critic projection).",
+        "SCPL's actor is DMC-GB's: its conv features are recomputed on the observation for the actor and for the "
+        "critic's score (after the critic step); vigen's actor reads the critic step's detached features. At unchanged "
+        "parameters they are the same features.",
+        "SCPL computes two more saliency maps (after the critic step, and of the next observation in the model step) "
+        "and samples two more actions that nothing uses; vigen does not (the draw counts above say so).",
+        "Strong views: one overlay of obs and next obs stacked on the channels (the same image for both), drawn "
+        "with vigen's RandomOverlay and replayed to both sides; SCPL's comes from Places365 on float pixels.",
+    ]
+    unused = 3 * setup.batch_size * setup.action_dim  # actor(aug_obs) in the actor step, actor(next obs of both views) in the model step
+    return Case("scpl", driver, loss, modules, steps, {"aug": views.weak()},
+                [(ref.modules["augmentations"], "random_overlay", overlay_pairs)], [module], metrics, departures,
+                ref, batch, setup, unused_normals=unused)
+
+
 ALGORITHMS: dict[str, Callable[[Path, Setup], Case]] = {
     "drqv2": build_drqv2,
     "svea": build_svea,
@@ -983,6 +1518,9 @@ ALGORITHMS: dict[str, Callable[[Path, Setup], Case]] = {
     "curl": build_curl,
     "drq": build_drq,
     "sada": build_sada,
+    "pieg": build_pieg,
+    "vrl3": build_vrl3,
+    "scpl": build_scpl,
 }
 
 
@@ -996,10 +1534,16 @@ class Original:
 
 
 RLVIGEN_URL, DMCGB2_URL = "https://github.com/gemcollector/RL-ViGen", "https://github.com/aalmuzairee/dmcgb2"
+RLVIGEN_ADROIT_URL = "https://github.com/gemcollector/RL-ViGen/tree/ViGen-adroit"
+SCPL_URL = "https://github.com/bofusun/SCPL"
 ORIGINALS: dict[str, Original] = {
-    **{name: Original("RL-ViGen", RLVIGEN_URL, ("rl_utils.py", f"algos/{name}.py"))
-       for name in ("drqv2", "svea", "srm", "sgqn", "curl", "drq")},
+    # cfgs/config.yaml tells master from the ViGen-adroit branch's src/, which has other agents under the same names
+    **{name: Original("RL-ViGen", RLVIGEN_URL, ("rl_utils.py", "cfgs/config.yaml", f"algos/{name}.py"))
+       for name in ("drqv2", "svea", "srm", "sgqn", "curl", "drq", "pieg")},
     "sada": Original("DMC-GB2", DMCGB2_URL, ("augmentations.py", "algos/sada.py")),
+    "vrl3": Original("RL-ViGen ViGen-adroit/src", RLVIGEN_ADROIT_URL,
+                     ("stage1_models.py", "cfgs_adroit/config.yaml", "algos/vrl3_agent.py")),
+    "scpl": Original("SCPL", SCPL_URL, ("src/augmentations.py", "src/algorithms/SCPL.py")),
 }
 
 
@@ -1089,8 +1633,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             fixed = run_original(case, draws, take_steps=False)
             stepped = run_original(case, draws, take_steps=True)
             ours = run_vigen(case, draws)
+            measured = [measure(fixed.agent, case.loss) for measure in case.measures]
         rows = compare(case, fixed, stepped, ours)
-        results[name] = report(case, rows, fixed, ours, time.perf_counter() - start, args.tolerance)
+        results[name] = report(case, rows, fixed, ours, time.perf_counter() - start, args.tolerance, measured)
     print("\n" + " ".join(f"{n}: {'OK' if ok else 'MISMATCH'}" for n, ok in results.items()))
     return 0 if all(results.values()) else 1
 

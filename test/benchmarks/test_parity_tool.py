@@ -1,7 +1,8 @@
 """The helpers of benchmarks/parity.py, without a checkout of any original repository.
 
-One end-to-end run (SADA against DMC-GB2) needs a checkout: it is skipped unless the environment
-variable VIGEN_PARITY_DMCGB2 names one.
+The end-to-end runs need a checkout: SADA against DMC-GB2 is skipped unless the environment
+variable VIGEN_PARITY_DMCGB2 names one, VRL3 against RL-ViGen's ViGen-adroit branch unless
+VIGEN_PARITY_RLVIGEN_ADROIT names its src/ folder.
 """
 
 from __future__ import annotations
@@ -29,6 +30,12 @@ def parity() -> types.ModuleType:
     spec.loader.exec_module(module)
     yield module
     del sys.modules[spec.name]
+
+
+def test_relative_difference_takes_a_given_scale_for_quantities_that_are_zero_in_exact_arithmetic(parity):
+    noise_a, noise_b = torch.tensor([1e-15, -2e-15]), torch.tensor([-1e-15, 1e-15])
+    assert parity.relative(noise_a, noise_b) == pytest.approx(3.0)  # rounding noise against rounding noise
+    assert parity.relative(noise_a, noise_b, scale=3.0) == pytest.approx(1e-15)
 
 
 def test_relative_difference_is_max_abs_error_over_max_abs_reference(parity):
@@ -116,13 +123,17 @@ def test_draws_patch_both_sides_samplers_and_restore_them(parity):
 
 
 def test_float64_mode_makes_float_keep_float64_and_restores(parity):
-    default = torch.get_default_dtype()
+    default, float_tensor = torch.get_default_dtype(), torch.FloatTensor
     with parity.float64_mode():
         assert torch.zeros(1).dtype == torch.float64
         assert torch.zeros(1, dtype=torch.uint8).float().dtype == torch.float64
         assert torch.tensor([1 + 2j]).float().tolist() == [1.0]
         assert nn.Linear(2, 2).weight.dtype == torch.float64
-    assert torch.get_default_dtype() == default
+        zero = torch.FloatTensor([0])  # VRL3's zero BC term: float32 would make a float64 loss + it float32
+        assert zero.dtype == torch.float64 and zero.tolist() == [0.0]
+        assert (torch.tensor(1.0) + zero).dtype == torch.float64
+        assert torch.FloatTensor(2, 3).shape == (2, 3) and torch.FloatTensor(2, 3).dtype == torch.float64
+    assert torch.get_default_dtype() == default and torch.FloatTensor is float_tensor
     assert torch.zeros(1, dtype=torch.uint8).float().dtype == torch.float32
 
 
@@ -175,7 +186,8 @@ def _runs(parity, vigen_grads, original_grads):
         metrics={}, names={id(weight): "critic.w"}, normals=0, uniforms=0,
     )
     ours = parity.VigenRun({"loss_critic": 2.0}, {"loss_critic": vigen_grads}, 0, 0)
-    case = types.SimpleNamespace(name="toy", metrics=[], steps=[parity.StepMap("critic", "loss_critic", (("critic_opt", 0),))])
+    case = types.SimpleNamespace(name="toy", metrics=[], steps=[parity.StepMap("critic", "loss_critic", (("critic_opt", 0),))],
+                                 zero_gradients={})
     return case, original, ours
 
 
@@ -194,6 +206,24 @@ def test_compare_counts_a_missing_vigen_gradient_as_zero(parity):
     assert grad_row.rel == pytest.approx(1.0)
 
 
+def test_compare_measures_a_declared_zero_gradient_against_the_steps_largest(parity):
+    weight, bias = nn.Parameter(torch.zeros(2)), nn.Parameter(torch.zeros(1))
+    original = parity.OriginalRun(
+        losses=[torch.tensor(2.0)],
+        steps=[parity.StepRecord("critic_opt", 0, {id(weight): torch.tensor([4.0, -2.0]), id(bias): torch.tensor([1e-15])})],
+        metrics={}, names={id(weight): "critic.w", id(bias): "critic.b"}, normals=0, uniforms=0,
+    )
+    ours = parity.VigenRun({"loss_critic": 2.0}, {"loss_critic": {"critic.w": torch.tensor([4.0, -2.0]),
+                                                                  "critic.b": torch.tensor([-1e-15])}}, 0, 0)
+    case = types.SimpleNamespace(name="toy", metrics=[], steps=[parity.StepMap("critic", "loss_critic", (("critic_opt", 0),))],
+                                 zero_gradients={})
+    rows = {row.quantity: row for row in parity.compare(case, original, original, ours)}
+    assert rows["∂loss_critic/∂critic.b"].rel == pytest.approx(2.0)  # undeclared: noise against noise
+    case.zero_gradients = {"critic.b": "a bias before a BatchNorm"}
+    (row,) = [row for row in parity.compare(case, original, original, ours) if "critic.b" in row.quantity]
+    assert "0 in exact arithmetic" in row.quantity and row.rel == pytest.approx(2e-15 / 4.0)
+
+
 def test_step_map_refuses_a_call_the_original_did_not_make(parity):
     case, original, ours = _runs(parity, {"critic.w": None}, torch.tensor([1.0, 2.0]))
     case.steps = [parity.StepMap("curl", "loss_critic", (("critic_opt", 1),))]
@@ -209,19 +239,26 @@ def _checkout(root, *files):
 
 
 def test_select_algorithms_runs_what_each_checkout_holds_and_notes_the_rest(parity, tmp_path):
-    rlvigen = _checkout(tmp_path / "rlvigen", "rl_utils.py", "algos/drqv2.py", "algos/drq.py")
+    rlvigen = _checkout(tmp_path / "rlvigen", "rl_utils.py", "cfgs/config.yaml", "algos/drqv2.py", "algos/drq.py")
     dmcgb2 = _checkout(tmp_path / "dmcgb2", "augmentations.py", "algos/sada.py", "algos/drq.py", "algos/svea.py")
     run, skipped = parity.select_algorithms(None, {**dict.fromkeys(parity.ALGORITHMS, rlvigen), "sada": dmcgb2})
     assert run == ["drqv2", "drq", "sada"]
-    assert len(skipped) == len(parity.ALGORITHMS) - 3 and all("RL-ViGen" in note for note in skipped)
+    assert len(skipped) == len(parity.ALGORITHMS) - 3
+    assert all(parity.ORIGINALS[note.split()[1].rstrip(":")].repository in note for note in skipped), "each note names its original"
     # DMC-GB2 also has algos/drq.py and algos/svea.py, with other agents: a DMC-GB2 path runs only SADA
     run, skipped = parity.select_algorithms(None, dict.fromkeys(parity.ALGORITHMS, dmcgb2))
     assert run == ["sada"]
     assert any(note.startswith("skipped drq:") and "rl_utils.py" in note for note in skipped)
+    # the ViGen-adroit branch's src/ has agents named svea, pieg, ... on VRL3's update: only VRL3 runs there
+    adroit = _checkout(tmp_path / "adroit", "rl_utils.py", "utils.py", "stage1_models.py", "cfgs_adroit/config.yaml",
+                       *(f"algos/{name}.py" for name in ("svea", "srm", "sgqn", "curl", "pieg", "vrl3_agent")))
+    run, skipped = parity.select_algorithms(None, dict.fromkeys(parity.ALGORITHMS, adroit))
+    assert run == ["vrl3"]
+    assert any(note.startswith("skipped pieg:") and "cfgs/config.yaml" in note for note in skipped)
 
 
 def test_select_algorithms_refuses_a_requested_algorithm_without_its_original(parity, tmp_path):
-    rlvigen = _checkout(tmp_path / "rlvigen", "rl_utils.py", "algos/drqv2.py")
+    rlvigen = _checkout(tmp_path / "rlvigen", "rl_utils.py", "cfgs/config.yaml", "algos/drqv2.py")
     assert parity.select_algorithms(["drqv2"], {"drqv2": rlvigen}) == (["drqv2"], [])
     with pytest.raises(ValueError, match=r"sada: .* no augmentations.py, algos/sada.py .*--reference sada=PATH .*DMC-GB2"):
         parity.select_algorithms(["drqv2", "sada"], {"drqv2": rlvigen, "sada": rlvigen})
@@ -231,12 +268,95 @@ def test_select_algorithms_refuses_a_requested_algorithm_without_its_original(pa
         parity.select_algorithms(None, dict.fromkeys(parity.ALGORITHMS, tmp_path))
 
 
-def test_parse_references_takes_sada_by_name(parity, tmp_path):
-    refs = parity.parse_references([str(tmp_path / "rlvigen"), f"sada={tmp_path / 'dmcgb2'}"], ["drq", "sada"])
-    assert refs == {"drq": tmp_path / "rlvigen", "sada": tmp_path / "dmcgb2"}
+def test_parse_references_takes_sada_and_vrl3_by_name(parity, tmp_path):
+    refs = parity.parse_references([str(tmp_path / "rlvigen"), f"sada={tmp_path / 'dmcgb2'}", f"vrl3={tmp_path / 'src'}"],
+                                   ["drq", "pieg", "sada", "vrl3"])
+    assert refs == {"drq": tmp_path / "rlvigen", "pieg": tmp_path / "rlvigen", "sada": tmp_path / "dmcgb2",
+                    "vrl3": tmp_path / "src"}
+
+
+def test_torchvision_resnet18_stand_in_has_torchvisions_layout_and_loads_into_vigens_features(parity, tmp_path):
+    from vigen.models.resnet import ResNet18Features
+
+    model = parity.imagenet_stand_in(seed=0).eval()
+    names = [name for name, _ in model.named_children()]
+    assert names == ["conv1", "bn1", "relu", "maxpool", "layer1", "layer2", "layer3", "layer4", "avgpool", "fc"]
+    assert "layer2.0.downsample.1.running_var" in model.state_dict() and model.fc.in_features == 512
+    assert not torch.equal(model.bn1.weight, torch.ones(64))  # BatchNorms are not the identity
+    torch.save(model.state_dict(), tmp_path / "resnet18.pth")
+    features = ResNet18Features(depth=2)
+    features.load_torchvision_weights(tmp_path / "resnet18.pth")
+    features.eval()
+    x = torch.randn(2, 3, 32, 32)
+    with torch.no_grad():
+        theirs = x
+        for name, module in model.named_children():  # PIE-G's forward: the children in order, up to layer2
+            theirs = module(theirs)
+            if name == "layer2":
+                break
+        assert torch.allclose(features(x), theirs, atol=1e-5)
+
+
+def test_torchvision_substitute_builds_what_the_originals_build_and_fails_on_anything_else(parity):
+    model = parity.TorchvisionResNet18()
+    modules, notes = parity.torchvision_substitute(model)
+    copy_ = modules["torchvision.models"].resnet18(pretrained=True)
+    assert copy_ is not model and torch.equal(copy_.conv1.weight, model.conv1.weight)
+    transforms = modules["torchvision.transforms"]
+    normalize = transforms.Normalize((1.0, 2.0), (2.0, 4.0))
+    assert normalize(torch.full((2, 1, 1), 5.0)).flatten().tolist() == [2.0, 0.75]
+    compose = transforms.Compose([transforms.Resize(256), transforms.CenterCrop(224)])  # PIE-G builds it, never uses it
+    with pytest.raises(RuntimeError, match="stubbed torchvision.transforms.Compose"):
+        compose(torch.zeros(3, 8, 8))
+    with pytest.raises(RuntimeError, match="stubbed torchvision.models.resnet34"):
+        modules["torchvision.models"].resnet34()
+    assert modules["torchvision"].transforms is transforms and len(notes) == 2
+    assert len(parity.torchvision_substitute()[1]) == 1  # without a ResNet: no resnet18, no note on it
+
+
+class _ToyAgent:
+    """An original's agent as StatisticsGap uses it: a BatchNorm network, train() and act()."""
+
+    def __init__(self) -> None:
+        self.net = nn.Sequential(nn.BatchNorm1d(2))
+
+    def train(self, training: bool = True) -> None:
+        self.net.train(training)
+
+    def act(self, obs, step, eval_mode):
+        assert eval_mode and not self.net.training
+        return self.net(torch.as_tensor(obs).unsqueeze(0))[0].numpy()
+
+
+def test_statistics_gap_splits_the_gap_after_an_update_into_build_time_and_order(parity):
+    original = _ToyAgent()
+    ours = nn.Sequential(nn.BatchNorm1d(2))
+    with torch.no_grad():
+        original.net[0].running_mean.fill_(1.0)  # a gap at build: 1 against vigen's 0
+    loss = types.SimpleNamespace(named_buffers=lambda: [(f"encoder_params.{n}", b) for n, b in ours.named_buffers()])
+    gap = parity.StatisticsGap(original, "net", "encoder", loss, torch.tensor([[3.0, 3.0]]), step=0)
+    a, b = torch.tensor([[0.0, 0.0], [2.0, 2.0]]), torch.tensor([[4.0, 4.0], [6.0, 6.0]])
+    for x in (a, b):  # the original sees a then b, vigen b then a
+        original.net(x)
+    for x in (b, a):
+        ours(x)
+    sentence = gap(original, loss)
+    # mean after: original 0.81·1 + 0.09·1 + 0.1·5 = 1.4, vigen 0.09·5 + 0.1·1 = 0.55; build gap 1 (of 1.4),
+    # (0.9)² of it left: 0.81/1.4; the order: (0.55 − 1.4 + 0.81)/1.4
+    assert "2 encoder passes in vigen, 2 in the original" in sentence
+    assert f"{1 / 1.4:.1e} at build, {0.85 / 1.4:.1e} after the update" in sentence
+    assert f"of which {0.81 / 1.4:.1e} is what is left" in sentence and f"and {0.04 / 1.4:.1e} comes from the order" in sentence
+    # acting on x = 3: (3 − mean) / sqrt(var + eps), the original's mean 1.4 against vigen's 0.55 (the same variance)
+    var = original.net[0].running_var[0].item()
+    assert torch.equal(ours[0].running_var, original.net[0].running_var)
+    ours_action, theirs_action = (3 - 0.55) / math.sqrt(var + 1e-5), (3 - 1.4) / math.sqrt(var + 1e-5)
+    assert f"max rel. diff {abs(ours_action - theirs_action) / abs(theirs_action):.1e}" in sentence
+    assert original.net.training  # act() ran in eval mode, the agent is back in training mode
 
 
 DMCGB2 = os.environ.get("VIGEN_PARITY_DMCGB2")
+RLVIGEN_ADROIT = os.environ.get("VIGEN_PARITY_RLVIGEN_ADROIT")
+SCPL = os.environ.get("VIGEN_PARITY_SCPL")
 
 
 @pytest.mark.skipif(not DMCGB2, reason="set VIGEN_PARITY_DMCGB2 to a checkout of DMC-GB2 (algos/, augmentations.py, utils.py)")
@@ -254,3 +374,70 @@ def test_sada_matches_dmcgb2_in_one_float64_update(parity):
     assert not [row for row in rows if row.kind == "stray"]
     assert max(row.rel for row in rows) < 1e-10
     assert fixed.normals == ours.normals == 3 * setup.batch_size * setup.action_dim  # B next actions, 2B actor actions
+
+
+@pytest.mark.skipif(not RLVIGEN_ADROIT, reason="set VIGEN_PARITY_RLVIGEN_ADROIT to the src/ folder of RL-ViGen's ViGen-adroit branch")
+def test_vrl3_matches_rlvigen_adroit_in_one_float64_update(parity):
+    setup = parity.Setup(batch_size=2)
+    with parity.float64_mode():
+        case = parity.build_vrl3(Path(RLVIGEN_ADROIT), setup)
+        parity.copy_weights(case)
+        draws = parity.Draws(setup.seed)
+        fixed = parity.run_original(case, draws, take_steps=False)
+        ours = parity.run_vigen(case, draws)
+    rows = parity.compare(case, fixed, fixed, ours)
+    assert [row.quantity for row in rows if row.kind == "loss"] == ["loss_critic (critic step)", "loss_actor (actor step)"]
+    assert not [row for row in rows if row.kind == "stray"]
+    assert max(row.rel for row in rows) < 1e-10
+    assert fixed.normals == ours.normals == 2 * setup.batch_size * setup.action_dim  # B next actions, B actor actions
+
+
+def test_scpl_driver_exposes_the_originals_optimizers_and_heads_under_vigens_names(parity):
+    """SCPL's agent behind the tool's update(replay_iter, step): replayed shifted views, its logger's values back."""
+    seen = {}
+
+    class Agent:
+        def __init__(self):
+            encoder = torch.nn.Module()
+            encoder.projection = torch.nn.Module()
+            encoder.projection.projection = torch.nn.Linear(3, 2)
+            self.critic = torch.nn.Module()
+            self.critic.encoder = encoder
+            self.critic.Q1, self.critic.Q2 = (torch.nn.Module() for _ in range(2))
+            self.critic.Q1.trunk, self.critic.Q2.trunk = torch.nn.Linear(2, 1), torch.nn.Linear(2, 1)
+            self.critic_target = self.critic
+            self.critic_optimizer = torch.optim.Adam(self.critic.parameters())
+
+        def update(self, buffer, log, step):
+            seen["sample"], seen["step"] = buffer.sample_drq(), step
+            log.log("train/kl_loss", torch.tensor(0.5), step)
+
+    driver = parity.SCPLDriver(Agent())
+    assert driver.critic_optimizer is driver.agent.critic_optimizer
+    assert driver.critic.trunk is driver.agent.critic.encoder.projection.projection
+    assert driver.critic.q1 is driver.agent.critic.Q1.trunk
+    obs, action, reward, next_obs = torch.zeros(2, 9, 4, 4), torch.zeros(2, 1), torch.ones(2, 1), torch.ones(2, 9, 4, 4)
+    driver.aug = lambda x: x + 1
+    metrics = driver.update(iter([(obs, action, reward, torch.full_like(reward, 0.99), next_obs)]), 90_000)
+    shifted, _, _, shifted_next, not_done = seen["sample"]
+    assert torch.equal(shifted, obs + 1) and torch.equal(shifted_next, next_obs + 1) and torch.equal(not_done, torch.ones(2, 1))
+    assert seen["step"] == parity.SCPL_STEP and seen["step"] % 2 == 0 and seen["step"] % 10_000
+    assert metrics == {"train/kl_loss": 0.5}
+
+
+@pytest.mark.skipif(not SCPL, reason="set VIGEN_PARITY_SCPL to a checkout of bofusun/SCPL (and captum on the path)")
+def test_scpl_matches_its_original_in_one_float64_update(parity):
+    setup = parity.Setup(batch_size=2)
+    with parity.float64_mode():
+        case = parity.build_scpl(Path(SCPL), setup)
+        parity.copy_weights(case)
+        draws = parity.Draws(setup.seed)
+        fixed = parity.run_original(case, draws, take_steps=False)
+        ours = parity.run_vigen(case, draws)
+    rows = parity.compare(case, fixed, fixed, ours)
+    assert [row.quantity for row in rows if row.kind == "loss"] == [
+        "loss_critic (critic step)", "loss_actor (actor step)", "loss_alpha (alpha step)", "loss_dynamics (dynamics step)"]
+    assert not [row for row in rows if row.kind == "stray"]
+    assert max(row.rel for row in rows) < 1e-10
+    assert ours.normals == 2 * setup.batch_size * setup.action_dim  # B next actions, B actor actions
+    assert fixed.normals == ours.normals + case.unused_normals and fixed.uniforms == ours.uniforms == 1
