@@ -51,7 +51,7 @@ def main() -> None:
     loss = make_loss("svea", env.observation_spec["pixels"].shape, env.action_spec.shape[-1], hidden_dim=256)  # vigen
     loss.make_value_estimator(gamma=0.99)
     policy = make_policy(loss, env.action_spec)  # vigen: actor(encoder(pixels)) + scheduled Gaussian noise
-    optimizer = torch.optim.Adam(loss.parameters(), lr=1e-4)
+    optimizer = torch.optim.Adam(loss.parameters(), lr=1e-4, fused=True)
     target_update = SoftUpdate(loss, tau=0.01)
 
     collector = Collector(env, policy, frames_per_batch=100, total_frames=args.frames,
