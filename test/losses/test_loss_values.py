@@ -189,6 +189,17 @@ def test_guided_backprop_matches_the_analytic_rule():
     assert not torch.allclose(plain, saliency)
 
 
+@pytest.mark.parametrize("dtype", [torch.float32, torch.float64])
+def test_last_dim_quantile_is_torch_quantile_bit_for_bit(dtype):
+    from vigen.losses.saliency import last_dim_quantile
+
+    values = torch.rand(5, 3, 7056, dtype=dtype, generator=torch.Generator().manual_seed(0))
+    values[0, 0, :100] = 0.5  # ties
+    for q in (0.0, 0.5, 0.9, 0.93, 0.95, 0.98, 1.0):
+        assert torch.equal(last_dim_quantile(values, q), torch.quantile(values, q, dim=-1, keepdim=True)), q
+    assert torch.equal(last_dim_quantile(values[..., :1], 0.9), values[..., :1])
+
+
 def test_guided_backprop_needs_relu_modules():
     with pytest.raises(ValueError, match="nn.ReLU"):
         GuidedBackprop(nn.Sequential(nn.Linear(2, 2), nn.Tanh()))

@@ -94,12 +94,9 @@ class DrQLoss(SoftActorCritic, ActorCriticLoss):
             augmentation = RandomShift(pad=4)
         super().__init__(
             encoder, actor, critic, augmentation=augmentation, init_temperature=init_temperature,
-            target_entropy=target_entropy, **kwargs,
+            target_entropy=target_entropy, target_encoder=target_encoder, **kwargs,
         )
         self.clean_view = clean_view
-        self.target_encoder = target_encoder
-        if target_encoder:
-            self.convert_to_functional(encoder, "encoder", create_target_params=True)
 
     def _two_views(self, pixels: Tensor, shifted: Tensor) -> tuple[Tensor, Tensor]:
         """(raw or a second shift, the first shift): RL-ViGen's pair, or the original DrQ's."""

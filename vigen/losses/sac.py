@@ -6,6 +6,7 @@ import math
 from typing import Any, Literal
 
 import torch
+from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModule, TensorDictModuleBase
 from tensordict.utils import NestedKey
 from torch import Tensor, nn
@@ -41,6 +42,11 @@ class SoftActorCritic(ActorCriticLoss):
         squash_epsilon: ``None`` for DrQ's stable ``log(1 − tanh(u)²)``; a number ε for the
             SAC-AE / DMC-GB form ``log(relu(1 − tanh(u)²) + ε)`` (1e-6 there), see
             :func:`~vigen.losses.squashed_normal_sample`.
+        target_encoder: give the target critic a target copy of the encoder (DMC-GB's SAC, whose
+            target critic holds its own encoder; the original DrQ): the next action is sampled on
+            the online encoder's features and scored on the target encoder's. ``SoftUpdate``
+            moves it with the target critic. ``False``: both read the online encoder (DrQ-v2,
+            RL-ViGen, DMC-GB2).
         **kwargs: the options of the loss it is mixed into (not ``std``/``std_clip``: SAC
             samples from its policy).
 
@@ -56,6 +62,7 @@ class SoftActorCritic(ActorCriticLoss):
         init_temperature: float = 0.1,
         target_entropy: float | Literal["auto"] = "auto",
         squash_epsilon: float | None = None,
+        target_encoder: bool = False,
         **kwargs: Any,
     ) -> None:
         name = type(self).__name__
@@ -68,6 +75,9 @@ class SoftActorCritic(ActorCriticLoss):
             raise ValueError(f"{name}: squash_epsilon must be None or a positive number (DMC-GB: 1e-6), got {squash_epsilon!r}.")
         super().__init__(*args, **kwargs)
         self.squash_epsilon = None if squash_epsilon is None else float(squash_epsilon)
+        self.target_encoder = bool(target_encoder)
+        if self.target_encoder:
+            self.convert_to_functional(self.encoder, "encoder", create_target_params=True)
         self.log_alpha = nn.Parameter(torch.tensor(math.log(init_temperature)))
         self.target_entropy = target_entropy
 
@@ -79,6 +89,12 @@ class SoftActorCritic(ActorCriticLoss):
     def sample_action(self, features: Tensor) -> tuple[Tensor, Tensor]:
         """A reparameterised sample of the tanh-squashed Gaussian, and its log-probability."""
         return squashed_normal_sample(*self.policy(features), epsilon=self.squash_epsilon)
+
+    def critic_target(self, batch: Observations, tensordict: TensorDictBase) -> Tensor:
+        """``y = r + γⁿ·(1 − terminated)·V(s')``, with the target encoder's features for the target critic if there is one."""
+        online = self.encode(batch.next_obs)
+        scored = self.encode(batch.next_obs, params=self.target_encoder_params) if self.target_encoder else None
+        return self.value_estimator.value_estimate(tensordict, next_value=self.next_value(online, scored))
 
     def next_value(self, next_features: Tensor, critic_features: Tensor | None = None) -> Tensor:
         """``min(Q1', Q2')(h'_Q, a') − α·log π(a'|h')`` with ``a' ~ π(h')``.

@@ -105,6 +105,28 @@ def attribution_mask(saliency: Tensor, quantile: float, frame_channels: int = 3)
     if channels % frame_channels:
         raise ValueError(f"saliency has {channels} channels, not a multiple of {frame_channels} (RGB frames).")
     per_frame = saliency.abs().reshape(batch, channels // frame_channels, frame_channels, height * width).amax(2)
-    threshold = torch.quantile(per_frame, quantile, dim=-1, keepdim=True)
+    threshold = last_dim_quantile(per_frame, quantile)
     mask = (per_frame >= threshold).reshape(batch, -1, 1, height, width)
     return mask.expand(-1, -1, frame_channels, -1, -1).reshape(batch, channels, height, width)
+
+
+def last_dim_quantile(values: Tensor, quantile: float) -> Tensor:
+    """``torch.quantile(values, quantile, dim=-1, keepdim=True)`` (linear interpolation), bit for bit.
+
+    From the two order statistics around rank ``quantile·(n − 1)`` (``kthvalue``, linear time)
+    instead of a full sort: twice as fast on SGQN's and SCPL's 7,056-pixel frames. Finite values only.
+
+    Examples:
+        >>> import torch
+        >>> values = torch.rand(4, 3, 100)
+        >>> torch.equal(last_dim_quantile(values, 0.93), torch.quantile(values, 0.93, dim=-1, keepdim=True))
+        True
+    """
+    size = values.shape[-1]
+    rank = torch.tensor(quantile, dtype=values.dtype) * (size - 1)  # torch.quantile's rank, in the values' dtype
+    below = int(rank)
+    lower = values.kthvalue(below + 1, dim=-1, keepdim=True).values
+    if below + 1 >= size or rank == below:
+        return lower
+    upper = values.kthvalue(below + 2, dim=-1, keepdim=True).values
+    return torch.lerp(lower, upper, rank - below)

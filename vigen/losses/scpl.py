@@ -191,7 +191,8 @@ class SCPLLoss(SoftActorCritic, ActorCriticLoss):
             if augmentation != "default":
                 raise ValueError(f"augmentation must be an ImageAugmentation, a list of them, None or 'default', got {augmentation!r}.")
             augmentation = RandomShift(pad=4)
-        super().__init__(encoder, actor, critic, augmentation=augmentation, squash_epsilon=squash_epsilon, **kwargs)
+        super().__init__(encoder, actor, critic, augmentation=augmentation, squash_epsilon=squash_epsilon,
+                         target_encoder=target_encoder, **kwargs)
         GuidedBackprop(encoder, critic)  # fails early, with advice, when there is no nn.ReLU to guide
         self.strong_augmentation = self._augmentations(
             RandomOverlay(alpha=0.5) if strong_augmentation is None else strong_augmentation
@@ -200,9 +201,6 @@ class SCPLLoss(SoftActorCritic, ActorCriticLoss):
         self.quantile = quantile
         self.kl_covariance = kl_covariance
         self.dynamics_lr = float(dynamics_lr)
-        self.target_encoder = target_encoder
-        if target_encoder:
-            self.convert_to_functional(encoder, "encoder", create_target_params=True)
         for coefficient, value in (("weak_weight", weak_weight), ("strong_weight", strong_weight),
                                    ("consistency_weight", consistency_weight), ("kl_weight", kl_weight),
                                    ("dynamics_weight", dynamics_weight)):
@@ -219,12 +217,6 @@ class SCPLLoss(SoftActorCritic, ActorCriticLoss):
         reward = tensordict.get(("next", self.tensor_keys.reward))
         return PairedObservations(weak.pixels, weak.next_pixels, weak.action, weak.obs, weak.next_obs,
                                   strong_obs, strong_next_obs, reward)
-
-    def critic_target(self, batch: Observations, tensordict: TensorDictBase) -> Tensor:
-        """The SAC target of ``s'``: ``a' ~ π(online h')``, scored by the target critic on the target encoder's ``h'``."""
-        online = self.encode(batch.next_obs)
-        scored = self.encode(batch.next_obs, params=self.target_encoder_params) if self.target_encoder else online
-        return self.value_estimator.value_estimate(tensordict, next_value=self.next_value(online, scored))
 
     def critic_views(self, batch: Observations) -> list[View]:
         """The weak view (weight w) and its strong view (weight w̃)."""
