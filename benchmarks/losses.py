@@ -8,12 +8,18 @@ mask, separate critic / actor / auxiliary steps with their own backward passes, 
 captum-style guided backprop (a fresh forward pass with gradient hooks on the ReLUs, run twice:
 before the critic step and again before the attribution step). The newer methods follow the same
 pattern: SADA as DMC-GB2's update (one encoder call per view; separate critic, actor and
-temperature steps), MaDi as that SVEA with the masker multiplied into the 0–255 views and its own
-Adam, SimGRL with its shifted overlay written as a per-frame loop, VRL3 with its safe-Q target and
-pre-tanh penalty written inline.
+temperature steps), MaDi and SimGRL as DMC-GB's SAC SVEA (target encoder; MaDi's masker multiplied
+into the 0–255 views, with its own Adam; SimGRL's shifted overlay written as a per-frame loop), VRL3
+with its safe-Q target and
+pre-tanh penalty written inline, PIE-G as SVEA on its frozen ResNet-18 (one encoder call per view,
+BatchNorm statistics moving), and SCPL as its SAC update (DMC-GB's target encoder, a captum-style
+saliency forward, the masked view, then the dynamics model on a fresh encoder pass with its own
+encoder and model Adam steps; SCPL's code also re-encodes the observation for the actor and computes
+two saliency maps it never uses, which the reference leaves out).
 
-vigen's update is ``loss(batch)``, one backward of the summed ``loss_*`` entries, one Adam step,
-``SoftUpdate.step()``. What it does differently at equal math: views of one update share an
+vigen's update is ``loss(batch)``, one backward of the summed ``loss_*`` entries, one Adam step
+(``fused=True``, as ``examples/train.py`` steps: the same update, about 10× faster on a CPU than
+the default for-loop Adam the reference uses), ``SoftUpdate.step()``. What it does differently at equal math: views of one update share an
 encoder pass, the convolutions run channels-last in chunks of 64 samples (vigen's encoders do
 this; the reference's encoders are the same models with ``chunk_size=None``), the shift is a gather,
 the overlay and frequency mask run on uint8, the actor's backward pass does not compute critic
@@ -27,10 +33,17 @@ in the same run (the best of a 2048² fp32 matmul and the encoder's 32→32 3×3
 
 Each figure is the median of ``--repeats`` updates, vigen and reference timed in alternation.
 
+``--profile`` prints, per algorithm and batch, where vigen's update spends its time: the phases
+(loss forward, backward, Adam, ``SoftUpdate``; wall clock, medians) and the operators (self CPU
+time from ``torch.profiler``, grouped: convolutions forward and backward, matmuls, the rest).
+Only the convolution and matmul groups can run near the CPU's peak; the rest bounds the
+fraction of the peak an update can reach.
+
 Reproduce (about 15 minutes on 2 CPU cores at both batch sizes; run nothing else meanwhile):
 
     python benchmarks/losses.py                      # batch 64 and 256
     python benchmarks/losses.py --batch 64 --algos drqv2 sgqn --repeats 5
+    python benchmarks/losses.py --batch 256 --algos svea --profile   # where the time goes
 """
 
 from __future__ import annotations
@@ -38,6 +51,8 @@ from __future__ import annotations
 import argparse
 import copy
 import random
+import statistics
+import time
 import warnings
 from collections.abc import Callable
 
@@ -50,8 +65,8 @@ from torchrl.objectives import SoftUpdate
 
 from augmentations import drqv2_shift, float_overlay, rlvigen_random_mask_freq_v2, seconds
 from vigen.losses import (
-    ActorCriticLoss, CURLLoss, DrQLoss, DrQv2Loss, MaDiLoss, SADALoss, SGQNLoss, SimGRLLoss, SRMLoss, SVEALoss, VRL3Loss,
-    attribution_mask,
+    ActorCriticLoss, CURLLoss, DrQLoss, DrQv2Loss, MaDiLoss, PIEGLoss, SADALoss, SCPLLoss, SGQNLoss, SimGRLLoss, SRMLoss,
+    SVEALoss, VRL3Loss, attribution_mask,
 )
 from vigen.models import (
     Actor,
@@ -60,8 +75,10 @@ from vigen.models import (
     CURLHead,
     DrQv2Encoder,
     GaussianActor,
+    LatentDynamics,
     MaDiMasker,
     PerFrameEncoder,
+    PIEGEncoder,
     ProjectedEncoder,
     SharedCNN,
     VRL3Encoder,
@@ -69,20 +86,28 @@ from vigen.models import (
 from vigen.transforms import ImageBank, RandomOverlay, RandomShiftedOverlay
 
 ACTIONS, GAMMA, STD, CLIP, TAU, LR = 6, 0.99, 0.2, 0.3, 0.01, 1e-4
-ALGOS = ["drqv2", "svea", "srm", "sgqn", "curl", "drq", "sada", "madi", "simgrl", "vrl3"]
+ALGOS = ["drqv2", "svea", "srm", "sgqn", "curl", "drq", "sada", "madi", "simgrl", "vrl3", "pieg", "scpl"]
 RLVIGEN_MS_AT_64 = {"drqv2": 280, "svea": 640, "srm": 1050, "curl": 760, "sgqn": 2540}  # RL-ViGen's own agents at batch 64, timed on a machine like this one (issue 5)
 
 
 # -- networks ----------------------------------------------------------------------------------
 def networks(algo: str) -> dict[str, nn.Module]:
-    if algo in ("svea", "srm", "madi"):
+    if algo in ("svea", "srm"):
         encoder: nn.Module = SharedCNN(9)
+    elif algo == "madi":
+        encoder = SharedCNN(9, centered=False)
     elif algo == "simgrl":
-        encoder = PerFrameEncoder(9)
+        encoder = PerFrameEncoder(9, centered=False)
     elif algo == "vrl3":
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # no stage-1 weights: random init, as RL-ViGen runs it
             encoder = VRL3Encoder(9)
+    elif algo == "pieg":
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # no ImageNet file here: random frozen weights, the same FLOPs
+            encoder = PIEGEncoder(9, image_size=84)
+    elif algo == "scpl":
+        encoder = SharedCNN(9, centered=False)
     elif algo in ("sgqn", "curl"):
         encoder = ProjectedEncoder(9, image_size=84)
     else:
@@ -90,7 +115,7 @@ def networks(algo: str) -> dict[str, nn.Module]:
     features = encoder.output_dim(9, 84, 84)
     if algo == "drq":
         actor: nn.Module = GaussianActor(features, ACTIONS)
-    elif algo == "sada":
+    elif algo in ("sada", "scpl", "madi", "simgrl"):
         actor = GaussianActor(features, ACTIONS, feature_dim=50)
     else:
         actor = Actor(features, ACTIONS)
@@ -101,6 +126,8 @@ def networks(algo: str) -> dict[str, nn.Module]:
         nets["head"] = CURLHead(512)
     if algo == "madi":
         nets["masker"] = MaDiMasker()
+    if algo == "scpl":
+        nets["dynamics"] = LatentDynamics(50, ACTIONS)
     return nets
 
 
@@ -165,8 +192,9 @@ class RLViGenEncoder(nn.Module):
         if self.masker is not None:
             obs = obs * self.masker.masks(obs).repeat_interleave(3, dim=-3).flatten(-4, -3)
         if not hasattr(self.encoder, "convnet"):
-            return self.encoder(obs.clamp(0, 255))
-        return self.encoder.project(self.encoder.convnet(obs / 255.0 - 0.5).flatten(1))
+            return self.encoder(obs.clamp(0, 255) if getattr(self.encoder, "centered", True) else obs)
+        offset = 0.5 if getattr(self.encoder, "centered", True) else 0.0  # SCPL: DMC-GB's x / 255
+        return self.encoder.project(self.encoder.convnet(obs / 255.0 - offset).flatten(1))
 
 
 class Reference:
@@ -185,7 +213,7 @@ class Reference:
             self.masker_opt = torch.optim.Adam(masker.parameters(), lr=1e-3, betas=(0.9, 0.999))
         self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=LR)
         self.critic_opt = torch.optim.Adam(self.critic.parameters(), lr=LR)
-        if algo in ("drq", "sada"):
+        if algo in ("drq", "sada", "scpl", "madi", "simgrl"):
             self.log_alpha = torch.tensor(0.1).log().requires_grad_()
             self.alpha_opt = torch.optim.Adam([self.log_alpha], lr=LR)
         if algo == "sgqn":
@@ -195,6 +223,11 @@ class Reference:
         if algo == "curl":
             self.W = nets["head"].W
             self.curl_opt = torch.optim.Adam([self.W], lr=LR, betas=(0.99, 0.999))
+        if algo in ("scpl", "madi", "simgrl"):  # DMC-GB's target critic holds its own encoder
+            self.encoder_target = copy.deepcopy(self.encoder)
+        if algo == "scpl":  # the model and the encoder get their own Adam
+            self.dynamics = nets["dynamics"]
+            self.dynamics_opt = torch.optim.Adam(self.dynamics.parameters(), lr=3e-4)
 
     def overlay(self, x: Tensor) -> Tensor:
         if self.algo == "simgrl":
@@ -208,6 +241,10 @@ class Reference:
             return self.update_drq(obs, action, reward, next_obs)
         if self.algo == "sada":
             return self.update_sada(obs, action, reward, next_obs)
+        if self.algo == "scpl":
+            return self.update_scpl(obs, action, reward, next_obs)
+        if self.algo in ("madi", "simgrl"):
+            return self.update_svea_sac(obs, action, reward, next_obs)
         if self.algo == "curl":
             anchor, positive = drqv2_shift(obs), drqv2_shift(obs)
         obs, next_obs = drqv2_shift(obs), drqv2_shift(next_obs)
@@ -225,7 +262,7 @@ class Reference:
         h = self.encoder(obs)
         q1, q2 = self.critic(h, action)
         critic_loss = F.mse_loss(q1, target) + F.mse_loss(q2, target)
-        if self.algo in ("svea", "srm", "madi", "simgrl"):
+        if self.algo in ("svea", "srm", "pieg"):
             strong = self.overlay(obs)
             if self.algo == "srm" and random.random() < 0.5:
                 strong = rlvigen_random_mask_freq_v2(strong)
@@ -236,13 +273,9 @@ class Reference:
             critic_loss = critic_loss + 0.9 * (F.mse_loss(q1, mq1) + F.mse_loss(q2, mq2))
         self.encoder_opt.zero_grad(set_to_none=True)
         self.critic_opt.zero_grad(set_to_none=True)
-        if self.algo == "madi":
-            self.masker_opt.zero_grad(set_to_none=True)
         critic_loss.backward()
         self.critic_opt.step()
         self.encoder_opt.step()
-        if self.algo == "madi":
-            self.masker_opt.step()
 
         h = h.detach()
         if self.algo == "vrl3":
@@ -344,10 +377,104 @@ class Reference:
         self.alpha_opt.step()
         self.soft_update()
 
+    def update_svea_sac(self, obs: Tensor, action: Tensor, reward: Tensor, next_obs: Tensor) -> None:
+        """DMC-GB's SAC SVEA as MaDi (next obs unshifted, masker stepped with the critic) and SimGRL run it."""
+        obs = drqv2_shift(obs)
+        next_obs = drqv2_shift(next_obs) if self.algo == "simgrl" else next_obs.float()
+        strong = self.overlay(obs)
+        alpha = self.log_alpha.exp()
+        with torch.no_grad():
+            next_action, log_prob = squashed(*self.actor(self.encoder(next_obs)))
+            value = torch.min(*self.critic_target(self.encoder_target(next_obs), next_action)) - alpha * log_prob
+            target = reward + GAMMA * value
+        h, h_strong = self.encoder(obs), self.encoder(strong)
+        q1, q2 = self.critic(h, action)
+        sq1, sq2 = self.critic(h_strong, action)
+        critic_loss = 0.5 * (F.mse_loss(q1, target) + F.mse_loss(q2, target) + F.mse_loss(sq1, target) + F.mse_loss(sq2, target))
+        self.encoder_opt.zero_grad(set_to_none=True)
+        self.critic_opt.zero_grad(set_to_none=True)
+        if self.algo == "madi":
+            self.masker_opt.zero_grad(set_to_none=True)
+        critic_loss.backward()
+        self.critic_opt.step()
+        self.encoder_opt.step()
+        if self.algo == "madi":
+            self.masker_opt.step()
+
+        h = h.detach()
+        new_action, log_prob = squashed(*self.actor(h))
+        actor_loss = (alpha.detach() * log_prob - torch.min(*self.critic(h, new_action))).mean()
+        self.actor_opt.zero_grad(set_to_none=True)
+        actor_loss.backward()
+        self.actor_opt.step()
+        alpha_loss = (alpha * (-log_prob - -ACTIONS).detach()).mean()
+        self.alpha_opt.zero_grad(set_to_none=True)
+        alpha_loss.backward()
+        self.alpha_opt.step()
+        self.soft_update()
+
+    def update_scpl(self, obs: Tensor, action: Tensor, reward: Tensor, next_obs: Tensor) -> None:
+        """SCPL's SAC update: critic (+ masked-Q consistency), actor (+ KL), temperature, then the dynamics model."""
+        obs, next_obs = drqv2_shift(obs), drqv2_shift(next_obs)
+        strong, strong_next = float_overlay(torch.cat([obs, next_obs], 1), self.images).chunk(2, dim=1)
+        alpha = self.log_alpha.exp()
+        with torch.no_grad():
+            next_action, log_prob = squashed(*self.actor(self.encoder(next_obs)))
+            value = torch.min(*self.critic_target(self.encoder_target(next_obs), next_action)) - alpha * log_prob
+            target = torch.cat([reward + GAMMA * value] * 2)
+        views, actions = torch.cat([obs, strong]), torch.cat([action, action])
+        mask = attribution_mask(guided_backprop(self.encoder, self.critic, views, actions), 0.9)
+        masked = views * mask
+        masked[~mask] = random.uniform(views.min().item(), views.max().item())
+        h = self.encoder(views)
+        q1, q2 = self.critic(h, actions)
+        mq1, mq2 = self.critic(self.encoder(masked), actions)
+        critic_loss = (F.mse_loss(q1, target) + F.mse_loss(q2, target)
+                       + 0.5 * (F.mse_loss(q1, mq1) + F.mse_loss(q2, mq2)))
+        self.encoder_opt.zero_grad(set_to_none=True)
+        self.critic_opt.zero_grad(set_to_none=True)
+        critic_loss.backward()
+        self.critic_opt.step()
+        self.encoder_opt.step()
+
+        h_clean, h_strong = h.detach().chunk(2)
+        mean, log_std = self.actor(h_clean)
+        pi, log_prob = squashed(mean, log_std)
+        mean_strong, log_std_strong = self.actor(h_strong)
+        kl = torch.distributions.kl_divergence(
+            torch.distributions.MultivariateNormal(torch.tanh(mean), torch.diag_embed(log_std.exp()).detach()),
+            torch.distributions.MultivariateNormal(torch.tanh(mean_strong), torch.diag_embed(log_std_strong.exp())),
+        )
+        actor_loss = (alpha.detach() * log_prob - torch.min(*self.critic(h_clean, pi))).mean() + kl.mean()
+        self.actor_opt.zero_grad(set_to_none=True)
+        actor_loss.backward()
+        self.actor_opt.step()
+        alpha_loss = (alpha * (-log_prob - -ACTIONS).detach()).mean()
+        self.alpha_opt.zero_grad(set_to_none=True)
+        alpha_loss.backward()
+        self.alpha_opt.step()
+        self.soft_update()
+
+        embedding = self.critic.embed(self.encoder(views))
+        with torch.no_grad():
+            next_embedding = self.critic.embed(self.encoder(torch.cat([next_obs, strong_next])))
+        predicted, predicted_reward = self.dynamics(embedding, actions)
+        model_loss = (0.5 * (predicted - next_embedding).pow(2)).mean() + F.mse_loss(predicted_reward, torch.cat([reward] * 2))
+        self.encoder_opt.zero_grad(set_to_none=True)
+        self.critic_opt.zero_grad(set_to_none=True)
+        self.dynamics_opt.zero_grad(set_to_none=True)
+        model_loss.backward()
+        self.encoder_opt.step()
+        self.critic_opt.step()  # only the trunk (DMC-GB's critic projection) has gradients here
+        self.dynamics_opt.step()
+
     def soft_update(self) -> None:
         with torch.no_grad():
             for p, tp in zip(self.critic.parameters(), self.critic_target.parameters()):
                 tp.lerp_(p, TAU)
+            if self.algo in ("scpl", "madi", "simgrl"):
+                for p, tp in zip(self.encoder.parameters(), self.encoder_target.parameters()):
+                    tp.lerp_(p, TAU)
 
 
 # -- vigen ---------------------------------------------------------------------------------------
@@ -373,15 +500,19 @@ class Vigen:
         elif algo == "sada":
             self.loss = SADALoss(encoder, actor, critic, strong_augmentation=RandomOverlay(images=bank))
         elif algo == "madi":
-            self.loss = MaDiLoss(encoder, actor, critic, nets["masker"], strong_augmentation=RandomOverlay(images=bank), **common)
+            self.loss = MaDiLoss(encoder, actor, critic, nets["masker"], strong_augmentation=RandomOverlay(images=bank))
         elif algo == "simgrl":
-            self.loss = SimGRLLoss(encoder, actor, critic, strong_augmentation=RandomShiftedOverlay(images=bank), **common)
+            self.loss = SimGRLLoss(encoder, actor, critic, strong_augmentation=RandomShiftedOverlay(images=bank))
         elif algo == "vrl3":
             self.loss = VRL3Loss(encoder, actor, critic, std=STD)
+        elif algo == "pieg":
+            self.loss = PIEGLoss(encoder, actor, critic, strong_augmentation=RandomOverlay(images=bank), **common)
+        elif algo == "scpl":
+            self.loss = SCPLLoss(encoder, actor, critic, nets["dynamics"], strong_augmentation=RandomOverlay(images=bank))
         else:
             self.loss = DrQLoss(encoder, actor, critic)
         self.loss.make_value_estimator(gamma=GAMMA)
-        self.optimizer = torch.optim.Adam(self.loss.optimizer_groups(LR))
+        self.optimizer = torch.optim.Adam(self.loss.optimizer_groups(LR), fused=True)
         self.updater = SoftUpdate(self.loss, tau=TAU)
 
     def update(self, batch: TensorDict) -> None:
@@ -390,6 +521,20 @@ class Vigen:
         sum(value for key, value in out.items() if key.startswith("loss_")).backward()
         self.optimizer.step()
         self.updater.step()
+
+    def phases(self, batch: TensorDict) -> dict[str, float]:
+        """Seconds of each phase of one update."""
+        times, start = {}, time.perf_counter()
+        out = self.loss(batch)
+        times["loss forward"], start = time.perf_counter() - start, time.perf_counter()
+        self.optimizer.zero_grad(set_to_none=True)
+        sum(value for key, value in out.items() if key.startswith("loss_")).backward()
+        times["backward"], start = time.perf_counter() - start, time.perf_counter()
+        self.optimizer.step()
+        times["Adam step"], start = time.perf_counter() - start, time.perf_counter()
+        self.updater.step()
+        times["SoftUpdate"] = time.perf_counter() - start
+        return times
 
 
 # -- measuring -----------------------------------------------------------------------------------
@@ -430,8 +575,8 @@ def flops(update: Callable[[], None]) -> int:
     return counter.get_total_flops()
 
 
-def peak_flops(repeats: int = 5) -> float:
-    """The best FLOP/s of a large fp32 matmul and of the encoder's 3×3 convolution (channels-last)."""
+def peak_flops(repeats: int = 5) -> tuple[float, float]:
+    """FLOP/s of a large fp32 matmul and of the encoders' 32→32 3×3 convolution (channels-last, forward)."""
     a, b = torch.randn(2048, 2048), torch.randn(2048, 2048)
     matmul = 2 * 2048**3 / seconds(lambda: a @ b, repeats=repeats)[0]
     conv = nn.Conv2d(32, 32, 3).to(memory_format=torch.channels_last)
@@ -439,7 +584,46 @@ def peak_flops(repeats: int = 5) -> float:
     with torch.no_grad():
         conv_time = seconds(lambda: conv(x), repeats=repeats)[0]
     conv_flops = 2 * 64 * 32 * 35 * 35 * 32 * 9
-    return max(matmul, conv_flops / conv_time)
+    return matmul, conv_flops / conv_time
+
+
+OPERATOR_GROUPS = (  # (group, test on the operator's name); the first match wins
+    ("convolutions, backward", lambda name: "convolution_backward" in name),
+    ("convolutions, forward", lambda name: "conv" in name and "backward" not in name),
+    ("matmuls (forward and backward)", lambda name: name in ("aten::addmm", "aten::mm", "aten::bmm", "aten::matmul", "aten::linear")),
+)
+
+
+def profile(vigen: Vigen, batch: TensorDict, repeats: int, update_flops: int, peak: float) -> str:
+    """A markdown table of where one vigen update spends its time: phases, then operator groups.
+
+    Its last line is the rate of the convolution and matmul operators alone (the update's FLOPs
+    over their time): the fraction of the peak the update would reach if nothing else took time.
+    """
+    samples = [vigen.phases(batch.clone()) for _ in range(repeats + 1)][1:]
+    phases = {name: statistics.median(sample[name] for sample in samples) for name in samples[0]}
+    total = sum(phases.values())
+    with torch.profiler.profile(activities=[torch.profiler.ProfilerActivity.CPU]) as prof:
+        vigen.update(batch.clone())
+    groups: dict[str, float] = {name: 0.0 for name, _ in OPERATOR_GROUPS}
+    rest: dict[str, float] = {}
+    for event in prof.key_averages():
+        seconds_ = event.self_cpu_time_total / 1e6
+        group = next((name for name, match in OPERATOR_GROUPS if match(event.key)), None)
+        if group is None:
+            rest[event.key] = rest.get(event.key, 0.0) + seconds_
+        else:
+            groups[group] += seconds_
+    profiled = sum(groups.values()) + sum(rest.values())
+    top = sorted(rest.items(), key=lambda item: -item[1])[:6]
+    groups["everything else"] = sum(rest.values())
+    lines = ["| part of the update | ms | share |", "|---|---|---|"]
+    lines += [f"| phase: {name} | {value * 1e3:.0f} | {100 * value / total:.0f} % |" for name, value in phases.items()]
+    lines += [f"| operators: {name} | {value * 1e3:.0f} | {100 * value / profiled:.0f} % |" for name, value in groups.items()]
+    lines.append("| largest of the rest | " + ", ".join(f"{name.removeprefix('aten::')} {100 * value / profiled:.0f} %" for name, value in top) + " | |")
+    kernels = sum(value for name, value in groups.items() if name != "everything else") * total / profiled
+    lines.append(f"| convolutions and matmuls alone | {update_flops / kernels / 1e9:.0f} GFLOP/s | {100 * update_flops / kernels / peak:.0f} % of peak |")
+    return "\n".join(lines)
 
 
 def main() -> None:
@@ -447,15 +631,20 @@ def main() -> None:
     parser.add_argument("--batch", type=int, nargs="+", default=[64, 256])
     parser.add_argument("--algos", nargs="+", default=ALGOS, choices=ALGOS)
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--profile", action="store_true", help="also print where vigen's update spends its time, per algorithm")
     args = parser.parse_args()
     torch.manual_seed(0)
     random.seed(0)
     bank = ImageBank.builtin()
     images = bank.resized(84, 84)
-    peak = peak_flops()
-    print(f"torch {torch.__version__}, {torch.get_num_threads()} threads; peak {peak / 1e9:.0f} GFLOP/s (fp32)")
-    print("| algo | batch | reference ms | vigen ms | speed-up | ref GFLOP | vigen GFLOP | vigen % of peak | RL-ViGen ms @64 |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    matmul_peak, conv_peak = peak_flops()
+    peak = max(matmul_peak, conv_peak)
+    print(f"torch {torch.__version__}, {torch.get_num_threads()} threads; peak {peak / 1e9:.0f} GFLOP/s (fp32): "
+          f"2048² matmul {matmul_peak / 1e9:.0f}, 32→32 3×3 convolution {conv_peak / 1e9:.0f}")
+    header = ("| algo | batch | reference ms | vigen ms | speed-up | ref GFLOP | vigen GFLOP | vigen % of peak | RL-ViGen ms @64 |\n"
+              "|---|---|---|---|---|---|---|---|---|")
+    print(header)
+    profiles = []
     for batch_size in args.batch:
         batch = make_batch(batch_size)
         for algo in args.algos:
@@ -473,6 +662,11 @@ def main() -> None:
                 f"| {ref_flops / 1e9:.1f} | {vigen_flops / 1e9:.1f} | {100 * vigen_flops / vigen_s / peak:.0f} % | {anchor} |",
                 flush=True,
             )
+            if args.profile:
+                profiles.append(f"\n### {algo}, batch {batch_size}: {vigen_s * 1e3:.0f} ms per update, "
+                                f"{100 * vigen_flops / vigen_s / peak:.0f} % of peak\n\n{profile(vigen, batch, args.repeats, vigen_flops, peak)}")
+    for table in profiles:
+        print(table)
 
 
 if __name__ == "__main__":

@@ -78,16 +78,21 @@ its ``src`` folder as ``--reference vrl3=PATH``. (That folder also has agents na
     # or from a bare mirror: git --git-dir=<mirror> archive ViGen-adroit src | tar -x -C /work/refs/RL-ViGen-adroit
     OMP_NUM_THREADS=1 .venv/bin/python benchmarks/parity.py --algos vrl3 --reference vrl3=/work/refs/RL-ViGen-adroit/src
 
-SCPL's original is its authors' DMC-GB-based code (https://github.com/bofusun/SCPL, src/algorithms/SCPL.py,
-which needs captum): give the repository root as ``--reference scpl=PATH``. Its draws of actions it
-never uses are counted apart (``unused_normals``).
+MaDi, SimGRL and SCPL are their authors' forks of DMC-GB (SAC agents with ``update(replay_buffer, L,
+step)``, built with ``.cuda()``, which the tool maps to the CPU while they are built): give each
+repository's root as ``--reference NAME=PATH`` (their ``src/algorithms`` need captum). SCPL's draws
+of actions it never uses are counted apart (``unused_normals``).
 
+    git clone https://github.com/bramgrooten/mask-distractions /work/refs/MaDi
+    git clone https://github.com/W-Song11/SimGRL-Code /work/refs/SimGRL
     git clone https://github.com/bofusun/SCPL /work/refs/SCPL
-    # or from a bare mirror: git --git-dir=<mirror> archive HEAD src/algorithms src/augmentations.py src/utils.py | tar -x -C /work/refs/SCPL
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/parity.py --algos scpl --reference scpl=/work/refs/SCPL --pythonpath /work/refs/pydeps
-    # everything: RL-ViGen's seven, SADA, VRL3 and SCPL
+    # or from bare mirrors: git --git-dir=<mirror> archive HEAD src/algorithms src/augmentations.py src/utils.py | tar -x -C <dir>
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/parity.py --algos madi simgrl scpl --reference madi=/work/refs/MaDi \\
+        --reference simgrl=/work/refs/SimGRL --reference scpl=/work/refs/SCPL --pythonpath /work/refs/pydeps
+    # everything: RL-ViGen's seven, SADA, VRL3, MaDi, SimGRL and SCPL
     OMP_NUM_THREADS=1 .venv/bin/python benchmarks/parity.py --reference /work/refs/RL-ViGen --reference sada=/work/refs/dmcgb2 \\
-        --reference vrl3=/work/refs/RL-ViGen-adroit/src --reference scpl=/work/refs/SCPL --pythonpath /work/refs/pydeps
+        --reference vrl3=/work/refs/RL-ViGen-adroit/src --reference madi=/work/refs/MaDi --reference simgrl=/work/refs/SimGRL \\
+        --reference scpl=/work/refs/SCPL --pythonpath /work/refs/pydeps
 
 Adding an algorithm: write one ``build_<name>(reference, setup) -> Case`` function that imports the
 original's modules with :func:`import_reference`, builds its agent and vigen's loss, and says which
@@ -296,7 +301,7 @@ def import_reference(
     for name in stubbed:
         fake[name] = _stub(name)
     saved_path = list(sys.path)
-    own = set(names)
+    own = {name.split(".")[0] for name in names}  # top-level packages: two forks may both have algorithms.modules
     saved = {k: v for k, v in sys.modules.items() if k.split(".")[0] in own or k.split(".")[0] in fake}
     for key in saved:
         del sys.modules[key]
@@ -1366,9 +1371,20 @@ def build_vrl3(reference: Path, setup: Setup) -> Case:
                 zero_gradients={"encoder.conv1.bias": "the stem's bias is followed by a training-mode BatchNorm, which "
                                 "subtracts each channel's batch mean"})
 
-# -- SCPL (bofusun/SCPL, main): DMC-GB's SAC agent with SCPL's terms --------------------------------
-SCPL_OPTIONAL = ("torchvision", "torchvision.transforms", "torchvision.datasets", "torchvision.utils", "kornia")
-SCPL_STEP = 2  # even (actor, target and model update), no multiple of 10,000 (SCPL saves images there)
+# -- DMC-GB's SAC agents: MaDi, SimGRL, SCPL (their authors' code, each a fork of DMC-GB) ------------
+DMCGB_OPTIONAL = ("torchvision", "torchvision.transforms", "torchvision.datasets", "torchvision.utils", "kornia",
+                  "env", "env.wrappers", "video", "imageio")
+DMCGB_STEP = 2  # even (actor, target and auxiliary updates run), no multiple of 10,000 (the forks save images there)
+DMCGB_DEPARTURES = [
+    "DMC-GB's SAC steps the critic, then the actor and temperature (reading the stepped critic and encoder), each with "
+    "its own Adam; vigen takes every term at the parameters of the batch's start and steps once. Compared at unchanged "
+    "parameters; 'steps taken' shows the order's effect.",
+    f"DMC-GB updates the actor and the target networks on every second update (actor_update_freq, "
+    f"critic_target_update_freq 2); compared at step {DMCGB_STEP}, where both run. vigen's loss computes every term at "
+    "every call. SoftUpdate has one τ (DMC-GB: 0.01 for the Q heads, 0.05 for the encoder and the critic projection).",
+    "DMC-GB's actor recomputes the convolutions on the observation for the actor and for the critic's score (after "
+    "the critic step); vigen's actor reads the critic step's detached features: at unchanged parameters, the same.",
+]
 
 
 class _NoWriter:
@@ -1381,8 +1397,15 @@ class _NoWriter:
         pass
 
 
+class _NoRecorder:
+    """MaDi's ``AugmentationRecorder``: records nothing."""
+
+    def record(self, *args: Any, **kwargs: Any) -> None:
+        pass
+
+
 class _Log:
-    """SCPL's logger ``L``: keeps the last value of each key."""
+    """DMC-GB's logger ``L``: keeps the last value of each key."""
 
     def __init__(self) -> None:
         self.values: dict[str, float] = {}
@@ -1391,13 +1414,14 @@ class _Log:
         self.values[key] = float(value.detach()) if isinstance(value, Tensor) else float(value)
 
 
-class SCPLDriver:
-    """SCPL's agent behind the tool's ``update(replay_iter, step)``.
+class DMCGBDriver:
+    """A DMC-GB agent (``update(replay_buffer, L, step)``) behind the tool's ``update(replay_iter, step)``.
 
-    SCPL's ``update(replay_buffer, L, step)`` samples ``sample_drq()`` (already shifted views);
-    here those come from the tool's replay (the ``aug`` attribute). The driver exposes the
-    agent's optimizers and, as ``critic`` and ``critic_target``, modules holding the original's
-    critic projection and Q networks under vigen's names (``trunk``, ``q1``, ``q2``).
+    The buffer hands out DMC-GB's ``sample_drq()`` (obs and next obs shifted) and ``sample_svea()``
+    (obs shifted), the shifts from the tool's replay (the ``aug`` attribute); the update runs at
+    :data:`DMCGB_STEP`. The driver exposes the agent's optimizers and, as ``critic`` and
+    ``critic_target``, modules holding the original's critic projection and Q networks under
+    vigen's names (``trunk``, ``q1``, ``q2``).
     """
 
     def __init__(self, agent: Any) -> None:
@@ -1418,94 +1442,188 @@ class SCPLDriver:
 
     def update(self, replay_iter: Iterator[tuple[Tensor, ...]], step: int) -> dict[str, float]:
         obs, action, reward, _, next_obs = next(replay_iter)
-        assert self.aug is not None
-        shifted, shifted_next, not_done = self.aug(obs), self.aug(next_obs), torch.ones_like(reward)
-        buffer = types.SimpleNamespace(sample_drq=lambda: (shifted, action, reward, shifted_next, not_done))
+        aug, not_done = self.aug, torch.ones_like(reward)
+        assert aug is not None
+        buffer = types.SimpleNamespace(sample_drq=lambda: (aug(obs), action, reward, aug(next_obs), not_done),
+                                       sample_svea=lambda: (aug(obs), action, reward, next_obs, not_done))
         log = _Log()
-        self.agent.update(buffer, log, SCPL_STEP)
+        self.agent.update(buffer, log, DMCGB_STEP)
         return log.values
 
 
-def build_scpl(reference: Path, setup: Setup) -> Case:
-    from vigen.losses import SCPLLoss
-    from vigen.models import Critic, GaussianActor, LatentDynamics, SharedCNN
+@contextlib.contextmanager
+def cuda_is_cpu() -> Iterator[None]:
+    """``Module.cuda()`` and ``Tensor.cuda()`` return their object while the block runs (the forks build on ``.cuda()``)."""
+    module_cuda, tensor_cuda = nn.Module.cuda, torch.Tensor.cuda
+    nn.Module.cuda = lambda self, *args, **kwargs: self  # type: ignore[method-assign]
+    torch.Tensor.cuda = lambda self, *args, **kwargs: self  # type: ignore[method-assign]
+    try:
+        yield
+    finally:
+        nn.Module.cuda, torch.Tensor.cuda = module_cuda, tensor_cuda  # type: ignore[method-assign]
 
-    writer = types.ModuleType("torch.utils.tensorboard")
-    writer.SummaryWriter = _NoWriter  # type: ignore[attr-defined]
-    substitutes, notes = captum_substitute()
-    substitutes["torch.utils.tensorboard"] = writer
-    names = ["utils", "augmentations", "algorithms.modules", "algorithms.sac", "algorithms.rl_utils", "algorithms.SCPL"]
-    ref = import_reference(reference, names, paths=("src",), optional=SCPL_OPTIONAL, substitutes=substitutes)
-    ref.notes.extend(notes + ["torch.utils.tensorboard.SummaryWriter is a stand-in that writes nothing"])
-    args = types.SimpleNamespace(
+
+def _dmcgb_args(setup: Setup, **extra: Any) -> types.SimpleNamespace:
+    """The arguments DMC-GB's SAC reads (its defaults, the tool's sizes, one learning rate)."""
+    return types.SimpleNamespace(
         discount=setup.gamma, critic_tau=0.01, encoder_tau=0.05, actor_update_freq=2, critic_target_update_freq=2,
         num_shared_layers=11, num_head_layers=0, num_filters=32, projection_dim=setup.feature_dim,
         hidden_dim=setup.hidden_dim, actor_log_std_min=-10, actor_log_std_max=2, init_temperature=0.1,
         actor_lr=setup.lr, actor_beta=0.9, critic_lr=setup.lr, critic_beta=0.9, alpha_lr=setup.lr, alpha_beta=0.5,
-        device="cpu", work_dir=tempfile.gettempdir(), domain_name="walker", task_name="walk", algorithm="scpl", seed=0,
+        critic_weight_decay=0.0, device="cpu", work_dir=tempfile.gettempdir(), log_dir=tempfile.gettempdir(),
+        domain_name="walker", task_name="walk", seed=0, frame_stack=3, init_steps=1000, **extra,
     )
+
+
+def _dmcgb_maps(convs: list[ModuleMap]) -> list[ModuleMap]:
+    """DMC-GB's SAC networks → vigen's: the shared convolutions (``convs``), the critic's projection and Q
+    heads (through the driver's ``critic``), the actor's projection and MLP, log α."""
+    return [*convs, ModuleMap("critic", "critic"), ModuleMap("agent.actor.encoder.projection.projection", "actor.trunk"),
+            ModuleMap("agent.actor.mlp", "actor.policy"), ModuleMap("agent.log_alpha", "log_alpha")]
+
+
+def _shared_cnn_map(attribute: str, prefix: str, layers: int = 11) -> ModuleMap:
+    """DMC-GB's SharedCNN ``layers`` (CenterCrop, NormalizeImg, conv, ReLU, conv, ...) → a vigen ``convnet``."""
+    return ModuleMap(attribute, prefix, tuple((str(2 + 2 * i), str(2 * i)) for i in range(layers)))
+
+
+def _load_original_weights(networks: dict[str, nn.Module], maps: list[ModuleMap], driver: DMCGBDriver) -> None:
+    """The original's weights into vigen's networks before the loss is built (so its target encoder starts as the original's)."""
+    originals: dict[str, Tensor] = {}
+    for module_map in maps:
+        originals.update(module_map.resolve(driver))
+    with torch.no_grad():
+        for prefix, network in networks.items():
+            for name, param in network.named_parameters():
+                param.copy_(originals[f"{prefix}.{name}"])
+
+
+def _import_dmcgb_fork(reference: Path, algorithm: str) -> Reference:
+    substitutes, notes = captum_substitute()
+    writer = types.ModuleType("torch.utils.tensorboard")
+    writer.SummaryWriter = _NoWriter  # type: ignore[attr-defined]
+    substitutes["torch.utils.tensorboard"] = writer
+    names = ["utils", "augmentations", "algorithms.modules", "algorithms.sac", f"algorithms.{algorithm}"]
+    ref = import_reference(reference, names, paths=("src",), optional=DMCGB_OPTIONAL, substitutes=substitutes)
+    ref.notes.extend(notes)
+    return ref
+
+
+def _sac_networks(encoder: nn.Module, setup: Setup) -> dict[str, nn.Module]:
+    from vigen.models import Critic, GaussianActor
+
+    features = encoder.output_dim(setup.channels, setup.image_size, setup.image_size)
+    return {"encoder": encoder,
+            "actor": GaussianActor(features, setup.action_dim, setup.hidden_dim, feature_dim=setup.feature_dim),
+            "critic": Critic(features, setup.action_dim, setup.feature_dim, setup.hidden_dim)}
+
+
+SAC_STEPS = [
+    StepMap("critic", "loss_critic", (("critic_optimizer", 0),)),
+    StepMap("actor", "loss_actor", (("actor_optimizer", 0),)),
+    StepMap("alpha", "loss_alpha", (("log_alpha_optimizer", 0),)),
+]
+
+
+def build_madi(reference: Path, setup: Setup) -> Case:
+    from vigen.losses import MaDiLoss
+    from vigen.models import MaDiMasker, SharedCNN
+
+    ref = _import_dmcgb_fork(reference, "madi")
+    module = ref.modules["algorithms.madi"]
+    args = _dmcgb_args(setup, algorithm="madi", svea_alpha=0.5, svea_beta=0.5, augment="overlay", overlay_alpha=0.5,
+                       masker_lr=1e-3, masker_beta=0.9, masker_num_layers=3, masker_num_filters=32, mask_type="soft",
+                       mask_threshold=0.5, mask_threshold_type="fix", encoder="cnn")
+    with cuda_is_cpu():
+        driver = DMCGBDriver(module.MaDi(setup.obs_shape, (setup.action_dim,), args, _NoRecorder()))
+    batch = Batch.draw(setup, 1)
+    views = Views(batch, setup)
+    overlay_pairs: Pairs = [(views.obs, views.overlay(0, views.obs))]
+    networks = _sac_networks(SharedCNN(setup.channels, max_value=255, centered=False), setup)
+    networks["masker"] = MaDiMasker(num_filters=32, max_value=255)
+    maps = _dmcgb_maps([_shared_cnn_map("agent.critic.encoder.shared.layers", "encoder.convnet")])  # MaDi renames shared_cnn
+    maps.append(ModuleMap("agent.masker.layers", "masker.net", (("2", "0"), ("4", "2"), ("6", "4"))))
+    _load_original_weights(networks, maps, driver)
+    maps[-1] = ModuleMap("agent.masker.layers", "input_mask.net", (("2", "0"), ("4", "2"), ("6", "4")))  # the loss's name
+    loss = MaDiLoss(*networks.values(), init_temperature=0.1, augmentation=replay_augmentation(views.weak(), "shift"),
+                    strong_augmentation=replay_augmentation(overlay_pairs, "overlay"))
+    loss.make_value_estimator(gamma=setup.gamma)
+    steps = [StepMap("critic", "loss_critic", (("critic_optimizer", 0), ("masker_optimizer", 0))), *SAC_STEPS[1:]]
+    departures = [*DMCGB_DEPARTURES,
+                  "MaDi's masker steps with the critic (its own Adam, lr 1e-3, β1 0.9): vigen's optimizer_groups gives it "
+                  "the same group; compared as one step with the critic.",
+                  "Strong view: vigen's RandomOverlay of the shifted observation, replayed to both sides (MaDi's from "
+                  "Places365); the next observation is not shifted on either side (DMC-GB's sample_svea)."]
+    return Case("madi", driver, loss, maps, steps, {"aug": views.weak()}, [(module, "strong_augment", overlay_pairs)],
+                [module], [("alpha", "train_alpha/value")], departures, ref, batch, setup)
+
+
+def build_simgrl(reference: Path, setup: Setup) -> Case:
+    from vigen.losses import SimGRLLoss
+    from vigen.models import PerFrameEncoder
+    from vigen.transforms import RandomShiftedOverlay
+
+    ref = _import_dmcgb_fork(reference, "simgrl")
+    module = ref.modules["algorithms.simgrl"]
+    with cuda_is_cpu():
+        driver = DMCGBDriver(module.SimGRL(setup.obs_shape, (setup.action_dim,), _dmcgb_args(setup, algorithm="simgrl")))
+    batch = Batch.draw(setup, 1)
+    views = Views(batch, setup)
+    shifted_overlay = RandomShiftedOverlay(alpha=0.5, max_shift=6, max_value=255, seed=setup.seed + 140)
+    overlay_pairs: Pairs = [(views.obs, shifted_overlay.augment(views.obs))]
+    networks = _sac_networks(PerFrameEncoder(setup.channels, max_value=255, centered=False), setup)
+    frame = tuple((str(2 + 2 * i), str(2 * i)) for i in range(3))  # CenterCrop, NormalizeImg, conv, ReLU, conv, ...
+    maps = _dmcgb_maps([ModuleMap("agent.critic.encoder.shared_cnn.layers", "encoder.frame_net", frame),
+                        ModuleMap("agent.critic.encoder.shared_cnn.layers2", "encoder.stack_net")])
+    _load_original_weights(networks, maps, driver)
+    loss = SimGRLLoss(*networks.values(), init_temperature=0.1, augmentation=replay_augmentation(views.weak(), "shift"),
+                      strong_augmentation=replay_augmentation(overlay_pairs, "shifted overlay"))
+    loss.make_value_estimator(gamma=setup.gamma)
+    departures = [*DMCGB_DEPARTURES,
+                  "Strong view: vigen's RandomShiftedOverlay of the shifted observation (each frame its own shifted crop "
+                  "of the image), replayed to both sides (SimGRL's from Places365); obs and next obs shifted on both "
+                  "sides (its sample_drq)."]
+    return Case("simgrl", driver, loss, maps, SAC_STEPS, {"aug": views.weak()},
+                [(ref.modules["augmentations"], "random_overlay_shift", overlay_pairs)], [module],
+                [("alpha", "train_alpha/value")], departures, ref, batch, setup)
+
+
+def build_scpl(reference: Path, setup: Setup) -> Case:
+    from vigen.losses import SCPLLoss
+    from vigen.models import LatentDynamics, SharedCNN
+
+    ref = _import_dmcgb_fork(reference, "SCPL")
+    ref.notes.append("torch.utils.tensorboard.SummaryWriter is a stand-in that writes nothing")
     module = ref.modules["algorithms.SCPL"]
     with contextlib.redirect_stdout(io.StringIO()):  # its transition model prints a line when built
-        driver = SCPLDriver(module.SCPL(setup.obs_shape, (setup.action_dim,), args))
+        driver = DMCGBDriver(module.SCPL(setup.obs_shape, (setup.action_dim,), _dmcgb_args(setup, algorithm="scpl")))
     batch = Batch.draw(setup, 1)
     views = Views(batch, setup)
     pair = torch.cat([views.obs, views.next_obs], dim=1)  # SCPL overlays obs and next obs stacked on the channels
     overlay_pairs: Pairs = [(pair, views.overlay(0, pair))]
-
-    repr_dim = 32 * 21 * 21
-    networks = {
-        "encoder": SharedCNN(setup.channels, max_value=255, centered=False),
-        "actor": GaussianActor(repr_dim, setup.action_dim, setup.hidden_dim, feature_dim=setup.feature_dim),
-        "critic": Critic(repr_dim, setup.action_dim, setup.feature_dim, setup.hidden_dim),
-        "dynamics": LatentDynamics(setup.feature_dim, setup.action_dim),
-    }
-    convs = tuple((str(2 + 2 * i), str(2 * i)) for i in range(11))  # DMC-GB's layers start with CenterCrop, NormalizeImg
-    modules = [
-        ModuleMap("agent.critic.encoder.shared_cnn.layers", "encoder.convnet", convs),
-        ModuleMap("critic", "critic"),
-        ModuleMap("agent.actor.encoder.projection.projection", "actor.trunk"),
-        ModuleMap("agent.actor.mlp", "actor.policy"),
-        ModuleMap("agent.log_alpha", "log_alpha"),
-        ModuleMap("agent.transition_model", "dynamics",
-                  (("fc_mu", "next_embedding"), ("fc_reward", "reward"), ("fc", "hidden"), ("ln", "norm"))),
-    ]
-    originals: dict[str, Tensor] = {}
-    for module_map in modules:
-        originals.update(module_map.resolve(driver))
-    with torch.no_grad():  # before the loss is built, so that its target encoder starts as the original's (= its encoder)
-        for prefix, network in networks.items():
-            for name, param in network.named_parameters():
-                param.copy_(originals[f"{prefix}.{name}"])
+    networks = _sac_networks(SharedCNN(setup.channels, max_value=255, centered=False), setup)
+    networks["dynamics"] = LatentDynamics(setup.feature_dim, setup.action_dim)
+    maps = _dmcgb_maps([_shared_cnn_map("agent.critic.encoder.shared_cnn.layers", "encoder.convnet")])
+    maps.append(ModuleMap("agent.transition_model", "dynamics",
+                          (("fc_mu", "next_embedding"), ("fc_reward", "reward"), ("fc", "hidden"), ("ln", "norm"))))
+    _load_original_weights(networks, maps, driver)
     loss = SCPLLoss(*networks.values(), init_temperature=0.1, augmentation=replay_augmentation(views.weak(), "shift"),
                     strong_augmentation=replay_augmentation(overlay_pairs, "overlay"))
     loss.make_value_estimator(gamma=setup.gamma)
-    steps = [
-        StepMap("critic", "loss_critic", (("critic_optimizer", 0),)),
-        StepMap("actor", "loss_actor", (("actor_optimizer", 0),)),
-        StepMap("alpha", "loss_alpha", (("log_alpha_optimizer", 0),)),
-        StepMap("dynamics", "loss_dynamics", (("encoder_optimizer", 0), ("decoder_optimizer", 0))),
-    ]
+    steps = [*SAC_STEPS, StepMap("dynamics", "loss_dynamics", (("encoder_optimizer", 0), ("decoder_optimizer", 0)))]
     metrics = [("policy_kl", "train/kl_loss"), ("reward_error", "train_ae/reward_loss"),
                ("loss_dynamics", "train_ae/transition_loss"), ("alpha", "train_alpha/value")]
     departures = [
-        "SCPL steps the critic, then the actor and temperature (reading the stepped critic and encoder), then the "
-        "encoder (with the critic's projection) and the dynamics model with their own Adam (lr 3e-4 in SCPL); vigen "
-        "takes every term at the parameters of the batch's start and steps once. Compared at unchanged parameters; "
-        "'steps taken' shows the order's effect.",
-        "The actor, the target networks and the dynamics model are updated on every second update in SCPL "
-        f"(actor_update_freq, critic_target_update_freq, aux_update_freq 2); compared at step {SCPL_STEP}, where all run. "
-        "vigen's loss computes every term at every call. SoftUpdate has one τ (SCPL: 0.01 for the Q heads, 0.05 for "
-        "the encoder and the critic projection).",
-        "SCPL's actor is DMC-GB's: its conv features are recomputed on the observation for the actor and for the "
-        "critic's score (after the critic step); vigen's actor reads the critic step's detached features. At unchanged "
-        "parameters they are the same features.",
+        *DMCGB_DEPARTURES,
+        "After its actor step SCPL steps the encoder (with the critic's projection) and the dynamics model with their "
+        "own Adam (lr 3e-4), every second update (aux_update_freq 2; it runs at the step compared).",
         "SCPL computes two more saliency maps (after the critic step, and of the next observation in the model step) "
         "and samples two more actions that nothing uses; vigen does not (the draw counts above say so).",
         "Strong views: one overlay of obs and next obs stacked on the channels (the same image for both), drawn "
         "with vigen's RandomOverlay and replayed to both sides; SCPL's comes from Places365 on float pixels.",
     ]
     unused = 3 * setup.batch_size * setup.action_dim  # actor(aug_obs) in the actor step, actor(next obs of both views) in the model step
-    return Case("scpl", driver, loss, modules, steps, {"aug": views.weak()},
+    return Case("scpl", driver, loss, maps, steps, {"aug": views.weak()},
                 [(ref.modules["augmentations"], "random_overlay", overlay_pairs)], [module], metrics, departures,
                 ref, batch, setup, unused_normals=unused)
 
@@ -1520,6 +1638,8 @@ ALGORITHMS: dict[str, Callable[[Path, Setup], Case]] = {
     "sada": build_sada,
     "pieg": build_pieg,
     "vrl3": build_vrl3,
+    "madi": build_madi,
+    "simgrl": build_simgrl,
     "scpl": build_scpl,
 }
 
@@ -1536,6 +1656,7 @@ class Original:
 RLVIGEN_URL, DMCGB2_URL = "https://github.com/gemcollector/RL-ViGen", "https://github.com/aalmuzairee/dmcgb2"
 RLVIGEN_ADROIT_URL = "https://github.com/gemcollector/RL-ViGen/tree/ViGen-adroit"
 SCPL_URL = "https://github.com/bofusun/SCPL"
+MADI_URL, SIMGRL_URL = "https://github.com/bramgrooten/mask-distractions", "https://github.com/W-Song11/SimGRL-Code"
 ORIGINALS: dict[str, Original] = {
     # cfgs/config.yaml tells master from the ViGen-adroit branch's src/, which has other agents under the same names
     **{name: Original("RL-ViGen", RLVIGEN_URL, ("rl_utils.py", "cfgs/config.yaml", f"algos/{name}.py"))
@@ -1543,6 +1664,8 @@ ORIGINALS: dict[str, Original] = {
     "sada": Original("DMC-GB2", DMCGB2_URL, ("augmentations.py", "algos/sada.py")),
     "vrl3": Original("RL-ViGen ViGen-adroit/src", RLVIGEN_ADROIT_URL,
                      ("stage1_models.py", "cfgs_adroit/config.yaml", "algos/vrl3_agent.py")),
+    "madi": Original("MaDi", MADI_URL, ("src/augmentations.py", "src/algorithms/madi.py")),
+    "simgrl": Original("SimGRL", SIMGRL_URL, ("src/augmentations.py", "src/algorithms/simgrl.py")),
     "scpl": Original("SCPL", SCPL_URL, ("src/augmentations.py", "src/algorithms/SCPL.py")),
 }
 

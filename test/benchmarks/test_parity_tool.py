@@ -357,6 +357,8 @@ def test_statistics_gap_splits_the_gap_after_an_update_into_build_time_and_order
 DMCGB2 = os.environ.get("VIGEN_PARITY_DMCGB2")
 RLVIGEN_ADROIT = os.environ.get("VIGEN_PARITY_RLVIGEN_ADROIT")
 SCPL = os.environ.get("VIGEN_PARITY_SCPL")
+MADI = os.environ.get("VIGEN_PARITY_MADI")
+SIMGRL = os.environ.get("VIGEN_PARITY_SIMGRL")
 
 
 @pytest.mark.skipif(not DMCGB2, reason="set VIGEN_PARITY_DMCGB2 to a checkout of DMC-GB2 (algos/, augmentations.py, utils.py)")
@@ -392,8 +394,8 @@ def test_vrl3_matches_rlvigen_adroit_in_one_float64_update(parity):
     assert fixed.normals == ours.normals == 2 * setup.batch_size * setup.action_dim  # B next actions, B actor actions
 
 
-def test_scpl_driver_exposes_the_originals_optimizers_and_heads_under_vigens_names(parity):
-    """SCPL's agent behind the tool's update(replay_iter, step): replayed shifted views, its logger's values back."""
+def test_dmcgb_driver_exposes_the_originals_optimizers_and_heads_under_vigens_names(parity):
+    """A DMC-GB agent behind the tool's update(replay_iter, step): replayed shifted views, its logger's values back."""
     seen = {}
 
     class Agent:
@@ -409,10 +411,10 @@ def test_scpl_driver_exposes_the_originals_optimizers_and_heads_under_vigens_nam
             self.critic_optimizer = torch.optim.Adam(self.critic.parameters())
 
         def update(self, buffer, log, step):
-            seen["sample"], seen["step"] = buffer.sample_drq(), step
+            seen["sample"], seen["svea"], seen["step"] = buffer.sample_drq(), buffer.sample_svea(), step
             log.log("train/kl_loss", torch.tensor(0.5), step)
 
-    driver = parity.SCPLDriver(Agent())
+    driver = parity.DMCGBDriver(Agent())
     assert driver.critic_optimizer is driver.agent.critic_optimizer
     assert driver.critic.trunk is driver.agent.critic.encoder.projection.projection
     assert driver.critic.q1 is driver.agent.critic.Q1.trunk
@@ -421,7 +423,8 @@ def test_scpl_driver_exposes_the_originals_optimizers_and_heads_under_vigens_nam
     metrics = driver.update(iter([(obs, action, reward, torch.full_like(reward, 0.99), next_obs)]), 90_000)
     shifted, _, _, shifted_next, not_done = seen["sample"]
     assert torch.equal(shifted, obs + 1) and torch.equal(shifted_next, next_obs + 1) and torch.equal(not_done, torch.ones(2, 1))
-    assert seen["step"] == parity.SCPL_STEP and seen["step"] % 2 == 0 and seen["step"] % 10_000
+    assert torch.equal(seen["svea"][0], obs + 1) and torch.equal(seen["svea"][3], next_obs), "sample_svea: obs shifted only"
+    assert seen["step"] == parity.DMCGB_STEP and seen["step"] % 2 == 0 and seen["step"] % 10_000
     assert metrics == {"train/kl_loss": 0.5}
 
 
@@ -441,3 +444,33 @@ def test_scpl_matches_its_original_in_one_float64_update(parity):
     assert max(row.rel for row in rows) < 1e-10
     assert ours.normals == 2 * setup.batch_size * setup.action_dim  # B next actions, B actor actions
     assert fixed.normals == ours.normals + case.unused_normals and fixed.uniforms == ours.uniforms == 1
+
+
+@pytest.mark.parametrize("name, path", [
+    pytest.param("madi", MADI, marks=pytest.mark.skipif(not MADI, reason="set VIGEN_PARITY_MADI to a checkout of bramgrooten/mask-distractions")),
+    pytest.param("simgrl", SIMGRL, marks=pytest.mark.skipif(not SIMGRL, reason="set VIGEN_PARITY_SIMGRL to a checkout of W-Song11/SimGRL-Code")),
+])
+def test_dmcgb_svea_forks_match_their_originals_in_one_float64_update(parity, name, path):
+    setup = parity.Setup(batch_size=2)
+    with parity.float64_mode():
+        case = parity.ALGORITHMS[name](Path(path), setup)
+        parity.copy_weights(case)
+        draws = parity.Draws(setup.seed)
+        fixed = parity.run_original(case, draws, take_steps=False)
+        ours = parity.run_vigen(case, draws)
+    rows = parity.compare(case, fixed, fixed, ours)
+    assert [row.quantity for row in rows if row.kind == "loss"] == [
+        "loss_critic (critic step)", "loss_actor (actor step)", "loss_alpha (alpha step)"]
+    assert not [row for row in rows if row.kind == "stray"]
+    assert max(row.rel for row in rows) < 1e-10
+    assert fixed.normals == ours.normals == 2 * setup.batch_size * setup.action_dim  # B next actions, B actor actions
+
+
+def test_two_checkouts_with_the_same_package_names_load_apart(parity, tmp_path):
+    """MaDi, SimGRL and SCPL all have src/algorithms/modules.py: each import sees its own."""
+    for name in ("one", "two"):
+        (tmp_path / name / "algorithms").mkdir(parents=True)
+        (tmp_path / name / "algorithms" / "modules.py").write_text(f"WHO = {name!r}\n")
+    first = parity.import_reference(tmp_path / "one", ["algorithms.modules"])
+    second = parity.import_reference(tmp_path / "two", ["algorithms.modules"])
+    assert first.modules["algorithms.modules"].WHO == "one" and second.modules["algorithms.modules"].WHO == "two"

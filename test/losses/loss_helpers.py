@@ -22,7 +22,7 @@ from vigen.transforms import RandomShift
 
 SIZE, ACTIONS, EMBEDDING = 16, 2, 16
 LOSSES = ["drqv2", "svea", "srm", "sgqn", "curl", "drq", "sada", "madi", "simgrl", "vrl3", "pieg", "scpl"]
-SAC_LOSSES = ("drq", "sada", "scpl")  # sample from their policy: no std
+SAC_LOSSES = ("drq", "sada", "scpl", "madi", "simgrl")  # sample from their policy: no std
 
 
 def make_loss(name: str, max_value: float | None = None, **kwargs: Any) -> ActorCriticLoss:
@@ -62,8 +62,10 @@ def make_loss(name: str, max_value: float | None = None, **kwargs: Any) -> Actor
     elif name == "sada":
         loss = SADALoss(encoder, GaussianActor(features, ACTIONS, hidden_dim=16), critic, **kwargs)
     elif name == "madi":
+        actor = GaussianActor(features, ACTIONS, hidden_dim=16, feature_dim=8)
         loss = MaDiLoss(encoder, actor, critic, MaDiMasker(num_filters=4), **kwargs)
     elif name == "simgrl":
+        actor = GaussianActor(features, ACTIONS, hidden_dim=16, feature_dim=8)
         loss = SimGRLLoss(encoder, actor, critic, **kwargs)
     elif name == "vrl3":
         loss = VRL3Loss(encoder, actor, critic, **kwargs)

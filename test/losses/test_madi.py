@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import copy
+
 import pytest
 import torch
 import torch.nn.functional as F
@@ -10,11 +12,11 @@ from torchrl.data import Bounded
 from torchrl.objectives import SoftUpdate
 
 from loss_helpers import SIZE, make_batch, make_loss
-from vigen.losses import ALGOS, MaDiLoss, SVEALoss
+from vigen.losses import ALGOS, MaDiLoss, SACSVEALoss
 from vigen.losses import make_loss as make_paper_loss
-from vigen.models import Actor, Critic, DrQv2Encoder, MaDiMasker, SharedCNN
+from vigen.models import Critic, DrQv2Encoder, GaussianActor, MaDiMasker, SharedCNN
 from vigen.policies import make_policy
-from vigen.transforms import ImageAugmentation
+from vigen.transforms import ImageAugmentation, RandomOverlay
 
 pytestmark = pytest.mark.filterwarnings("ignore:No target network updater")
 GAMMA = 0.9  # what loss_helpers gives the value estimator
@@ -103,34 +105,58 @@ def test_masker_bad_input_is_explained():
 
 
 # -- the loss --------------------------------------------------------------------------------------
+ALPHA = 0.1  # the initial temperature
+
+
 def _madi(**kwargs) -> MaDiLoss:
     torch.manual_seed(0)
-    return make_loss("madi", augmentation=None, std=0.0, strong_augmentation=Invert(), **kwargs)
+    return make_loss("madi", augmentation=None, strong_augmentation=Invert(), **kwargs)
 
 
-def test_critic_loss_is_sveas_loss_on_masked_views():
-    """α·TD(M(s)) + β·TD(M(s̃)) against y from M(next s), α = β = 0.5, computed by hand."""
+def _squashed_sample(mean: torch.Tensor, log_std: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """DMC-GB's actor: u = μ + σ·ε, a = tanh(u), log π = log N(u; μ, σ) − Σ log(relu(1 − a²) + 1e-6)."""
+    u = mean + log_std.exp() * torch.randn_like(mean)
+    action = torch.tanh(u)
+    log_prob = torch.distributions.Normal(mean, log_std.exp()).log_prob(u) - torch.log(F.relu(1 - action**2) + 1e-6)
+    return action, log_prob.sum(-1, keepdim=True)
+
+
+def test_loss_is_sac_sveas_on_masked_views():
+    """MaDi's update (DMC-GB's SVEA): 0.5·TD(M(s)) + 0.5·TD(M(s̃)) against the SAC target of M(next obs),
+    the next action sampled on the online encoder and scored on the target encoder; SAC actor and α on M(s)."""
     loss = _madi()
+    with torch.no_grad():  # a target encoder apart from the online one
+        for value in loss.target_encoder_params.values(True, True):
+            value.mul_(0.9)
     batch = make_batch()
+    torch.manual_seed(4)
     out = loss(batch)
     masker, encoder, critic, actor = loss.masker, loss.encoder, loss.critic, loss.actor
+    target_encoder = copy.deepcopy(encoder)
     with torch.no_grad():
-        next_hidden = encoder(masker(batch["next", "pixels"]))
-        next_action = actor(next_hidden).clamp(-1 + 1e-6, 1 - 1e-6)
+        for param, value in zip(target_encoder.parameters(), loss.target_encoder_params.values(True, True)):
+            param.copy_(value)
+    torch.manual_seed(4)
+    with torch.no_grad():
+        next_masked = masker(batch["next", "pixels"])
+        next_action, next_log_prob = _squashed_sample(*actor(encoder(next_masked)))
         with loss.target_critic_params.to_module(critic):
-            next_value = torch.min(*critic(next_hidden, next_action))
+            next_value = torch.min(*critic(target_encoder(next_masked), next_action)) - ALPHA * next_log_prob
         target = batch["next", "reward"] + GAMMA * next_value
         hidden = encoder(masker(batch["pixels"]))
         strong = encoder(masker(255 - batch["pixels"]))
         weak_td = F.mse_loss(critic(hidden, batch["action"])[0], target) + F.mse_loss(critic(hidden, batch["action"])[1], target)
         strong_td = F.mse_loss(critic(strong, batch["action"])[0], target) + F.mse_loss(critic(strong, batch["action"])[1], target)
-        actor_q = torch.min(*critic(hidden, actor(hidden).clamp(-1 + 1e-6, 1 - 1e-6)))
-    assert torch.allclose(out["loss_critic"], 0.5 * weak_td + 0.5 * strong_td, atol=1e-6)
-    assert torch.allclose(out["loss_actor"], -actor_q.mean(), atol=1e-6)
+        action, log_prob = _squashed_sample(*actor(hidden))
+        actor_q = torch.min(*critic(hidden, action))
     assert torch.allclose(out["target_mean"], target.mean(), atol=1e-6)
-    unmasked = SVEALoss(encoder, actor, critic, augmentation=None, std=0.0, strong_augmentation=Invert())
+    assert torch.allclose(out["loss_critic"], 0.5 * weak_td + 0.5 * strong_td, atol=1e-6)
+    assert torch.allclose(out["loss_actor"], (ALPHA * log_prob - actor_q).mean(), atol=1e-6)
+    assert torch.allclose(out["loss_alpha"], (ALPHA * (-log_prob + 2)).mean(), atol=1e-6), "target entropy −|A|"
+    unmasked = SACSVEALoss(encoder, actor, critic, augmentation=None, strong_augmentation=Invert())
     unmasked.make_value_estimator(gamma=GAMMA)
     unmasked.load_state_dict({k: v for k, v in loss.state_dict().items() if not k.startswith("input_mask")}, strict=False)
+    torch.manual_seed(4)
     assert not torch.allclose(unmasked(batch)["loss_critic"], out["loss_critic"]), "the mask changes the loss"
 
 
@@ -146,14 +172,14 @@ def test_only_the_critic_loss_reaches_the_masker():
     assert all(p.grad is not None and p.grad.abs().sum() > 0 for p in masker)
 
 
-def test_the_target_pass_through_the_masker_has_no_gradient():
-    """One masked pass without gradient (next obs, for y), one with (both critic views, batched)."""
+def test_the_target_passes_through_the_masker_have_no_gradient():
+    """Two masked passes without gradient (next obs, for the online and the target encoder), one with (both critic views)."""
     loss = _madi()
     calls = []
     loss.masker.register_forward_hook(lambda module, args, output: calls.append((args[0].shape[0], output.requires_grad)))
     loss(make_batch(batch=6))
-    assert calls[0] == (6, False), "the target's pass comes first, without gradient"
-    assert all(grad for _, grad in calls[1:]) and sum(n for n, _ in calls[1:]) == 12, "weak and strong views"
+    assert calls[:2] == [(6, False), (6, False)], "the target's passes come first, without gradient"
+    assert all(grad for _, grad in calls[2:]) and sum(n for n, _ in calls[2:]) == 12, "weak and strong views"
 
 
 def test_the_acting_policy_masks_its_pixels():
@@ -162,8 +188,8 @@ def test_the_acting_policy_masks_its_pixels():
     pixels = make_batch(batch=3)["pixels"]
     with set_interaction_type(InteractionType.DETERMINISTIC), torch.no_grad():
         action = policy(make_batch(batch=3).select("pixels"))["action"]
-        expected = loss.actor(loss.encoder(loss.masker(pixels)))
-        unmasked = loss.actor(loss.encoder(pixels))
+        expected = torch.tanh(loss.actor(loss.encoder(loss.masker(pixels)))[0])  # the squashed Gaussian's mean action
+        unmasked = torch.tanh(loss.actor(loss.encoder(pixels))[0])
     assert torch.allclose(action, expected, atol=1e-6) and not torch.allclose(action, unmasked, atol=1e-4)
 
 
@@ -186,7 +212,7 @@ def test_the_masker_takes_the_encoders_max_value():
     assert loss.masker.max_value == 255 == loss.max_value
     encoder = DrQv2Encoder(9, max_value=255)
     features = encoder.output_dim(9, SIZE, SIZE)
-    heads = Actor(features, 2, feature_dim=8, hidden_dim=16), Critic(features, 2, feature_dim=8, hidden_dim=16)
+    heads = GaussianActor(features, 2, hidden_dim=16, feature_dim=8), Critic(features, 2, feature_dim=8, hidden_dim=16)
     with pytest.raises(ValueError, match="max_value"):
         MaDiLoss(encoder, *heads, MaDiMasker(max_value=1.0))
     assert MaDiLoss(encoder, *heads).masker.max_value == 255, "the default masker"
@@ -196,11 +222,14 @@ def test_the_masker_takes_the_encoders_max_value():
         MaDiLoss(encoder, *heads, masker_lr=0.0)
 
 
-def test_make_loss_builds_madi_on_sveas_cnn():
-    assert ALGOS["madi"] is MaDiLoss
+def test_make_loss_builds_madi_on_dmcgbs_networks():
+    assert ALGOS["madi"] is MaDiLoss and issubclass(MaDiLoss, SACSVEALoss)
     loss = make_paper_loss("madi", (9, 44, 44), action_dim=2, hidden_dim=8, max_value=255)
     assert isinstance(loss, MaDiLoss) and isinstance(loss.encoder, SharedCNN) and isinstance(loss.masker, MaDiMasker)
-    assert loss.masker.max_value == 255
+    assert loss.masker.max_value == 255 and not loss.encoder.centered, "DMC-GB's x / 255"
+    assert isinstance(loss.actor, GaussianActor) and isinstance(loss.actor.trunk, torch.nn.Sequential), "its own projection"
+    assert loss.target_encoder and not loss.augment_next and loss.squash_epsilon == 1e-6, "DMC-GB's SVEA"
+    assert isinstance(loss.strong_augmentation[0], RandomOverlay)
 
 
 def test_masker_convolves_large_batches_in_passes_with_the_same_result():

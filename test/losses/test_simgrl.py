@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import copy
+
 import pytest
 import torch
 import torch.nn.functional as F
@@ -75,36 +77,59 @@ def test_per_frame_encoder_pixel_contract():
 
 
 # -- the loss --------------------------------------------------------------------------------------
+ALPHA = 0.1  # the initial temperature
+
+
+def _squashed_sample(mean: torch.Tensor, log_std: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """DMC-GB's actor: u = μ + σ·ε, a = tanh(u), log π = log N(u; μ, σ) − Σ log(relu(1 − a²) + 1e-6)."""
+    u = mean + log_std.exp() * torch.randn_like(mean)
+    action = torch.tanh(u)
+    log_prob = torch.distributions.Normal(mean, log_std.exp()).log_prob(u) - torch.log(F.relu(1 - action**2) + 1e-6)
+    return action, log_prob.sum(-1, keepdim=True)
+
+
 def test_default_strong_view_is_the_shifted_overlay():
     loss = make_loss("simgrl")
     (strong,) = loss.strong_augmentation
     assert isinstance(strong, RandomShiftedOverlay) and strong.alpha == 0.5 and strong.max_shift == 6
-    assert float(loss.alpha) == float(loss.beta) == 0.5
+    assert float(loss.svea_alpha) == float(loss.svea_beta) == 0.5
+    assert loss.augment_next, "SimGRL samples with sample_drq: the next observation is shifted too"
 
 
-def test_critic_loss_is_half_clean_plus_half_shifted_overlay():
-    """0.5·[MSE(Q1(s̃), y) + MSE(Q2(s̃), y)] + 0.5·[MSE(Q1(s), y) + MSE(Q2(s), y)], s̃ the shifted overlay of s."""
+def test_loss_is_half_clean_plus_half_shifted_overlay_on_sac():
+    """SimGRL's update: 0.5·[MSE(Q1(s̃), y) + MSE(Q2(s̃), y)] + 0.5·[MSE(Q1(s), y) + MSE(Q2(s), y)], s̃ the shifted
+    overlay of s, y the SAC target (sampled on the online encoder, scored on the target one); SAC actor on s."""
     torch.manual_seed(0)
-    loss = make_loss("simgrl", augmentation=None, std=0.0, strong_augmentation=RandomShiftedOverlay(images=BANK, seed=3))
+    loss = make_loss("simgrl", augmentation=None, strong_augmentation=RandomShiftedOverlay(images=BANK, seed=3))
+    with torch.no_grad():
+        for value in loss.target_encoder_params.values(True, True):
+            value.mul_(0.9)
     batch = make_batch()
     strong_pixels = RandomShiftedOverlay(images=BANK, seed=3).augment(batch["pixels"])  # the loss's draw, replayed
+    torch.manual_seed(1)
     out = loss(batch)
     encoder, critic, actor = loss.encoder, loss.critic, loss.actor
+    target_encoder = copy.deepcopy(encoder)
     with torch.no_grad():
-        next_hidden = encoder(batch["next", "pixels"])
+        for param, value in zip(target_encoder.parameters(), loss.target_encoder_params.values(True, True)):
+            param.copy_(value)
+    torch.manual_seed(1)
+    with torch.no_grad():
+        next_action, next_log_prob = _squashed_sample(*actor(encoder(batch["next", "pixels"])))
         with loss.target_critic_params.to_module(critic):
-            next_value = torch.min(*critic(next_hidden, actor(next_hidden).clamp(-1 + 1e-6, 1 - 1e-6)))
+            next_value = torch.min(*critic(target_encoder(batch["next", "pixels"]), next_action)) - ALPHA * next_log_prob
         target = batch["next", "reward"] + GAMMA * next_value
         q_clean = critic(encoder(batch["pixels"]), batch["action"])
         q_strong = critic(encoder(strong_pixels), batch["action"])
         expected = 0.5 * (F.mse_loss(q_strong[0], target) + F.mse_loss(q_strong[1], target)
                           + F.mse_loss(q_clean[0], target) + F.mse_loss(q_clean[1], target))
         hidden = encoder(batch["pixels"])
-        actor_q = torch.min(*critic(hidden, actor(hidden).clamp(-1 + 1e-6, 1 - 1e-6)))
+        action, log_prob = _squashed_sample(*actor(hidden))
+        actor_q = torch.min(*critic(hidden, action))
     assert not torch.equal(strong_pixels, batch["pixels"])
     assert torch.allclose(out["loss_critic"], expected, atol=1e-6)
     assert torch.allclose(out["q_strong_mean"], q_strong[0].mean(), atol=1e-6)
-    assert torch.allclose(out["loss_actor"], -actor_q.mean(), atol=1e-6), "the actor reads the clean view"
+    assert torch.allclose(out["loss_actor"], (ALPHA * log_prob - actor_q).mean(), atol=1e-6), "the actor reads the clean view"
 
 
 def test_make_loss_builds_simgrl_on_the_per_frame_encoder():
@@ -112,3 +137,15 @@ def test_make_loss_builds_simgrl_on_the_per_frame_encoder():
     loss = make_paper_loss("simgrl", (9, 44, 44), action_dim=2, hidden_dim=8, max_value=255, seed=0)
     assert isinstance(loss, SimGRLLoss) and isinstance(loss.encoder, PerFrameEncoder)
     assert loss.encoder.max_value == 255 and loss.strong_augmentation[0].max_value == 255
+    assert not loss.encoder.centered and loss.target_encoder and loss.squash_epsilon == 1e-6, "SimGRL's DMC-GB SAC"
+
+
+def test_per_frame_encoder_on_simgrls_pixel_scale():
+    torch.manual_seed(0)
+    encoder = PerFrameEncoder(9, num_layers=4, frame_layers=2, frame_filters=4, channels=5, centered=False)
+    pixels = torch.randint(0, 256, (2, 9, 16, 16), dtype=torch.uint8)
+    centered = PerFrameEncoder(9, num_layers=4, frame_layers=2, frame_filters=4, channels=5)
+    centered.load_state_dict(encoder.state_dict())
+    assert torch.allclose(encoder(pixels), centered.stack_frames(pixels.float() / 255 + 0.5, 1.0), atol=1e-5), "x / 255"
+    assert torch.allclose(centered(pixels), encoder.stack_frames(pixels.float() / 255 - 0.5, 1.0), atol=1e-5)
+    assert not torch.allclose(encoder(pixels), centered(pixels))

@@ -11,8 +11,9 @@ loss                  what it adds to DrQ-v2's update                           
 ``DrQLoss``           (SAC instead) clean + shifted views, learned temperature     DrQ
 ``SADALoss``          (SAC) SVEA's critic; actor on clean + strong views           SADA
 ``VRL3Loss``          safe Q target, pre-tanh penalty, std 0.01, small ResNet     VRL3
-``MaDiLoss``          SVEA behind a per-frame soft mask trained by the critic     MaDi
-``SimGRLLoss``        SVEA with a shifted overlay, on a per-frame encoder         SimGRL
+``SACSVEALoss``       (SAC) SVEA as DMC-GB's code runs it: target encoder, ...   SVEA
+``MaDiLoss``          (SAC) SVEA behind a per-frame soft mask (critic-trained)    MaDi
+``SimGRLLoss``        (SAC) SVEA with a shifted overlay, per-frame encoder        SimGRL
 ``PIEGLoss``          SVEA on a frozen ImageNet ResNet-18 with adapting BNs       PIE-G
 ``SCPLLoss``          (SAC) SVEA + masked-Q consistency, policy KL, dynamics     SCPL
 ====================  ==========================================================  ===========
@@ -58,6 +59,7 @@ from vigen.losses.sgqn import SGQNLoss
 from vigen.losses.simgrl import SimGRLLoss
 from vigen.losses.srm import SRMLoss
 from vigen.losses.svea import SVEALoss
+from vigen.losses.svea_sac import SACSVEALoss
 from vigen.losses.vrl3 import VRL3Loss
 
 __all__ = [
@@ -76,6 +78,7 @@ __all__ = [
     "LinearSchedule",
     "MaDiLoss",
     "PIEGLoss",
+    "SACSVEALoss",
     "SADALoss",
     "SCPLLoss",
     "SGQNLoss",

@@ -1,4 +1,4 @@
-"""MaDi: SVEA with a small masker in front of the encoder, trained by the critic's loss only."""
+"""MaDi: SVEA (DMC-GB's SAC) with a small masker in front of the encoder, trained by the critic's loss only."""
 
 from __future__ import annotations
 
@@ -7,57 +7,57 @@ from typing import Any
 
 from torch import nn
 
-from vigen.losses.svea import SVEALoss
+from vigen.losses.base import Augmentations
+from vigen.losses.svea_sac import SACSVEALoss
 from vigen.models.masker import MaDiMasker
+from vigen.transforms import RandomOverlay
 
 
-class MaDiLoss(SVEALoss):
-    """MaDi on vigen's SVEA: every view goes through a learned soft mask before the encoder.
+class MaDiLoss(SACSVEALoss):
+    """MaDi: SVEA on DMC-GB's SAC with a small masker in front of the encoder, trained by the critic's loss only.
 
     The masker ``M`` (default :class:`~vigen.models.MaDiMasker`) gives each frame of a stack a
     soft mask and multiplies it in. It is the loss's ``input_mask``: it runs in front of the
-    encoder for every view (weak, strong and next), and in front of the acting policy
-    (:meth:`make_policy`). With ``h = encoder(M(s))`` the update is SVEA's:
+    encoder for every view (weak, strong and next, the online and the target encoder's passes)
+    and in front of the acting policy (:meth:`make_policy`). With ``h = encoder(M(s))`` the
+    update is :class:`~vigen.losses.SACSVEALoss`'s, as MaDi's code (DMC-GB's SVEA) has it:
 
-    * ``loss_critic = α·TD(M(s)) + β·TD(M(s̃))`` with ``s = shift(obs)``, ``s̃ = overlay(s)`` and the
-      target ``y`` computed, without gradient, on ``M(shift(next obs))``; α = β = 0.5 and MaDi's
-      strong augmentation is the random overlay (SVEA's default here);
-    * ``loss_actor`` reads the detached features of ``M(s)``.
+    * ``loss_critic = 0.5·TD(M(s)) + 0.5·TD(M(s̃))`` with ``s = shift(obs)``, ``s̃ = overlay(s)``
+      and the SAC target of ``M(next obs)`` (not shifted: DMC-GB's ``sample_svea``), the next
+      action sampled on the online encoder and scored on the target encoder;
+    * ``loss_actor = α·log π(ã|h) − min(Q1, Q2)(h, ã)`` and ``loss_alpha`` on the detached
+      features of ``M(s)``.
 
     So the masker learns from the critic's TD error alone: the actor's features are detached
     and the target carries no gradient, as in MaDi, where the masker's optimizer steps with
     the critic's. It gets its own Adam learning rate and betas, MaDi's ``masker_lr`` = 1e-3 and
     ``masker_beta`` = 0.9: :meth:`optimizer_groups` returns its parameters as a group of
-    their own.
+    their own. MaDi's strong augmentation for its results is the random overlay (the default here).
 
-    Departures from the original: MaDi is written on DMC-GB's SVEA, a SAC agent with its own
-    target encoder and separate optimizers for critic (with masker), actor and temperature;
-    here it runs on vigen's SVEA, DrQ-v2's DDPG update (RL-ViGen's SVEA), whose target is
-    computed by the online encoder and whose actor reads the features of the critic step
-    (before, not after, this step's masker update). The masker and the encoder scale pixels
-    as vigen does (see :class:`~vigen.models.MaDiMasker`).
+    Departures from MaDi's code (measured in ``benchmarks/parity.py``): those of
+    :class:`~vigen.losses.SACSVEALoss` (one optimizer step for all terms, one τ); MaDi's optional
+    binary ("hard") masks are not offered (its default and its results are the soft masks here).
 
-    Paper: MaDi, https://arxiv.org/abs/2312.15339.
+    Paper: MaDi, https://arxiv.org/abs/2312.15339 (code: https://github.com/bramgrooten/mask-distractions).
 
     Args:
-        encoder, actor, critic: as in :class:`SVEALoss`; ``make_loss("madi", ...)`` uses SVEA's
-            11-layer :class:`~vigen.models.SharedCNN`.
+        encoder, actor, critic: as in :class:`~vigen.losses.SACSVEALoss`; ``make_loss("madi", ...)``
+            uses DMC-GB's networks (SVEA's 11-layer :class:`~vigen.models.SharedCNN` on ``x / 255``,
+            the SAC actor and the critic with their projections).
         masker: pixels → masked float pixels on the encoder's scale; ``None`` builds
             ``MaDiMasker(max_value=encoder.max_value)``. A :class:`~vigen.models.MaDiMasker`
             without ``max_value`` is given the encoder's.
         masker_lr: the masker's learning rate (MaDi: 1e-3).
         masker_beta: the masker's Adam β1 (MaDi: 0.9; β2 is 0.999).
-        **kwargs: the options of :class:`SVEALoss` (strong_augmentation, alpha, beta,
-            augmentation, std, ...), except ``input_mask``, which is the masker.
+        **kwargs: the options of :class:`~vigen.losses.SACSVEALoss` (strong_augmentation, alpha,
+            beta, augmentation, augment_next, ...), except ``input_mask``, which is the masker.
 
     Examples:
         >>> import torch
         >>> from tensordict import TensorDict
         >>> from torchrl.objectives import SoftUpdate
-        >>> from vigen.models import Actor, Critic, SharedCNN
-        >>> encoder = SharedCNN(9)
-        >>> repr_dim = encoder.output_dim(9, 84, 84)
-        >>> loss = MaDiLoss(encoder, Actor(repr_dim, 2, hidden_dim=32), Critic(repr_dim, 2, hidden_dim=32))
+        >>> from vigen.losses import make_loss
+        >>> loss = make_loss("madi", (9, 84, 84), action_dim=2, hidden_dim=32, seed=0)
         >>> type(loss.masker).__name__
         'MaDiMasker'
         >>> updater = SoftUpdate(loss, tau=0.01)
@@ -73,6 +73,10 @@ class MaDiLoss(SVEALoss):
         >>> [group["lr"] for group in optimizer.param_groups]  # everything else, then the masker
         [0.0001, 0.001]
     """
+
+    @staticmethod
+    def _default_strong_augmentation() -> Augmentations:
+        return RandomOverlay(alpha=0.5)
 
     def __init__(
         self,

@@ -71,7 +71,8 @@ def make_loss(
     trunk; SADA's, DMC-GB2's, has one); SGQN's attribution decoder; CURL's bilinear head.
     ``vrl3`` uses VRL3's small ResNet (:class:`~vigen.models.VRL3Encoder`; ``stage1_weights=path`` loads its
     stage-1 checkpoint, without it the encoder starts from random weights as in RL-ViGen).
-    ``madi`` puts MaDi's masker in front of SVEA's CNN; ``simgrl`` uses SimGRL's per-frame encoder.
+    ``madi`` puts MaDi's masker in front of SVEA's CNN; ``simgrl`` uses SimGRL's per-frame encoder; both
+    on DMC-GB's pixel scale ``x / 255`` with the SAC actor's own ``feature_dim`` trunk, as their code.
     ``pieg`` uses PIE-G's frozen ResNet-18 encoder (:class:`~vigen.models.PIEGEncoder`, output 1024);
     ``encoder_weights=path`` loads torchvision's ImageNet ResNet-18 state dict into it, which PIE-G's
     results need (without it the ResNet starts from random weights, with a warning).
@@ -109,10 +110,10 @@ def make_loss(
         encoder = SharedCNN(channels, max_value=max_value)
     elif algo == "scpl":  # DMC-GB's SharedCNN scales pixels to x / 255
         encoder = SharedCNN(channels, max_value=max_value, centered=False)
-    elif algo == "madi":  # MaDiLoss builds its masker on the encoder's max_value
-        encoder = SharedCNN(channels, max_value=max_value)
-    elif algo == "simgrl":
-        encoder = PerFrameEncoder(channels, max_value=max_value)
+    elif algo == "madi":  # DMC-GB's SharedCNN on x / 255; MaDiLoss builds its masker on the encoder's max_value
+        encoder = SharedCNN(channels, max_value=max_value, centered=False)
+    elif algo == "simgrl":  # SimGRL's per-frame encoder on x / 255
+        encoder = PerFrameEncoder(channels, max_value=max_value, centered=False)
     elif algo == "vrl3":
         encoder = VRL3Encoder(channels, max_value=max_value, stage1_weights=loss_options.pop("stage1_weights", None))
     elif algo == "pieg":
@@ -128,12 +129,12 @@ def make_loss(
     if algo == "drq":
         actor = GaussianActor(features, action_dim, hidden_dim=hidden_dim)
         loss = DrQLoss(encoder, actor, critic, **loss_options)
-    elif algo in ("sada", "scpl"):
+    elif algo in ("sada", "scpl", "madi", "simgrl"):  # SAC actors with their own projection (DMC-GB, DMC-GB2)
         actor = GaussianActor(features, action_dim, hidden_dim=hidden_dim, feature_dim=feature_dim)
-        if algo == "sada":
-            loss = SADALoss(encoder, actor, critic, **loss_options)
-        else:
+        if algo == "scpl":
             loss = SCPLLoss(encoder, actor, critic, LatentDynamics(feature_dim, action_dim), **loss_options)
+        else:
+            loss = ALGOS[algo](encoder, actor, critic, **loss_options)
     else:
         actor = Actor(features, action_dim, feature_dim=feature_dim, hidden_dim=hidden_dim)
         if algo == "sgqn":

@@ -26,9 +26,9 @@ class PerFrameEncoder(nn.Module):
     meet only in the later layers.
 
     Pixels follow :mod:`vigen.pixel_format` (uint8 on 0–255 or float on ``[0, max_value]``) and
-    are scaled to ``x / white − 0.5`` as in vigen's other encoders (SimGRL divides by 255 only;
-    the constant shift is absorbed by the first convolution's bias). Weights start from
-    DrQ-v2's orthogonal initialisation (SimGRL uses DMC-GB's delta-orthogonal one).
+    are scaled to ``x / white − 0.5`` as in vigen's other encoders, or to SimGRL's ``x / white``
+    with ``centered=False`` (``make_loss("simgrl")``). Weights start from DrQ-v2's orthogonal
+    initialisation (SimGRL uses DMC-GB's delta-orthogonal one).
 
     Paper: SimGRL (NeurIPS 2024; no arXiv version), https://openreview.net/forum?id=0AumdfLzpK.
 
@@ -42,6 +42,7 @@ class PerFrameEncoder(nn.Module):
         chunk_size: samples convolved at a time (``None``: the whole batch).
         max_value: the white of float pixels; ``None`` for 1.0 (TorchRL's ``ToTensorImage()``),
             255 for float pixels on the 0–255 scale. uint8 pixels are always 0–255.
+        centered: scale to ``x / white − 0.5`` (default); ``False`` for SimGRL's ``x / white``.
 
     Examples:
         >>> import torch
@@ -66,6 +67,7 @@ class PerFrameEncoder(nn.Module):
         chunk_size: int | None = 64,
         *,
         max_value: float | None = None,
+        centered: bool = True,
     ) -> None:
         super().__init__()
         name = type(self).__name__
@@ -85,6 +87,7 @@ class PerFrameEncoder(nn.Module):
         self.frames = self.in_channels // self.frame_channels
         self.chunk_size = chunk_size
         self.max_value: float | None = None if max_value is None else float(max_value)
+        self.centered = bool(centered)
         frame_net: list[nn.Module] = [nn.Conv2d(frame_channels, frame_filters, 3, stride=2)]
         for _ in range(frame_layers - 1):
             frame_net += [nn.ReLU(), nn.Conv2d(frame_filters, frame_filters, 3, stride=1)]
@@ -112,7 +115,8 @@ class PerFrameEncoder(nn.Module):
     def stack_frames(self, x: Tensor, white: float) -> Tensor:
         """Flat features of float stacks ``[N, k·c, H, W]`` whose white is ``white``."""
         n, _, height, width = x.shape
-        per_frame = self.frame_net((x / white - 0.5).reshape(n * self.frames, self.frame_channels, height, width))
+        offset = 0.5 if self.centered else 0.0
+        per_frame = self.frame_net((x / white - offset).reshape(n * self.frames, self.frame_channels, height, width))
         stacked = per_frame.reshape(n, -1, *per_frame.shape[-2:])  # frame f's maps at channels [f·F, (f+1)·F)
         return self.stack_net(stacked).flatten(1)
 
