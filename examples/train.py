@@ -1,4 +1,4 @@
-"""Train an augmentation-based agent from pixels on a dm_control or robosuite task, with vigen and TorchRL.
+"""Train an augmentation-based agent from pixels on a dm_control, robosuite or Adroit task, with vigen and TorchRL.
 
     python examples/train.py --algo svea --env dmc/cartpole-balance --preset cpu --frames 20000
     python examples/train.py --resume runs/svea-cartpole-balance-s0 --frames 40000   # continue it
@@ -107,7 +107,7 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--eval-levels", nargs="+", default=None, help="levels evaluated at every checkpoint (train)")
     parser.add_argument("--logger", choices=["csv", "wandb"], default=None, help="csv (default) or wandb, offline")
     parser.add_argument("--episode-length", type=int, default=None,
-                        help="simulator steps per episode (default: the suite's, dm_control 1000, robosuite 500)")
+                        help="simulator steps per episode (default: the suite's, dm_control 1000, robosuite 500, Adroit 200, pen 100)")
     parser.add_argument("--threads", type=int, default=None, help="torch threads (default: torch's choice)")
     parser.add_argument("--encoder-weights", default=None,
                         help="pretrained encoder weights: PIE-G's ImageNet ResNet-18 (a torchvision state dict), VRL3's stage-1 checkpoint")
