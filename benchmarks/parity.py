@@ -1286,7 +1286,7 @@ def build_pieg(reference: Path, setup: Setup) -> Case:
         DDPG_DEPARTURE + " Default setup: loss_actor 5.6e-2, ∂loss_actor up to 3.5e-1.",
         "RL-ViGen's ResEncoder measures its output size with a training-mode forward pass of 32 random-normal stacks "
         "while it is built, which moves its BatchNorm running statistics one momentum step (0.1) from the loaded "
-        f"weights' towards that noise's; vigen's start at the loaded values. They are left different here: the update "
+        "weights' towards that noise's; vigen's start at the loaded values. They are left different here: the update "
         "normalises with batch statistics, so no loss or gradient depends on them (confirmed by the rows above); they "
         "matter when acting (running statistics), until the gap fades (× 0.9 per encoder pass, 3 per update: below "
         "1e-6 of it after 44 updates): see 'measured'.",

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import torch
 from tensordict import TensorDict, TensorDictBase, TensorDictParams
@@ -46,7 +46,7 @@ from torchrl.objectives.utils import ValueEstimators, dispatch_value_estimator
 from vigen.models import weight_init
 from vigen.pixel_format import check_pixels
 from vigen.seeding import derive_seed
-from vigen.transforms import ImageAugmentation
+from vigen.transforms import ImageAugmentation, RandomShift
 
 Augmentations = ImageAugmentation | Sequence[ImageAugmentation] | None
 
@@ -133,6 +133,25 @@ class AuxiliaryResult:
 
     losses: dict[str, Tensor] = field(default_factory=dict)
     metrics: dict[str, Tensor] = field(default_factory=dict)
+
+
+def default_shift(augmentation: Augmentations | Literal["default"]) -> Augmentations:
+    """A loss's weak augmentation argument: ``"default"`` is DrQ-v2's ``RandomShift(pad=4)``, a new one each call.
+
+    The losses take ``augmentation="default"`` rather than a module instance as default argument
+    (one instance would be shared by every loss built with the default).
+
+    Examples:
+        >>> default_shift("default")
+        RandomShift(pad=4, in_keys=['pixels'])
+        >>> default_shift(None) is None
+        True
+    """
+    if isinstance(augmentation, str):
+        if augmentation != "default":
+            raise ValueError(f"augmentation must be an ImageAugmentation, a list of them, None or 'default', got {augmentation!r}.")
+        return RandomShift(pad=4)
+    return augmentation
 
 
 def td_error(q1: Tensor, q2: Tensor, target: Tensor) -> Tensor:

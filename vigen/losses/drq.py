@@ -8,9 +8,8 @@ import torch
 from tensordict import TensorDictBase
 from torch import Tensor, nn
 
-from vigen.losses.base import ActorCriticLoss, Augmentations, Observations, View
+from vigen.losses.base import ActorCriticLoss, Augmentations, Observations, View, default_shift
 from vigen.losses.sac import SoftActorCritic
-from vigen.transforms import RandomShift
 
 
 class DrQLoss(SoftActorCritic, ActorCriticLoss):
@@ -88,10 +87,7 @@ class DrQLoss(SoftActorCritic, ActorCriticLoss):
         target_encoder: bool = False,
         **kwargs: Any,
     ) -> None:
-        if isinstance(augmentation, str):
-            if augmentation != "default":
-                raise ValueError(f"augmentation must be an ImageAugmentation, a list of them, None or 'default', got {augmentation!r}.")
-            augmentation = RandomShift(pad=4)
+        augmentation = default_shift(augmentation)
         super().__init__(
             encoder, actor, critic, augmentation=augmentation, init_temperature=init_temperature,
             target_entropy=target_entropy, target_encoder=target_encoder, **kwargs,

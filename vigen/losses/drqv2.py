@@ -11,10 +11,9 @@ from torch import Tensor, nn
 from torchrl.data import TensorSpec
 from torchrl.modules import AdditiveGaussianModule
 
-from vigen.losses.base import ActorCriticLoss, Augmentations
+from vigen.losses.base import ActorCriticLoss, Augmentations, default_shift
 from vigen.losses.sampling import clipped_normal_sample
 from vigen.losses.schedule import LinearSchedule
-from vigen.transforms import RandomShift
 
 
 class DrQv2Loss(ActorCriticLoss):
@@ -125,10 +124,7 @@ class DrQv2Loss(ActorCriticLoss):
         reduction: str = "mean",
         check_finite: bool = True,
     ) -> None:
-        if isinstance(augmentation, str):
-            if augmentation != "default":
-                raise ValueError(f"augmentation must be an ImageAugmentation, a list of them, None or 'default', got {augmentation!r}.")
-            augmentation = RandomShift(pad=4)
+        augmentation = default_shift(augmentation)
         super().__init__(
             encoder, actor, critic, augmentation=augmentation, input_mask=input_mask,
             channels_last=channels_last, reduction=reduction, check_finite=check_finite,

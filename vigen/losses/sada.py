@@ -7,9 +7,9 @@ from typing import Any, Literal
 import torch
 from torch import Tensor, nn
 
-from vigen.losses.base import ActorCriticLoss, Augmentations, CriticResult, Observations, View
+from vigen.losses.base import ActorCriticLoss, Augmentations, CriticResult, Observations, View, default_shift
 from vigen.losses.sac import SoftActorCritic
-from vigen.transforms import RandomOverlay, RandomShift
+from vigen.transforms import RandomOverlay
 
 
 class SADALoss(SoftActorCritic, ActorCriticLoss):
@@ -76,10 +76,7 @@ class SADALoss(SoftActorCritic, ActorCriticLoss):
         strong_weight: float = 0.25,
         **kwargs: Any,
     ) -> None:
-        if isinstance(augmentation, str):
-            if augmentation != "default":
-                raise ValueError(f"augmentation must be an ImageAugmentation, a list of them, None or 'default', got {augmentation!r}.")
-            augmentation = RandomShift(pad=4)
+        augmentation = default_shift(augmentation)
         super().__init__(encoder, actor, critic, augmentation=augmentation, **kwargs)
         self.strong_augmentation = self._augmentations(
             RandomOverlay(alpha=0.5) if strong_augmentation is None else strong_augmentation

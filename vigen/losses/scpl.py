@@ -18,12 +18,13 @@ from vigen.losses.base import (
     CriticResult,
     Observations,
     View,
+    default_shift,
     td_error,
 )
 from vigen.losses.sac import SoftActorCritic
 from vigen.losses.saliency import GuidedBackprop, attribution_mask
 from vigen.losses.sampling import squashed_normal_sample
-from vigen.transforms import RandomOverlay, RandomShift
+from vigen.transforms import RandomOverlay
 
 
 def diagonal_gaussian_kl(mean_p: Tensor, log_var_p: Tensor, mean_q: Tensor, log_var_q: Tensor) -> Tensor:
@@ -187,10 +188,7 @@ class SCPLLoss(SoftActorCritic, ActorCriticLoss):
             raise ValueError(f"{name}: kl_covariance must be 'std' (SCPL's code) or 'variance', got {kl_covariance!r}.")
         if not (isinstance(dynamics_lr, (int, float)) and math.isfinite(dynamics_lr) and dynamics_lr > 0):
             raise ValueError(f"{name}: dynamics_lr must be a positive number, got {dynamics_lr!r}.")
-        if isinstance(augmentation, str):
-            if augmentation != "default":
-                raise ValueError(f"augmentation must be an ImageAugmentation, a list of them, None or 'default', got {augmentation!r}.")
-            augmentation = RandomShift(pad=4)
+        augmentation = default_shift(augmentation)
         super().__init__(encoder, actor, critic, augmentation=augmentation, squash_epsilon=squash_epsilon,
                          target_encoder=target_encoder, **kwargs)
         GuidedBackprop(encoder, critic)  # fails early, with advice, when there is no nn.ReLU to guide

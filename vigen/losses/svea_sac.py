@@ -7,9 +7,9 @@ from typing import Any, Literal
 from tensordict import TensorDictBase
 from torch import nn
 
-from vigen.losses.base import ActorCriticLoss, Augmentations, Observations, View
+from vigen.losses.base import ActorCriticLoss, Augmentations, Observations, View, default_shift
 from vigen.losses.sac import SoftActorCritic
-from vigen.transforms import RandomConv, RandomShift
+from vigen.transforms import RandomConv
 
 
 class SACSVEALoss(SoftActorCritic, ActorCriticLoss):
@@ -92,10 +92,7 @@ class SACSVEALoss(SoftActorCritic, ActorCriticLoss):
         squash_epsilon: float | None = 1e-6,
         **kwargs: Any,
     ) -> None:
-        if isinstance(augmentation, str):
-            if augmentation != "default":
-                raise ValueError(f"augmentation must be an ImageAugmentation, a list of them, None or 'default', got {augmentation!r}.")
-            augmentation = RandomShift(pad=4)
+        augmentation = default_shift(augmentation)
         super().__init__(encoder, actor, critic, augmentation=augmentation, target_encoder=target_encoder,
                          squash_epsilon=squash_epsilon, **kwargs)
         if strong_augmentation is None:
