@@ -4,11 +4,16 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import torch
 from torch import Tensor, nn
 from torch.autograd.function import FunctionCtx
 from torch.utils.hooks import RemovableHandle
+
+if TYPE_CHECKING:
+    from vigen.losses.base import ActorCriticLoss
 
 
 class GuidedBackprop:
@@ -130,3 +135,56 @@ def last_dim_quantile(values: Tensor, quantile: float) -> Tensor:
         return lower
     upper = values.kthvalue(below + 2, dim=-1, keepdim=True).values
     return torch.lerp(lower, upper, rank - below)
+
+
+@dataclass
+class SalientQ:
+    """What :func:`salient_q_consistency` returns, all per sample of the pixels it was given.
+
+    Attributes:
+        features: encoder features of the pixels (with gradient).
+        q1, q2: both Q values at the pixels, ``[N, 1]`` (with gradient).
+        mask: the saliency mask ``M`` (boolean, like the pixels).
+        consistency: ``(Q1(x) − Q1(x_M))² + (Q2(x) − Q2(x_M))²``, ``[N]``, gradient on both sides.
+    """
+
+    features: Tensor
+    q1: Tensor
+    q2: Tensor
+    mask: Tensor
+    consistency: Tensor
+
+
+def salient_q_consistency(loss: ActorCriticLoss, pixels: Tensor, action: Tensor, quantile: float) -> SalientQ:
+    """SGQN's and SCPL's Q consistency with the salient pixels, from one recorded critic pass.
+
+    The critic's forward pass at ``x`` (``pixels`` on the encoder's float scale) is recorded for
+    guided backprop; the guided saliency of Q1 gives the mask ``M`` (:func:`attribution_mask` at
+    ``quantile``), ``x_M = x·M + u·(1 − M)`` with one ``u ~ U(min x, max x)``, and the critic is run
+    again on ``x_M``. Only ``nn.ReLU`` modules of the loss's encoder and critic are guided.
+
+    Paper: SGQN, https://arxiv.org/abs/2209.09203; SCPL, https://github.com/bofusun/SCPL.
+
+    Examples:
+        >>> import torch
+        >>> from vigen.losses import make_loss
+        >>> loss = make_loss("sgqn", (9, 84, 84), action_dim=2, hidden_dim=32)
+        >>> pixels = torch.randint(0, 256, (2, 9, 84, 84), dtype=torch.uint8)
+        >>> salient = salient_q_consistency(loss, pixels, torch.zeros(2, 2), quantile=0.9)
+        >>> salient.consistency.shape, round(salient.mask.float().mean().item(), 1)
+        (torch.Size([2]), 0.1)
+    """
+    x = loss._to_float(pixels)  # the saliency is a gradient with respect to these
+    if loss.channels_last:
+        x = x.contiguous(memory_format=torch.channels_last)
+    x.requires_grad_(True)
+    guided = GuidedBackprop(loss.encoder, loss.critic)
+    with guided.recording():
+        features = loss.encode(x)
+        q1, q2 = loss.q_values(features, action)
+    mask = attribution_mask(guided.saliency(q1, x, retain_graph=True), quantile)
+    low, high = x.detach().min(), x.detach().max()
+    fill = low + (high - low) * torch.rand((), device=x.device, dtype=x.dtype)
+    masked_q1, masked_q2 = loss.q_values(loss.encode(torch.where(mask, x.detach(), fill)), action)
+    consistency = ((q1 - masked_q1).pow(2) + (q2 - masked_q2).pow(2)).squeeze(-1)
+    return SalientQ(features, q1, q2, mask, consistency)

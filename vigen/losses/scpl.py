@@ -22,7 +22,7 @@ from vigen.losses.base import (
     td_error,
 )
 from vigen.losses.sac import SoftActorCritic
-from vigen.losses.saliency import GuidedBackprop, attribution_mask
+from vigen.losses.saliency import GuidedBackprop, salient_q_consistency
 from vigen.losses.sampling import squashed_normal_sample
 from vigen.transforms import RandomOverlay
 
@@ -225,28 +225,17 @@ class SCPLLoss(SoftActorCritic, ActorCriticLoss):
         """TD loss of both views plus ``λ_c·`` the mean over the views of the Q consistency with their salient pixels."""
         views = self.critic_views(batch)
         size, count = batch.batch_size, len(views)
-        pixels = torch.cat([self._to_float(view.pixels) for view in views])  # saliency is a gradient with respect to these
-        if self.channels_last:
-            pixels = pixels.contiguous(memory_format=torch.channels_last)
-        pixels.requires_grad_(True)
-        action = batch.action.repeat(count, 1)
-        guided = GuidedBackprop(self.encoder, self.critic)
-        with guided.recording():
-            features = self.encode(pixels)
-            q1, q2 = self.q_values(features, action)
-        mask = attribution_mask(guided.saliency(q1, pixels, retain_graph=True), self.quantile)
-
-        low, high = pixels.detach().min(), pixels.detach().max()
-        fill = low + (high - low) * torch.rand((), device=pixels.device, dtype=pixels.dtype)
-        masked_q1, masked_q2 = self.q_values(self.encode(torch.where(mask, pixels.detach(), fill)), action)
-        consistency = ((q1 - masked_q1).pow(2) + (q2 - masked_q2).pow(2)).squeeze(-1).reshape(count, size).mean(0)
+        pixels = torch.cat([view.pixels for view in views])
+        salient = salient_q_consistency(self, pixels, batch.action.repeat(count, 1), self.quantile)
+        q1, q2, mask = salient.q1, salient.q2, salient.mask
+        consistency = salient.consistency.reshape(count, size).mean(0)
         errors = td_error(q1, q2, target.repeat(count, 1)).split(size)
         loss = self.consistency_weight * consistency
         for view, error in zip(views, errors):
             loss = loss + view.weight * error
         metrics = {"q_strong_mean": q1[size:].detach().mean(), "mask_fraction": mask.float().mean(),
                    "consistency": consistency.detach().mean()}
-        return CriticResult(loss, q1[:size], q2[:size], tuple(features.split(size)), metrics=metrics)
+        return CriticResult(loss, q1[:size], q2[:size], tuple(salient.features.split(size)), metrics=metrics)
 
     def actor_loss(self, batch: Observations, critic: CriticResult) -> ActorResult:
         """SAC's actor loss on ``h`` plus ``λ_KL·KL(π(·|h) ‖ π(·|h̃))`` (detached features, frozen critic)."""

@@ -11,7 +11,7 @@ from torch import Tensor, nn
 
 from vigen.losses.base import ActorResult, Augmentations, AuxiliaryResult, CriticResult, Observations, td_error
 from vigen.losses.drqv2 import DrQv2Loss
-from vigen.losses.saliency import GuidedBackprop, attribution_mask
+from vigen.losses.saliency import GuidedBackprop, salient_q_consistency
 from vigen.transforms import RandomOverlay
 
 
@@ -103,23 +103,10 @@ class SGQNLoss(DrQv2Loss):
 
     def critic_loss(self, batch: Observations, target: Tensor) -> SaliencyCriticResult:
         """TD loss of ``s`` plus ``λ·`` the consistency of Q on ``s`` and on its salient pixels ``s_M``."""
-        obs = self._to_float(batch.obs)  # saliency is a gradient with respect to these pixels
-        if self.channels_last:
-            obs = obs.contiguous(memory_format=torch.channels_last)
-        obs.requires_grad_(True)
-        guided = GuidedBackprop(self.encoder, self.critic)
-        with guided.recording():
-            features = self.encode(obs)
-            q1, q2 = self.q_values(features, batch.action)
-        mask = attribution_mask(guided.saliency(q1, obs, retain_graph=True), self.quantile)
-
-        low, high = obs.detach().min(), obs.detach().max()
-        fill = low + (high - low) * torch.rand((), device=obs.device)
-        masked_q1, masked_q2 = self.q_values(self.encode(torch.where(mask, obs.detach(), fill)), batch.action)
-        consistency = ((q1 - masked_q1).pow(2) + (q2 - masked_q2).pow(2)).squeeze(-1)
-        loss = td_error(q1, q2, target) + self.consistency_weight * consistency
-        metrics = {"mask_fraction": mask.float().mean(), "consistency": consistency.mean()}
-        return SaliencyCriticResult(loss, q1, q2, (features,), metrics=metrics, mask=mask)
+        salient = salient_q_consistency(self, batch.obs, batch.action, self.quantile)
+        loss = td_error(salient.q1, salient.q2, target) + self.consistency_weight * salient.consistency
+        metrics = {"mask_fraction": salient.mask.float().mean(), "consistency": salient.consistency.mean()}
+        return SaliencyCriticResult(loss, salient.q1, salient.q2, (salient.features,), metrics=metrics, mask=salient.mask)
 
     def auxiliary_losses(self, batch: Observations, critic: CriticResult, actor: ActorResult) -> AuxiliaryResult:
         """The attribution head's BCE against the mask, from an overlaid view of ``s``."""
