@@ -2,18 +2,21 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Any
 
 import torch
 from torch import Tensor, nn
 
-from vigen.losses.base import ActorCriticLoss, Augmentations, CriticResult, Observations, View, default_shift
-from vigen.losses.sac import SoftActorCritic
+from vigen.losses.base import Augmentations, CriticResult, Observations
+from vigen.losses.svea_sac import SACSVEALoss
 from vigen.transforms import RandomOverlay
 
 
-class SADALoss(SoftActorCritic, ActorCriticLoss):
+class SADALoss(SACSVEALoss):
     """SADA (DMC-GB2): SAC with SVEA's two-view critic and an actor that also reads the strong view.
+
+    It is :class:`~vigen.losses.SACSVEALoss` with DMC-GB2's settings (the next observation shifted,
+    no target encoder, DrQ's log π) and one hook changed, :meth:`actor_features`.
 
     With the weak view ``s = shift(obs)``, the strong view ``s̃ = strong(s)`` and their features
     ``h = encoder(s)``, ``h̃ = encoder(s̃)`` (one pass):
@@ -40,9 +43,10 @@ class SADALoss(SoftActorCritic, ActorCriticLoss):
         strong_augmentation: the strong view, applied on top of the weak one; ``None`` for
             ``RandomOverlay(alpha=0.5)``.
         weak_weight, strong_weight: weights of the two views' TD errors (0.25 each: DMC-GB2's 0.5
-            of the stacked MSEs).
-        init_temperature, target_entropy: see :class:`~vigen.losses.SoftActorCritic`.
-        **kwargs: ``input_mask``, ``channels_last``, ``reduction``, ``check_finite``.
+            of the stacked MSEs); the loss's ``svea_alpha`` and ``svea_beta``.
+        **kwargs: the options of :class:`~vigen.losses.SACSVEALoss` (``init_temperature``,
+            ``input_mask``, ...); ``augment_next``, ``target_encoder`` and ``squash_epsilon`` default
+            to DMC-GB2's ``True``, ``False`` and ``None``.
 
     Examples:
         >>> import torch
@@ -62,34 +66,23 @@ class SADALoss(SoftActorCritic, ActorCriticLoss):
         ['loss_actor', 'loss_alpha', 'loss_critic']
     """
 
-    out_keys = ActorCriticLoss.out_keys + ["loss_alpha", "alpha", "entropy", "q_strong_mean"]
-
     def __init__(
         self,
         encoder: nn.Module,
         actor: nn.Module,
         critic: nn.Module,
         *,
-        augmentation: Augmentations | Literal["default"] = "default",
-        strong_augmentation: Augmentations = None,
         weak_weight: float = 0.25,
         strong_weight: float = 0.25,
         **kwargs: Any,
     ) -> None:
-        augmentation = default_shift(augmentation)
-        super().__init__(encoder, actor, critic, augmentation=augmentation, **kwargs)
-        self.strong_augmentation = self._augmentations(
-            RandomOverlay(alpha=0.5) if strong_augmentation is None else strong_augmentation
-        )
-        self.register_coeff_buffer("weak_weight", weak_weight)
-        self.register_coeff_buffer("strong_weight", strong_weight)
+        for option, dmcgb2 in (("augment_next", True), ("target_encoder", False), ("squash_epsilon", None)):
+            kwargs.setdefault(option, dmcgb2)
+        super().__init__(encoder, actor, critic, alpha=weak_weight, beta=strong_weight, **kwargs)
 
-    _schedulable_buffers = frozenset({"weak_weight", "strong_weight"})
-
-    def critic_views(self, batch: Observations) -> list[View]:
-        """The weak view and its strongly augmented copy."""
-        strong = self._augment(self.strong_augmentation, batch.obs)
-        return [View(batch.obs, self.weak_weight), View(strong, self.strong_weight, name="strong")]
+    @staticmethod
+    def _default_strong_augmentation() -> Augmentations:
+        return RandomOverlay(alpha=0.5)
 
     def actor_features(self, batch: Observations, critic: CriticResult) -> tuple[Tensor, Tensor]:
         """The policy reads ``[h, h̃]``; the critic scores its actions on ``[h, h]``."""

@@ -10,20 +10,10 @@ import torch
 from tensordict import TensorDictBase
 from torch import Tensor, nn
 
-from vigen.losses.base import (
-    ActorCriticLoss,
-    ActorResult,
-    Augmentations,
-    AuxiliaryResult,
-    CriticResult,
-    Observations,
-    View,
-    default_shift,
-    td_error,
-)
-from vigen.losses.sac import SoftActorCritic
+from vigen.losses.base import ActorResult, Augmentations, AuxiliaryResult, CriticResult, Observations, td_error
 from vigen.losses.saliency import GuidedBackprop, salient_q_consistency
 from vigen.losses.sampling import squashed_normal_sample
+from vigen.losses.svea_sac import SACSVEALoss
 from vigen.transforms import RandomOverlay
 
 
@@ -60,7 +50,7 @@ class PairedObservations(Observations):
     reward: Tensor
 
 
-class SCPLLoss(SoftActorCritic, ActorCriticLoss):
+class SCPLLoss(SACSVEALoss):
     """SCPL: SAC with SVEA's two-view critic, a saliency-masked Q consistency, a policy KL and a dynamics model.
 
     With the weak views ``s = shift(obs)``, ``s' = shift(next obs)`` (drawn independently), the
@@ -97,16 +87,18 @@ class SCPLLoss(SoftActorCritic, ActorCriticLoss):
     parameters and one optimizer step takes them all, every update. The actor, the target and
     the dynamics model are updated on every call (SCPL: every second update of the critic), and
     ``SoftUpdate`` has one τ (SCPL: 0.01 for the Q heads, 0.05 for the encoder and the critic's
-    projection). vigen's encoders scale pixels to ``x/255 − 0.5`` (DMC-GB's to ``x/255``: the same
-    network up to the first convolution's bias). With n-step returns the reward model predicts
-    the n-step reward of the batch (SCPL: one step).
+    projection). With n-step returns the reward model predicts the n-step reward of the batch
+    (SCPL: one step).
+
+    It is :class:`~vigen.losses.SACSVEALoss` (with the next observation shifted, SCPL's
+    ``sample_drq``) with its steps 1 and 3 to 5 extended.
 
     Paper: SCPL, "Salience-Invariant Consistent Policy Learning for Generalization in Visual
     Reinforcement Learning" (AAMAS 2025), code https://github.com/bofusun/SCPL.
 
     Args:
         encoder: pixels → features; ``make_loss("scpl", ...)`` uses SVEA's 11-layer
-            :class:`~vigen.models.SharedCNN` as SCPL does.
+            :class:`~vigen.models.SharedCNN` on DMC-GB's ``x / 255`` as SCPL does.
         actor: features → (mean, log σ), e.g. :class:`~vigen.models.GaussianActor` with a
             ``feature_dim`` trunk (DMC-GB's actor projection).
         critic: (features, action) → (Q1, Q2), with ``embed(features)``, the embedding both heads
@@ -116,7 +108,7 @@ class SCPLLoss(SoftActorCritic, ActorCriticLoss):
         augmentation: the weak view; ``"default"`` is ``RandomShift(pad=4)``.
         strong_augmentation: the strong view; ``None`` for ``RandomOverlay(alpha=0.5)`` (SCPL's
             ``scpl``; pass ``RandomConv()`` for its ``scplr``).
-        weak_weight, strong_weight: w and w̃ (0.5 each).
+        weak_weight, strong_weight: w and w̃ (0.5 each); the loss's ``svea_alpha`` and ``svea_beta``.
         quantile: the saliency quantile of the mask (0.9).
         consistency_weight: λ_c (0.5).
         kl_weight: λ_KL (1).
@@ -126,7 +118,7 @@ class SCPLLoss(SoftActorCritic, ActorCriticLoss):
         target_encoder: encode the next view for the target critic with a target encoder.
         init_temperature, target_entropy: see :class:`~vigen.losses.SoftActorCritic`.
         squash_epsilon: SCPL's (DMC-GB's) ``log(relu(1 − tanh²) + 1e-6)``; ``None`` for DrQ's form.
-        **kwargs: ``input_mask``, ``channels_last``, ``reduction``, ``check_finite``.
+        **kwargs: ``input_mask``, ``channels_last``, ``reduction``, ``check_finite``, ``init_temperature``, ...
 
     Examples:
         >>> import torch
@@ -150,9 +142,8 @@ class SCPLLoss(SoftActorCritic, ActorCriticLoss):
         [0.0001, 0.0003]
     """
 
-    out_keys = ActorCriticLoss.out_keys + [
-        "loss_alpha", "alpha", "entropy", "q_strong_mean", "mask_fraction", "consistency", "policy_kl",
-        "loss_dynamics", "transition_error", "reward_error",
+    out_keys = SACSVEALoss.out_keys + [
+        "mask_fraction", "consistency", "policy_kl", "loss_dynamics", "transition_error", "reward_error",
     ]
 
     def __init__(
@@ -188,23 +179,23 @@ class SCPLLoss(SoftActorCritic, ActorCriticLoss):
             raise ValueError(f"{name}: kl_covariance must be 'std' (SCPL's code) or 'variance', got {kl_covariance!r}.")
         if not (isinstance(dynamics_lr, (int, float)) and math.isfinite(dynamics_lr) and dynamics_lr > 0):
             raise ValueError(f"{name}: dynamics_lr must be a positive number, got {dynamics_lr!r}.")
-        augmentation = default_shift(augmentation)
-        super().__init__(encoder, actor, critic, augmentation=augmentation, squash_epsilon=squash_epsilon,
-                         target_encoder=target_encoder, **kwargs)
+        super().__init__(encoder, actor, critic, augmentation=augmentation, strong_augmentation=strong_augmentation,
+                         alpha=weak_weight, beta=strong_weight, augment_next=True, target_encoder=target_encoder,
+                         squash_epsilon=squash_epsilon, **kwargs)
         GuidedBackprop(encoder, critic)  # fails early, with advice, when there is no nn.ReLU to guide
-        self.strong_augmentation = self._augmentations(
-            RandomOverlay(alpha=0.5) if strong_augmentation is None else strong_augmentation
-        )
         self.dynamics = dynamics
         self.quantile = quantile
         self.kl_covariance = kl_covariance
         self.dynamics_lr = float(dynamics_lr)
-        for coefficient, value in (("weak_weight", weak_weight), ("strong_weight", strong_weight),
-                                   ("consistency_weight", consistency_weight), ("kl_weight", kl_weight),
+        for coefficient, value in (("consistency_weight", consistency_weight), ("kl_weight", kl_weight),
                                    ("dynamics_weight", dynamics_weight)):
             self.register_coeff_buffer(coefficient, value)
 
-    _schedulable_buffers = frozenset({"weak_weight", "strong_weight", "consistency_weight", "kl_weight", "dynamics_weight"})
+    _schedulable_buffers = frozenset({"consistency_weight", "kl_weight", "dynamics_weight"})
+
+    @staticmethod
+    def _default_strong_augmentation() -> Augmentations:
+        return RandomOverlay(alpha=0.5)
 
     # -- the steps --------------------------------------------------------------------------------
     def observations(self, tensordict: TensorDictBase) -> PairedObservations:
@@ -216,10 +207,10 @@ class SCPLLoss(SoftActorCritic, ActorCriticLoss):
         return PairedObservations(weak.pixels, weak.next_pixels, weak.action, weak.obs, weak.next_obs,
                                   strong_obs, strong_next_obs, reward)
 
-    def critic_views(self, batch: Observations) -> list[View]:
-        """The weak view (weight w) and its strong view (weight w̃)."""
+    def strong_view(self, batch: Observations) -> Tensor:
+        """The strong view drawn in step 1, with the next observation's."""
         assert isinstance(batch, PairedObservations)
-        return [View(batch.obs, self.weak_weight), View(batch.strong_obs, self.strong_weight, name="strong")]
+        return batch.strong_obs
 
     def critic_loss(self, batch: Observations, target: Tensor) -> CriticResult:
         """TD loss of both views plus ``λ_c·`` the mean over the views of the Q consistency with their salient pixels."""

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any, Literal
 
 from tensordict import TensorDictBase
-from torch import nn
+from torch import Tensor, nn
 
 from vigen.losses.base import ActorCriticLoss, Augmentations, Observations, View, default_shift
 from vigen.losses.sac import SoftActorCritic
@@ -118,5 +118,8 @@ class SACSVEALoss(SoftActorCritic, ActorCriticLoss):
 
     def critic_views(self, batch: Observations) -> list[View]:
         """The weak view (weight α) and its strong view (weight β)."""
-        strong = self._augment(self.strong_augmentation, batch.obs)
-        return [View(batch.obs, self.svea_alpha), View(strong, self.svea_beta, name="strong")]
+        return [View(batch.obs, self.svea_alpha), View(self.strong_view(batch), self.svea_beta, name="strong")]
+
+    def strong_view(self, batch: Observations) -> Tensor:
+        """``strong(s)``, a fresh draw on the weak view (SCPL draws it in step 1, with the next observation's)."""
+        return self._augment(self.strong_augmentation, batch.obs)
