@@ -332,17 +332,7 @@ class Reference:
         self.critic_opt.step()
         self.encoder_opt.step()
 
-        h = h.detach()
-        new_action, log_prob = squashed(*self.actor(h))
-        actor_loss = (alpha.detach() * log_prob - torch.min(*self.critic(h, new_action))).mean()
-        self.actor_opt.zero_grad(set_to_none=True)
-        actor_loss.backward()
-        self.actor_opt.step()
-        alpha_loss = (alpha * (-log_prob - -ACTIONS).detach()).mean()
-        self.alpha_opt.zero_grad(set_to_none=True)
-        alpha_loss.backward()
-        self.alpha_opt.step()
-        self.soft_update()
+        self.sac_actor_steps(self.actor(h.detach()), h.detach(), alpha)
 
     def update_sada(self, obs: Tensor, action: Tensor, reward: Tensor, next_obs: Tensor) -> None:
         """DMC-GB2's SADA: one encoder call per view, separate critic / actor / temperature steps."""
@@ -365,17 +355,7 @@ class Reference:
         self.encoder_opt.step()
 
         h, h_strong = h.detach(), h_strong.detach()
-        new_action, log_prob = squashed(*self.actor(torch.cat([h, h_strong])))
-        actor_q = torch.min(*self.critic(torch.cat([h, h]), new_action))
-        actor_loss = (alpha.detach() * log_prob - actor_q).mean()
-        self.actor_opt.zero_grad(set_to_none=True)
-        actor_loss.backward()
-        self.actor_opt.step()
-        alpha_loss = (alpha * (-log_prob - -ACTIONS).detach()).mean()
-        self.alpha_opt.zero_grad(set_to_none=True)
-        alpha_loss.backward()
-        self.alpha_opt.step()
-        self.soft_update()
+        self.sac_actor_steps(self.actor(torch.cat([h, h_strong])), torch.cat([h, h]), alpha)
 
     def update_svea_sac(self, obs: Tensor, action: Tensor, reward: Tensor, next_obs: Tensor) -> None:
         """DMC-GB's SAC SVEA as MaDi (next obs unshifted, masker stepped with the critic) and SimGRL run it."""
@@ -401,17 +381,7 @@ class Reference:
         if self.algo == "madi":
             self.masker_opt.step()
 
-        h = h.detach()
-        new_action, log_prob = squashed(*self.actor(h))
-        actor_loss = (alpha.detach() * log_prob - torch.min(*self.critic(h, new_action))).mean()
-        self.actor_opt.zero_grad(set_to_none=True)
-        actor_loss.backward()
-        self.actor_opt.step()
-        alpha_loss = (alpha * (-log_prob - -ACTIONS).detach()).mean()
-        self.alpha_opt.zero_grad(set_to_none=True)
-        alpha_loss.backward()
-        self.alpha_opt.step()
-        self.soft_update()
+        self.sac_actor_steps(self.actor(h.detach()), h.detach(), alpha)
 
     def update_scpl(self, obs: Tensor, action: Tensor, reward: Tensor, next_obs: Tensor) -> None:
         """SCPL's SAC update: critic (+ masked-Q consistency), actor (+ KL), temperature, then the dynamics model."""
@@ -439,21 +409,12 @@ class Reference:
 
         h_clean, h_strong = h.detach().chunk(2)
         mean, log_std = self.actor(h_clean)
-        pi, log_prob = squashed(mean, log_std)
         mean_strong, log_std_strong = self.actor(h_strong)
         kl = torch.distributions.kl_divergence(
             torch.distributions.MultivariateNormal(torch.tanh(mean), torch.diag_embed(log_std.exp()).detach()),
             torch.distributions.MultivariateNormal(torch.tanh(mean_strong), torch.diag_embed(log_std_strong.exp())),
         )
-        actor_loss = (alpha.detach() * log_prob - torch.min(*self.critic(h_clean, pi))).mean() + kl.mean()
-        self.actor_opt.zero_grad(set_to_none=True)
-        actor_loss.backward()
-        self.actor_opt.step()
-        alpha_loss = (alpha * (-log_prob - -ACTIONS).detach()).mean()
-        self.alpha_opt.zero_grad(set_to_none=True)
-        alpha_loss.backward()
-        self.alpha_opt.step()
-        self.soft_update()
+        self.sac_actor_steps((mean, log_std), h_clean, alpha, extra=kl.mean())
 
         embedding = self.critic.embed(self.encoder(views))
         with torch.no_grad():
@@ -467,6 +428,22 @@ class Reference:
         self.encoder_opt.step()
         self.critic_opt.step()  # only the trunk (DMC-GB's critic projection) has gradients here
         self.dynamics_opt.step()
+
+    def sac_actor_steps(self, policy: tuple[Tensor, Tensor], critic_features: Tensor, alpha: Tensor,
+                        extra: Tensor | None = None) -> None:
+        """SAC's actor step (α·log π − min Q on ``critic_features``, plus ``extra``), temperature step, target update."""
+        new_action, log_prob = squashed(*policy)
+        actor_loss = (alpha.detach() * log_prob - torch.min(*self.critic(critic_features, new_action))).mean()
+        if extra is not None:
+            actor_loss = actor_loss + extra
+        self.actor_opt.zero_grad(set_to_none=True)
+        actor_loss.backward()
+        self.actor_opt.step()
+        alpha_loss = (alpha * (-log_prob - -ACTIONS).detach()).mean()
+        self.alpha_opt.zero_grad(set_to_none=True)
+        alpha_loss.backward()
+        self.alpha_opt.step()
+        self.soft_update()
 
     def soft_update(self) -> None:
         with torch.no_grad():
