@@ -361,16 +361,21 @@ MADI = os.environ.get("VIGEN_PARITY_MADI")
 SIMGRL = os.environ.get("VIGEN_PARITY_SIMGRL")
 
 
-@pytest.mark.skipif(not DMCGB2, reason="set VIGEN_PARITY_DMCGB2 to a checkout of DMC-GB2 (algos/, augmentations.py, utils.py)")
-def test_sada_matches_dmcgb2_in_one_float64_update(parity):
+def _one_float64_update(parity, name: str, path: str):
+    """One float64 update of ``name`` on both sides at batch 2 (steps recorded, not taken); every vigen weight mapped."""
     setup = parity.Setup(batch_size=2)
     with parity.float64_mode():
-        case = parity.build_sada(Path(DMCGB2), setup)
-        parity.copy_weights(case)  # every vigen parameter has a DMC-GB2 counterpart of the same shape
+        case = parity.ALGORITHMS[name](Path(path), setup)
+        parity.copy_weights(case)  # every vigen parameter has a counterpart of the same shape
         draws = parity.Draws(setup.seed)
         fixed = parity.run_original(case, draws, take_steps=False)
         ours = parity.run_vigen(case, draws)
-    rows = parity.compare(case, fixed, fixed, ours)
+    return setup, case, fixed, ours, parity.compare(case, fixed, fixed, ours)
+
+
+@pytest.mark.skipif(not DMCGB2, reason="set VIGEN_PARITY_DMCGB2 to a checkout of DMC-GB2 (algos/, augmentations.py, utils.py)")
+def test_sada_matches_dmcgb2_in_one_float64_update(parity):
+    setup, case, fixed, ours, rows = _one_float64_update(parity, "sada", DMCGB2)
     assert [row.quantity for row in rows if row.kind == "loss"] == [
         "loss_critic (critic step)", "loss_actor (actor step)", "loss_alpha (alpha step)"]
     assert not [row for row in rows if row.kind == "stray"]
@@ -380,14 +385,7 @@ def test_sada_matches_dmcgb2_in_one_float64_update(parity):
 
 @pytest.mark.skipif(not RLVIGEN_ADROIT, reason="set VIGEN_PARITY_RLVIGEN_ADROIT to the src/ folder of RL-ViGen's ViGen-adroit branch")
 def test_vrl3_matches_rlvigen_adroit_in_one_float64_update(parity):
-    setup = parity.Setup(batch_size=2)
-    with parity.float64_mode():
-        case = parity.build_vrl3(Path(RLVIGEN_ADROIT), setup)
-        parity.copy_weights(case)
-        draws = parity.Draws(setup.seed)
-        fixed = parity.run_original(case, draws, take_steps=False)
-        ours = parity.run_vigen(case, draws)
-    rows = parity.compare(case, fixed, fixed, ours)
+    setup, case, fixed, ours, rows = _one_float64_update(parity, "vrl3", RLVIGEN_ADROIT)
     assert [row.quantity for row in rows if row.kind == "loss"] == ["loss_critic (critic step)", "loss_actor (actor step)"]
     assert not [row for row in rows if row.kind == "stray"]
     assert max(row.rel for row in rows) < 1e-10
@@ -430,14 +428,7 @@ def test_dmcgb_driver_exposes_the_originals_optimizers_and_heads_under_vigens_na
 
 @pytest.mark.skipif(not SCPL, reason="set VIGEN_PARITY_SCPL to a checkout of bofusun/SCPL (and captum on the path)")
 def test_scpl_matches_its_original_in_one_float64_update(parity):
-    setup = parity.Setup(batch_size=2)
-    with parity.float64_mode():
-        case = parity.build_scpl(Path(SCPL), setup)
-        parity.copy_weights(case)
-        draws = parity.Draws(setup.seed)
-        fixed = parity.run_original(case, draws, take_steps=False)
-        ours = parity.run_vigen(case, draws)
-    rows = parity.compare(case, fixed, fixed, ours)
+    setup, case, fixed, ours, rows = _one_float64_update(parity, "scpl", SCPL)
     assert [row.quantity for row in rows if row.kind == "loss"] == [
         "loss_critic (critic step)", "loss_actor (actor step)", "loss_alpha (alpha step)", "loss_dynamics (dynamics step)"]
     assert not [row for row in rows if row.kind == "stray"]
@@ -451,14 +442,7 @@ def test_scpl_matches_its_original_in_one_float64_update(parity):
     pytest.param("simgrl", SIMGRL, marks=pytest.mark.skipif(not SIMGRL, reason="set VIGEN_PARITY_SIMGRL to a checkout of W-Song11/SimGRL-Code")),
 ])
 def test_dmcgb_svea_forks_match_their_originals_in_one_float64_update(parity, name, path):
-    setup = parity.Setup(batch_size=2)
-    with parity.float64_mode():
-        case = parity.ALGORITHMS[name](Path(path), setup)
-        parity.copy_weights(case)
-        draws = parity.Draws(setup.seed)
-        fixed = parity.run_original(case, draws, take_steps=False)
-        ours = parity.run_vigen(case, draws)
-    rows = parity.compare(case, fixed, fixed, ours)
+    setup, case, fixed, ours, rows = _one_float64_update(parity, name, path)
     assert [row.quantity for row in rows if row.kind == "loss"] == [
         "loss_critic (critic step)", "loss_actor (actor step)", "loss_alpha (alpha step)"]
     assert not [row for row in rows if row.kind == "stray"]
