@@ -95,3 +95,11 @@ def make_batch(batch: int = 6, seed: int = 0, **next_entries: torch.Tensor) -> T
     action = torch.rand(batch, ACTIONS, generator=generator) * 2 - 1
     return TensorDict({"pixels": pixels, "action": action, "next": nxt}, batch_size=[batch])
 
+
+
+def dmcgb_squashed_sample(mean: torch.Tensor, log_std: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """DMC-GB's actor, written out: u = μ + σ·ε, a = tanh(u), log π = log N(u; μ, σ) − Σ log(relu(1 − a²) + 1e-6)."""
+    u = mean + log_std.exp() * torch.randn_like(mean)
+    action = torch.tanh(u)
+    log_prob = torch.distributions.Normal(mean, log_std.exp()).log_prob(u) - torch.log(torch.relu(1 - action**2) + 1e-6)
+    return action, log_prob.sum(-1, keepdim=True)

@@ -11,7 +11,7 @@ from tensordict.nn import InteractionType, set_interaction_type
 from torchrl.data import Bounded
 from torchrl.objectives import SoftUpdate
 
-from loss_helpers import SIZE, make_batch, make_loss
+from loss_helpers import SIZE, dmcgb_squashed_sample, make_batch, make_loss
 from vigen.losses import ALGOS, MaDiLoss, SACSVEALoss
 from vigen.losses import make_loss as make_paper_loss
 from vigen.models import Critic, DrQv2Encoder, GaussianActor, MaDiMasker, SharedCNN
@@ -113,13 +113,6 @@ def _madi(**kwargs) -> MaDiLoss:
     return make_loss("madi", augmentation=None, strong_augmentation=Invert(), **kwargs)
 
 
-def _squashed_sample(mean: torch.Tensor, log_std: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """DMC-GB's actor: u = μ + σ·ε, a = tanh(u), log π = log N(u; μ, σ) − Σ log(relu(1 − a²) + 1e-6)."""
-    u = mean + log_std.exp() * torch.randn_like(mean)
-    action = torch.tanh(u)
-    log_prob = torch.distributions.Normal(mean, log_std.exp()).log_prob(u) - torch.log(F.relu(1 - action**2) + 1e-6)
-    return action, log_prob.sum(-1, keepdim=True)
-
 
 def test_loss_is_sac_sveas_on_masked_views():
     """MaDi's update (DMC-GB's SVEA): 0.5·TD(M(s)) + 0.5·TD(M(s̃)) against the SAC target of M(next obs),
@@ -139,7 +132,7 @@ def test_loss_is_sac_sveas_on_masked_views():
     torch.manual_seed(4)
     with torch.no_grad():
         next_masked = masker(batch["next", "pixels"])
-        next_action, next_log_prob = _squashed_sample(*actor(encoder(next_masked)))
+        next_action, next_log_prob = dmcgb_squashed_sample(*actor(encoder(next_masked)))
         with loss.target_critic_params.to_module(critic):
             next_value = torch.min(*critic(target_encoder(next_masked), next_action)) - ALPHA * next_log_prob
         target = batch["next", "reward"] + GAMMA * next_value
@@ -147,7 +140,7 @@ def test_loss_is_sac_sveas_on_masked_views():
         strong = encoder(masker(255 - batch["pixels"]))
         weak_td = F.mse_loss(critic(hidden, batch["action"])[0], target) + F.mse_loss(critic(hidden, batch["action"])[1], target)
         strong_td = F.mse_loss(critic(strong, batch["action"])[0], target) + F.mse_loss(critic(strong, batch["action"])[1], target)
-        action, log_prob = _squashed_sample(*actor(hidden))
+        action, log_prob = dmcgb_squashed_sample(*actor(hidden))
         actor_q = torch.min(*critic(hidden, action))
     assert torch.allclose(out["target_mean"], target.mean(), atol=1e-6)
     assert torch.allclose(out["loss_critic"], 0.5 * weak_td + 0.5 * strong_td, atol=1e-6)

@@ -9,7 +9,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from loss_helpers import ACTIONS, make_batch, make_loss
+from loss_helpers import ACTIONS, dmcgb_squashed_sample, make_batch, make_loss
 from vigen.losses import ALGOS, GuidedBackprop, SCPLLoss, attribution_mask, diagonal_gaussian_kl, squashed_normal_sample
 from vigen.losses import make_loss as make_paper_loss
 from vigen.models import Critic, DrQv2Encoder, GaussianActor, LatentDynamics, SharedCNN
@@ -30,13 +30,6 @@ class Invert(ImageAugmentation):
         return (self.white(images) - images).to(images.dtype)
 
 
-def _squashed_sample(mean: torch.Tensor, log_std: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """DMC-GB's actor: u = μ + σ·ε, a = tanh(u), log π = log N(u; μ, σ) − Σ log(relu(1 − a²) + 1e-6)."""
-    u = mean + log_std.exp() * torch.randn_like(mean)
-    action = torch.tanh(u)
-    log_prob = torch.distributions.Normal(mean, log_std.exp()).log_prob(u) - torch.log(F.relu(1 - action**2) + 1e-6)
-    return action, log_prob.sum(-1, keepdim=True)
-
 
 # -- the pieces ------------------------------------------------------------------------------------
 def test_diagonal_gaussian_kl_is_torchs_kl():
@@ -56,7 +49,7 @@ def test_squashed_normal_sample_with_dmcgbs_epsilon():
     torch.manual_seed(1)
     action, log_prob = squashed_normal_sample(mean, log_std, epsilon=1e-6)
     torch.manual_seed(1)
-    expected_action, expected = _squashed_sample(mean, log_std)
+    expected_action, expected = dmcgb_squashed_sample(mean, log_std)
     assert torch.equal(action, expected_action)
     assert torch.allclose(log_prob, expected, atol=1e-5)
     torch.manual_seed(1)
@@ -126,7 +119,7 @@ def test_scpl_equals_its_update_rule():
 
     torch.manual_seed(5)
     with torch.no_grad():  # y = r + γ·(min Q'(target h', a') − α·log π(a'|online h'))
-        next_action, next_log_prob = _squashed_sample(*actor(encoder(next_obs)))
+        next_action, next_log_prob = dmcgb_squashed_sample(*actor(encoder(next_obs)))
         target = reward + GAMMA * (torch.min(*target_critic(target_encoder(next_obs), next_action)) - ALPHA * next_log_prob)
     views = torch.cat([obs, strong]).requires_grad_(True)
     actions = torch.cat([action, action])
@@ -150,7 +143,7 @@ def test_scpl_equals_its_update_rule():
         hidden, hidden_strong = encoder(obs), encoder(strong)
         mean, log_std = actor(hidden)
         mean_strong, log_std_strong = actor(hidden_strong)
-        pi, log_prob = _squashed_sample(mean, log_std)
+        pi, log_prob = dmcgb_squashed_sample(mean, log_std)
         actor_q = torch.min(*critic(hidden, pi))
         kl = torch.distributions.kl_divergence(  # SCPL: MultivariateNormal(tanh μ, diag(σ))
             torch.distributions.MultivariateNormal(torch.tanh(mean), torch.diag_embed(log_std.exp())),
@@ -178,7 +171,7 @@ def test_without_target_encoder_the_target_reads_the_online_encoder():
     torch.manual_seed(2)
     with torch.no_grad():
         hidden = loss.encoder(batch["next", "pixels"])
-        next_action, next_log_prob = _squashed_sample(*loss.actor(hidden))
+        next_action, next_log_prob = dmcgb_squashed_sample(*loss.actor(hidden))
         with loss.target_critic_params.to_module(loss.critic):
             value = torch.min(*loss.critic(hidden, next_action)) - ALPHA * next_log_prob
     assert torch.allclose(out["target_mean"], (batch["next", "reward"] + GAMMA * value).mean(), atol=1e-5)

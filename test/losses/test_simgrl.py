@@ -9,7 +9,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from loss_helpers import make_batch, make_loss
+from loss_helpers import dmcgb_squashed_sample, make_batch, make_loss
 from vigen.losses import ALGOS, SimGRLLoss
 from vigen.losses import make_loss as make_paper_loss
 from vigen.models import PerFrameEncoder
@@ -80,13 +80,6 @@ def test_per_frame_encoder_pixel_contract():
 ALPHA = 0.1  # the initial temperature
 
 
-def _squashed_sample(mean: torch.Tensor, log_std: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """DMC-GB's actor: u = μ + σ·ε, a = tanh(u), log π = log N(u; μ, σ) − Σ log(relu(1 − a²) + 1e-6)."""
-    u = mean + log_std.exp() * torch.randn_like(mean)
-    action = torch.tanh(u)
-    log_prob = torch.distributions.Normal(mean, log_std.exp()).log_prob(u) - torch.log(F.relu(1 - action**2) + 1e-6)
-    return action, log_prob.sum(-1, keepdim=True)
-
 
 def test_default_strong_view_is_the_shifted_overlay():
     loss = make_loss("simgrl")
@@ -115,7 +108,7 @@ def test_loss_is_half_clean_plus_half_shifted_overlay_on_sac():
             param.copy_(value)
     torch.manual_seed(1)
     with torch.no_grad():
-        next_action, next_log_prob = _squashed_sample(*actor(encoder(batch["next", "pixels"])))
+        next_action, next_log_prob = dmcgb_squashed_sample(*actor(encoder(batch["next", "pixels"])))
         with loss.target_critic_params.to_module(critic):
             next_value = torch.min(*critic(target_encoder(batch["next", "pixels"]), next_action)) - ALPHA * next_log_prob
         target = batch["next", "reward"] + GAMMA * next_value
@@ -124,7 +117,7 @@ def test_loss_is_half_clean_plus_half_shifted_overlay_on_sac():
         expected = 0.5 * (F.mse_loss(q_strong[0], target) + F.mse_loss(q_strong[1], target)
                           + F.mse_loss(q_clean[0], target) + F.mse_loss(q_clean[1], target))
         hidden = encoder(batch["pixels"])
-        action, log_prob = _squashed_sample(*actor(hidden))
+        action, log_prob = dmcgb_squashed_sample(*actor(hidden))
         actor_q = torch.min(*critic(hidden, action))
     assert not torch.equal(strong_pixels, batch["pixels"])
     assert torch.allclose(out["loss_critic"], expected, atol=1e-6)
