@@ -1373,7 +1373,7 @@ def build_vrl3(reference: Path, setup: Setup) -> Case:
 
 # -- DMC-GB's SAC agents: MaDi, SimGRL, SCPL (their authors' code, each a fork of DMC-GB) ------------
 DMCGB_OPTIONAL = ("torchvision", "torchvision.transforms", "torchvision.datasets", "torchvision.utils", "kornia",
-                  "env", "env.wrappers", "video", "imageio")
+                  "env", "env.wrappers", "video")
 DMCGB_STEP = 2  # even (actor, target and auxiliary updates run), no multiple of 10,000 (the forks save images there)
 DMCGB_DEPARTURES = [
     "DMC-GB's SAC steps the critic, then the actor and temperature (reading the stepped critic and encoder), each with "
