@@ -41,7 +41,7 @@ extras_require = {
     "robosuite": ["robosuite==1.5.2", f"opencv-python{OPENCV_RANGE}"],
     "adroit": ["gymnasium-robotics==1.4.2"],
     "wandb": ["wandb>=0.17"],
-    "test": ["pytest>=7", "pytest-timeout>=2"],
+    "test": ["pytest>=7", "pytest-timeout>=2", "openpyxl>=3.1"],  # openpyxl: re-reads RL-ViGen's published sheet
 }
 extras_require["all"] = sorted({req for reqs in extras_require.values() for req in reqs})
 
@@ -53,6 +53,7 @@ setup(
     long_description_content_type="text/markdown",
     license="MIT",
     packages=find_packages(include=["vigen", "vigen.*"]),
+    package_data={"vigen.results": ["data/*.csv"]},
     python_requires=">=3.10",
     install_requires=install_requires,
     extras_require=extras_require,

@@ -15,6 +15,21 @@ IQM with its 95 % stratified-bootstrap CI, and RL-ViGen's mean ± std over runs)
 intensity, one line per method, as the Distracting Control Suite plots them):
 
     python examples/evaluate.py runs/svea-walker-walk-s0 --levels train --sweep camera_rotation 0 0.1 0.2 0.3 0.5
+
+The report also gives each method's generalization gap per level (test / train return of the same
+runs, ``gaps.csv``), the probability that one method beats another per level (rliable's P(X > Y),
+``improvements.csv``, with two methods or more) and a performance profile over the test levels
+(``profile.png``). Tasks with a success check get the success rate (%) beside the return.
+
+``--compare NAME`` puts the runs beside the published numbers (``vigen.results``): a protocol
+(``dmcgb``, ``dmcgb2``, ``rlvigen``, ``drqv2``, ``planet``: every source published under it) or one
+source (``sgqn``, ``madi``, ``simgrl``, ``curl``). Before any episode runs, it checks that each run
+followed that protocol (its ``config.json``: action repeat, frame stack, image size; its
+checkpoint's frames against the published budget) and stops naming every difference otherwise;
+``--allow-budget-mismatch`` shows a run that trained for another length anyway, marked. Levels
+default to the protocol's test levels; the report gains a "Published" table and ``published.png``:
+
+    python examples/evaluate.py runs/svea-walker-walk-s0 --compare dmcgb --episodes 100
 """
 
 from __future__ import annotations
@@ -30,11 +45,15 @@ from torchrl.data import Bounded
 from vigen.checkpoint import CheckpointError, load_checkpoint, newest_checkpoint
 from vigen.envs import factors
 from vigen.envs.levels import resolve_levels
-from vigen.evaluation import evaluate, markdown_table, plot_intensity, plot_levels, summarize, sweep, write_csv
-from vigen.io import unused_path
+from vigen.envs.registry import get_suite
+from vigen.evaluation import (comparison_table, evaluate, generalization_gaps, improvements, markdown_table, plot_comparison,
+                              plot_intensity, plot_levels, plot_performance_profile, summarize, sweep, write_csv)
+from vigen.io import atomic_write, unused_path
 from vigen.losses import make_loss
 from vigen.policies import make_policy
+from vigen.protocols import PROTOCOLS
 from vigen.rendering import RenderSettings
+from vigen.results import SOURCES, ProtocolMismatch, compare, load
 
 
 DEFAULT_GROUPS = {"dmc": "dmcgb", "robosuite": "rlvigen", "adroit": "rlvigen"}
@@ -56,6 +75,10 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--random", action="store_true", help="also evaluate a random policy as a baseline")
     parser.add_argument("--videos", default=None, help="a folder of videos for the video levels (default: procedural)")
     parser.add_argument("--episode-length", type=int, default=None, help="simulator steps per episode (default: the run's)")
+    parser.add_argument("--compare", default=None, choices=sorted({*PROTOCOLS, *SOURCES}),
+                        help="put the runs beside the published numbers of a protocol (all its sources) or of one source")
+    parser.add_argument("--allow-budget-mismatch", action="store_true",
+                        help="with --compare: show runs trained for another length than the published numbers, marked")
     parser.add_argument("--out", type=Path, default=Path("reports/evaluation"))
     args = parser.parse_args()
     args.sweep = [parse_sweep(items) for items in args.sweep]
@@ -96,15 +119,45 @@ def load_agent(path: Path) -> tuple[dict, TensorDictModuleBase]:
     return dict(config, frames=checkpoint["frames"]), policy
 
 
+RUN_SETTINGS = ("action_repeat", "frame_stack", "image_size")
+"""The env options a run was trained with (``config.json``); its evaluation uses the same."""
+
+
+def run_tags(config: dict) -> dict:
+    """The columns every row of a run carries: method, run, frames, and the settings a protocol fixes (for --compare)."""
+    channels, _, width = config["observation_shape"]  # uint8 [3 * frame stack, H, W]
+    repeat = config.get("action_repeat") or get_suite(config["env"]).env_options.get("action_repeat")
+    return {"method": config["algo"], "run": config["seed"], "frames": config["frames"], "protocol": config.get("protocol") or "",
+            **({} if repeat is None else {"action_repeat": repeat}), "frame_stack": channels // 3, "image_size": width}
+
+
+def compare_sources(name: str) -> tuple[str, list[str]]:
+    """``--compare NAME`` -> (the protocol, its sources): a protocol names every source published under it."""
+    if name in PROTOCOLS:
+        return name, [source for source in SOURCES if any(row.protocol == name for row in load(source))]
+    return load(name)[0].protocol, [name]
+
+
 def main() -> None:
     args = parse_args()
     level_options = {"videos": args.videos} if args.videos else None
     agents = [load_agent(path) for path in args.runs]
+    protocol, sources = compare_sources(args.compare) if args.compare else (None, [])
+    if protocol is not None:  # the published numbers need the same protocol: check before any episode runs
+        probe = [{**run_tags(config), "env": config["env"], "level": level, "return": 0.0} for config, _ in agents
+                 for level in args.levels or ["train", *PROTOCOLS[protocol].test_levels(config["env"])]]
+        try:
+            compare(probe, source=sources, protocol=protocol, allow_budget_mismatch=args.allow_budget_mismatch)
+        except ProtocolMismatch as error:
+            raise SystemExit(f"--compare {args.compare}: {error}") from None
+        except ValueError as error:
+            raise SystemExit(f"--compare {args.compare}: {error}") from None
     levels = {}  # env name -> its levels
     for config, _ in agents:
         suite = config["env"].split("/")[0]
+        default = ["train", *PROTOCOLS[protocol].test_levels(config["env"])] if protocol else ["train", DEFAULT_GROUPS.get(suite, "all")]
         try:
-            levels[config["env"]] = resolve_levels(args.levels or ["train", DEFAULT_GROUPS.get(suite, "all")], suite=suite)
+            levels[config["env"]] = resolve_levels(args.levels or default, suite=suite)
         except ValueError as error:
             raise SystemExit(str(error)) from None
         for swept in args.sweep:
@@ -116,10 +169,10 @@ def main() -> None:
     for config, policy in agents:
         length = args.episode_length or config.get("episode_length")
         env_options = {"render_settings": RenderSettings.fast(), "level_options": level_options,
-                       **({} if length is None else {"episode_length": length})}
+                       **({} if length is None else {"episode_length": length}),
+                       **{name: config[name] for name in RUN_SETTINGS if config.get(name) is not None}}
         rows += evaluate(policy, config["env"], levels[config["env"]], episodes=args.episodes, seeds=args.seeds,
-                         env_options=env_options,
-                         tags={"method": config["algo"], "run": config["seed"], "frames": config["frames"]})
+                         env_options=env_options, tags=run_tags(config))
     if args.random:
         for env in dict.fromkeys(row["env"] for row in rows):
             rows += evaluate(None, env, levels[env], episodes=args.episodes, seeds=args.seeds,
@@ -128,23 +181,73 @@ def main() -> None:
     out = unused_path(args.out)
     out.mkdir(parents=True)
     lines = summarize(rows)
-    write_csv(rows, out / "episodes.csv")
-    write_csv(lines, out / "summary.csv")
+    written = [write_csv(rows, out / "episodes.csv"), write_csv(lines, out / "summary.csv")]
     task = ", ".join(dict.fromkeys(row["env"] for row in rows))
     report = f"# Zero-shot evaluation: {task}\n\n## Episode return\n\n{markdown_table(lines)}\n"
     if all("success" in row for row in rows):  # tasks with a success check: the success rate in %
         success = summarize([dict(row, success=100.0 * row["success"]) for row in rows], value="success")
-        write_csv(success, out / "summary_success.csv")
+        written.append(write_csv(success, out / "summary_success.csv"))
         report += f"\n## Success rate (%)\n\n{markdown_table(success)}\n"
-    (out / "report.md").write_text(report)
-    plot_levels(lines, out / "levels.png", title=f"{task}: zero-shot IQM per level (95 % CI)")
+    gaps = generalization_gaps([row for row in rows if row["method"] != "random"])
+    if gaps:
+        written.append(write_csv(gaps, out / "gaps.csv"))
+        report += "\n## Generalization gap (test / train return of the same runs, 95 % CI)\n\n" + markdown_cells(
+            gaps, lambda line: f"{line['gap']:.2f} [{line['gap_low']:.2f}, {line['gap_high']:.2f}]") + "\n"
+    if len({row["method"] for row in rows}) > 1:
+        better = improvements(rows)
+        written.append(write_csv(better, out / "improvements.csv"))
+        report += "\n## Probability of improvement P(row beats column), per level (95 % CI)\n\n" + "\n\n".join(
+            f"{level}:\n\n" + markdown_cells([line for line in better if line["level"] == level],
+                                              lambda line: f"{line['probability']:.2f} [{line['low']:.2f}, {line['high']:.2f}]",
+                                              rows="method", columns="over")
+            for level in dict.fromkeys(line["level"] for line in better)) + "\n"
+    figures = [plot_levels(lines, out / "levels.png", title=f"{task}: zero-shot IQM per level (95 % CI)")]
+    if any(row["level"] != "train" for row in rows):
+        figures.append(plot_performance_profile(rows, out / "profile.png"))
+        report += "\n## Performance profile over the test levels\n\n![profile.png](profile.png)\n"
     swept_factors = dict.fromkeys(swept[0].factor for swept in args.sweep)
     curves = [plot_intensity(lines, out / f"intensity_{factor}.png", factor=factor,
-                             title=f"{task}: IQM against {factor} (95 % CI)").name for factor in swept_factors]
+                             title=f"{task}: IQM against {factor} (95 % CI)") for factor in swept_factors]
     if curves:
-        (out / "report.md").write_text(report + "\n## Robustness curves\n\n" + "".join(f"![{name}]({name})\n" for name in curves))
+        report += "\n## Robustness curves\n\n" + "".join(f"![{curve.name}]({curve.name})\n" for curve in curves)
+    published_table = ""
+    if protocol is not None:
+        compared = compare([row for row in rows if row["method"] != "random"], source=sources, protocol=protocol,
+                           allow_budget_mismatch=args.allow_budget_mismatch)
+        written.append(write_csv(compared, out / "published.csv"))
+        figures.append(plot_comparison(compared, out / "published.png"))
+        published_table = comparison_table(compared)
+        report += (f"\n## Published ({PROTOCOLS[protocol].title}; sources: {', '.join(sources)})\n\n{published_table}\n\n"
+                   f"{level_notes(rows, args.videos)}\n![published.png](published.png)\n")
+    atomic_write(out / "report.md", report)
     print(markdown_table(lines))
-    print(f"\nwrote {out}/: {', '.join(['episodes.csv', 'summary.csv', 'report.md', 'levels.png', *curves])}")
+    if published_table:
+        print(f"\nPublished numbers, protocol {protocol}:\n\n{published_table}\n\n{level_notes(rows, args.videos)}")
+    names = [path.name for path in [*written, out / "report.md", *figures, *curves]]
+    print(f"\nwrote {out}/: {', '.join(names)}")
+
+
+def markdown_cells(lines: list[dict], cell, *, rows: str = "level", columns: str = "method") -> str:
+    """A ``rows`` × ``columns`` markdown table of ``cell(line)``."""
+    row_names = list(dict.fromkeys(str(line[rows]) for line in lines))
+    column_names = list(dict.fromkeys(str(line[columns]) for line in lines))
+    cells = {(str(line[rows]), str(line[columns])): cell(line) for line in lines}
+    table = [f"| {rows} | " + " | ".join(column_names) + " |", "|" + "---|" * (len(column_names) + 1)]
+    table += [f"| {name} | " + " | ".join(cells.get((name, column), "—") for column in column_names) + " |" for name in row_names]
+    return "\n".join(table)
+
+
+def level_notes(rows: list[dict], videos: str | None) -> str:
+    """What vigen's levels are, so a reader sees where they approximate the source's (e.g. procedural videos)."""
+    notes = []
+    for env, level in dict.fromkeys((row["env"], row["level"]) for row in rows):
+        if level == "train":
+            continue
+        source = get_suite(env).levels[level].source if level in get_suite(env).levels else level
+        if "video" in level and videos:
+            source += f" (videos from {videos})"
+        notes.append(f"- {level}: {source}")
+    return "vigen's levels, for reading the comparison:\n\n" + "\n".join(dict.fromkeys(notes)) + "\n"
 
 
 if __name__ == "__main__":

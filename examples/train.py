@@ -2,6 +2,7 @@
 
     python examples/train.py --algo svea --env dmc/cartpole-balance --preset cpu --frames 20000
     python examples/train.py --resume runs/svea-cartpole-balance-s0 --frames 40000   # continue it
+    python examples/train.py --algo svea --env dmc/walker-walk --protocol dmcgb        # DMC-GB's protocol
 
 The run folder (printed at start) gets ``config.json``, TorchRL CSV logs (``logs/scalars/*.csv``:
 train losses, ``eval/return``), ``checkpoints/frames_XXXXXXXX.pt`` at every evaluation and the
@@ -12,6 +13,14 @@ update every 2 agent steps); ``cpu`` is the same agent with batch 64 and a 100k 
 easy tasks on a laptop CPU. An algorithm whose paper changes some of these settings gets them from
 ``algo_defaults`` (VRL3: a fixed exploration std of 0.01 and, on Adroit, RL-ViGen's reward scale,
 door ×1/20, hammer ×1/100, pen ×1/50); flags override them and ``config.json`` records them.
+
+``--protocol dmcgb|dmcgb2|rlvigen|drqv2|planet`` (see :mod:`vigen.protocols`) trains as that paper
+did: its budget (DMC-GB's 500k *agent steps* become 2M frames at action repeat 4), its action
+repeat for the task (DMC-GB: cartpole 8, finger 2, others 4), frame stack, image size, and its
+evaluation while training (episodes, levels, how often). The run prints every value at its start
+and ``config.json`` keeps them under ``protocol_settings``; an explicit flag wins over the protocol
+and is listed under ``protocol_overrides``. ``examples/evaluate.py --compare`` reads them to put the
+run beside the published numbers of the same protocol.
 
 What a run guarantees (``vigen.checkpoint`` does the work):
 
@@ -62,6 +71,7 @@ from vigen.evaluation import evaluate
 from vigen.io import atomic_write, unused_path
 from vigen.losses import ALGOS, LinearSchedule, SoftActorCritic, make_loss
 from vigen.losses.vrl3 import ADROIT_REWARD_SCALES
+from vigen.protocols import PROTOCOLS
 from vigen.rendering import RenderSettings
 from vigen.seeding import ENV_SEED_LIMIT, derive_seed
 
@@ -74,7 +84,11 @@ PRESETS = {
                 eval_every=10_000, eval_episodes=5, std_init=1.0, std_final=0.1, reward_scale=1.0),
 }
 DEFAULTS = dict(algo="drqv2", env="dmc/cartpole-balance", preset="cpu", seed=0, workers=1, eval_levels=["train"],
-                logger="csv", episode_length=None, encoder_weights=None)  # a new run's values of the flags a resumed run takes from config.json
+                logger="csv", episode_length=None, encoder_weights=None, protocol=None, action_repeat=None,
+                frame_stack=None, image_size=None)  # a new run's values of the flags a resumed run takes from config.json
+DEFAULT_FRAMES = 100_000
+PROTOCOL_KEYS = ("frames", "action_repeat", "frame_stack", "image_size", "eval_every", "eval_episodes", "eval_levels")
+"""The run settings a protocol fixes (vigen.protocols.Protocol.settings); explicit flags override them."""
 WEIGHTS_OPTION = {"pieg": "encoder_weights", "vrl3": "stage1_weights"}  # --encoder-weights -> make_loss option
 
 
@@ -87,10 +101,15 @@ def algo_defaults(algo: str, env: str) -> dict:
     return {}
 
 
-def training_env(name: str, seed: int, episode_length: int | None = None) -> TransformedEnv:
+def env_options(config: dict) -> dict:
+    """The make_env options a run sets (episode length, action repeat, frame stack, image size); unset ones keep the suite's."""
+    names = ("episode_length", "action_repeat", "frame_stack", "image_size")
+    return {name: config[name] for name in names if config.get(name) is not None}
+
+
+def training_env(name: str, seed: int, **options) -> TransformedEnv:
     """The suite's pixels (uint8 [9, 84, 84]; DrQ-v2's action repeat 2 on dm_control), rendered fast, with episode returns summed."""
-    length = {} if episode_length is None else {"episode_length": episode_length}
-    env = make_env(name, seed=seed, render_settings=RenderSettings.fast(), **length)
+    env = make_env(name, seed=seed, render_settings=RenderSettings.fast(), **options)
     return env.append_transform(RewardSum())
 
 
@@ -99,7 +118,13 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--algo", choices=list(ALGOS), default=None, help=f"default {DEFAULTS['algo']}")
     parser.add_argument("--env", default=None, help=f"default {DEFAULTS['env']}")
     parser.add_argument("--preset", choices=list(PRESETS), default=None, help=f"default {DEFAULTS['preset']}")
-    parser.add_argument("--frames", type=int, default=100_000, help="environment frames in all (with action repeat)")
+    parser.add_argument("--protocol", choices=list(PROTOCOLS), default=None,
+                        help="train as a paper did: its budget, action repeat, frame stack, image size and evaluation")
+    parser.add_argument("--frames", type=int, default=None,
+                        help=f"environment frames in all (with action repeat); default: the protocol's budget, else {DEFAULT_FRAMES}")
+    parser.add_argument("--action-repeat", type=int, default=None, help="simulator steps per agent step (default: the suite's)")
+    parser.add_argument("--frame-stack", type=int, default=None, help="frames per observation (default 3)")
+    parser.add_argument("--image-size", type=int, default=None, help="pixels per side (default 84)")
     parser.add_argument("--seed", type=int, default=None, help="default 0")
     parser.add_argument("--out", type=Path, default=None, help="run folder (default runs/<algo>-<task>-s<seed>)")
     parser.add_argument("--resume", type=Path, default=None, help="a run folder to continue up to --frames")
@@ -121,8 +146,12 @@ def configure(args: argparse.Namespace) -> dict:
     given = {name: getattr(args, name) for name in [*DEFAULTS, *PRESETS["paper"]] if getattr(args, name) is not None}
     if args.resume is None:
         preset = given.get("preset", DEFAULTS["preset"])
-        algo = algo_defaults(given.get("algo", DEFAULTS["algo"]), given.get("env", DEFAULTS["env"]))
-        return {**DEFAULTS, **PRESETS[preset], **algo, **given, "frames": args.frames}
+        env = given.get("env", DEFAULTS["env"])
+        algo = algo_defaults(given.get("algo", DEFAULTS["algo"]), env)
+        config = {**DEFAULTS, **PRESETS[preset], **algo, **given, "frames": DEFAULT_FRAMES if args.frames is None else args.frames}
+        if config["protocol"] is not None:
+            config.update(protocol_config(config["protocol"], env, {**given, **({} if args.frames is None else {"frames": args.frames})}))
+        return config
     if args.out is not None:
         raise SystemExit("--out and --resume: a resumed run stays in its folder; drop --out.")
     if not (args.resume / "config.json").is_file():
@@ -134,7 +163,19 @@ def configure(args: argparse.Namespace) -> dict:
     if conflicts:
         raise SystemExit(f"--resume {args.resume}: these flags contradict its config.json: {'; '.join(conflicts)}. "
                          "Drop them to continue the run as it was, or start a new run.")
-    return dict(config, frames=args.frames)
+    return dict(config, frames=config.get("protocol_settings", {}).get("frames", DEFAULT_FRAMES) if args.frames is None else args.frames)
+
+
+def protocol_config(name: str, env: str, given: dict) -> dict:
+    """A protocol's settings on ``env`` as run settings, with the flags that override them recorded (and kept)."""
+    try:
+        settings = PROTOCOLS[name].settings(env)
+    except ValueError as error:
+        raise SystemExit(f"--protocol {name}: {error}") from None
+    overrides = {key: {"protocol": settings[key], "flag": given[key]} for key in PROTOCOL_KEYS
+                 if key in given and given[key] != settings[key]}
+    return {**{key: settings[key] for key in PROTOCOL_KEYS}, **{key: given[key] for key in PROTOCOL_KEYS if key in given},
+            "protocol_settings": settings, "protocol_overrides": overrides}
 
 
 def validate(config: dict, threads: int | None) -> None:
@@ -145,6 +186,9 @@ def validate(config: dict, threads: int | None) -> None:
                 raise SystemExit(f"--{name.replace('_', '-')} must be an integer >= 1, got {config[name]}.")
     positive("batch_size", "buffer_size", "hidden_dim", "feature_dim", "n_step", "update_every", "std_duration",
              "eval_every", "eval_episodes", "workers")
+    for name in ("action_repeat", "frame_stack", "image_size"):
+        if config.get(name) is not None and config[name] < 1:
+            raise SystemExit(f"--{name.replace('_', '-')} must be an integer >= 1, got {config[name]}.")
     if config["frames"] < 0 or config["seed_frames"] < 0:
         raise SystemExit(f"--frames and --seed-frames must be >= 0, got {config['frames']} and {config['seed_frames']}.")
     if config["buffer_size"] < config["batch_size"]:
@@ -181,7 +225,11 @@ def main() -> None:
         torch.set_num_threads(args.threads)
     torch.manual_seed(config["seed"])
 
-    make = partial(training_env, config["env"], episode_length=config["episode_length"])
+    if config.get("protocol") is not None and args.resume is None:
+        print("\n".join(PROTOCOLS[config["protocol"]].describe(config["env"])), flush=True)
+        for key, values in config["protocol_overrides"].items():
+            print(f"  overridden by a flag: {key} = {values['flag']} (protocol: {values['protocol']})", flush=True)
+    make = partial(training_env, config["env"], **env_options(config))
     probe = make(seed=config["seed"])
     action_repeat = probe.base_env.action_repeat
     observation_shape = tuple(probe.observation_spec["pixels"].shape)
@@ -294,9 +342,8 @@ def main() -> None:
             collector.update_policy_weights_()
         collector.shutdown()
 
-        length = {} if config["episode_length"] is None else {"episode_length": config["episode_length"]}
         rows = evaluate(policy, config["env"], config["eval_levels"], episodes=config["eval_episodes"],
-                        seeds=[config["seed"] + 10_000], env_options={"render_settings": RenderSettings.fast(), **length})
+                        seeds=[config["seed"] + 10_000], env_options={"render_settings": RenderSettings.fast(), **env_options(config)})
         for level in config["eval_levels"]:
             returns = [row["return"] for row in rows if row["level"] == level]
             logger.log_scalar(f"eval/{level}_return", sum(returns) / len(returns), step=steps * action_repeat)

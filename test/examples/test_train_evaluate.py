@@ -73,7 +73,10 @@ def test_evaluate_writes_the_report(trained, tmp_path):
     out = tmp_path / "report"
     result = run("evaluate.py", trained, "--levels", "train", "color_hard", "--episodes", "1", "--random", "--out", out)
     assert "| level | drqv2 | random |" in result.stdout
-    assert {p.name for p in out.iterdir()} == {"episodes.csv", "summary.csv", "report.md", "levels.png"}
+    assert {p.name for p in out.iterdir()} == {"episodes.csv", "summary.csv", "report.md", "levels.png", "gaps.csv",
+                                               "improvements.csv", "profile.png"}
+    report = (out / "report.md").read_text()
+    assert "## Generalization gap" in report and "## Probability of improvement" in report
     rows = list(csv.DictReader((out / "episodes.csv").open()))
     assert [(r["method"], r["level"]) for r in rows] == [
         ("drqv2", "train"), ("drqv2", "color_hard"), ("random", "train"), ("random", "color_hard")]
@@ -174,3 +177,39 @@ def test_the_run_folder_used_is_printed(trained):
     result = run("train.py", "--frames", "0", "--out", trained, *TINY)
     printed = Path(next(line for line in result.stdout.splitlines() if line.startswith("run folder: "))[12:])
     assert printed != trained and printed.parent == trained.parent and (printed / "config.json").exists()
+
+
+@pytest.mark.render
+def test_protocol_sets_the_papers_settings_and_records_overrides(tmp_path):
+    run_dir = tmp_path / "dmcgb"
+    result = run("train.py", "--protocol", "dmcgb", "--frames", "800", "--out", run_dir, *TINY)
+    assert "budget: 500,000 agent steps (4,000,000 frames at action repeat 8)" in result.stdout
+    assert "overridden by a flag: frames = 800 (protocol: 4000000)" in result.stdout
+    config = json.loads((run_dir / "config.json").read_text())
+    assert (config["protocol"], config["action_repeat"], config["frame_stack"], config["image_size"]) == ("dmcgb", 8, 3, 84)
+    assert config["protocol_settings"]["frames"] == 4_000_000 and config["protocol_settings"]["eval_episodes"] == 30
+    assert config["protocol_overrides"]["eval_every"] == {"protocol": 80_000, "flag": 400}
+    checkpoint = torch.load(run_dir / "checkpoints" / "frames_00000800.pt", weights_only=True)
+    assert checkpoint["steps"] == 100, "800 frames at cartpole's action repeat 8"
+
+
+@pytest.mark.render
+def test_compare_refuses_another_protocol_before_evaluating(trained, tmp_path):
+    result = subprocess.run([sys.executable, str(ROOT / "examples/evaluate.py"), str(trained), "--compare", "dmcgb",
+                             "--out", str(tmp_path / "report")], capture_output=True, text=True, cwd=ROOT)
+    assert result.returncode != 0
+    assert "dmc/cartpole-balance: action repeat 2 in the run, 8 in protocol dmcgb" in result.stderr
+    assert not (tmp_path / "report").exists(), "the check comes before any episode"
+
+
+@pytest.mark.render
+def test_compare_puts_the_run_beside_the_published_curve(trained, tmp_path):
+    out = tmp_path / "report"
+    refused = subprocess.run([sys.executable, str(ROOT / "examples/evaluate.py"), str(trained), "--compare", "drqv2",
+                              "--out", str(out)], capture_output=True, text=True, cwd=ROOT)
+    assert refused.returncode != 0 and "checkpoint is at 400 frames; drqv2 publish" in refused.stderr
+    result = run("evaluate.py", trained, "--compare", "drqv2", "--allow-budget-mismatch", "--episodes", "1", "--out", out)
+    assert "| dmc/cartpole-balance | train | drqv2 |" in result.stdout and "drqv2: drqv2" in result.stdout
+    lines = list(csv.DictReader((out / "published.csv").open()))
+    assert [(line["source"], line["published_frames"], line["budget_matches"]) for line in lines] == [("drqv2", "0", "False")]
+    assert (out / "published.png").exists() and "## Published" in (out / "report.md").read_text()

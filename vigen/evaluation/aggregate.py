@@ -22,7 +22,8 @@ from scipy import stats
 Statistic = Callable[[np.ndarray], float]
 
 
-def _scores(scores: np.ndarray | list) -> np.ndarray:
+def as_scores(scores: np.ndarray | list) -> np.ndarray:
+    """``scores`` as a checked float64 ``[runs, tasks]`` array (one task's ``[runs]`` becomes a column); bad input raises."""
     array = np.asarray(scores, dtype=np.float64)
     if array.ndim == 1:
         array = array[:, None]
@@ -41,7 +42,7 @@ def mean(scores: np.ndarray | list) -> float:
         >>> mean([[1.0, 2.0], [3.0, 6.0]])
         3.0
     """
-    return float(_scores(scores).mean())
+    return float(as_scores(scores).mean())
 
 
 def iqm(scores: np.ndarray | list) -> float:
@@ -55,7 +56,7 @@ def iqm(scores: np.ndarray | list) -> float:
         >>> iqm([1.0, 2.0, 3.0, 100.0])  # the middle half: 2 and 3
         2.5
     """
-    return float(stats.trim_mean(_scores(scores).reshape(-1), proportiontocut=0.25))
+    return float(stats.trim_mean(as_scores(scores).reshape(-1), proportiontocut=0.25))
 
 
 def stratified_bootstrap_ci(
@@ -79,7 +80,7 @@ def stratified_bootstrap_ci(
         >>> 1.0 <= low < 2.5 < high <= 4.0
         True
     """
-    array = _scores(scores)
+    array = as_scores(scores)
     if not 0 < confidence < 1:
         raise ValueError(f"confidence must be in (0, 1), got {confidence}.")
     runs, tasks = array.shape
@@ -113,6 +114,6 @@ def rlvigen_mean_std(scores: np.ndarray | list) -> MeanStd:
         >>> round(summary.mean, 1), round(summary.std, 2)
         (236.3, 58.85)
     """
-    per_seed = _scores(scores).mean(axis=1)
+    per_seed = as_scores(scores).mean(axis=1)
     std = float(per_seed.std(ddof=1)) if per_seed.size > 1 else float("nan")
     return MeanStd(float(per_seed.mean()), std, int(per_seed.size))

@@ -12,6 +12,10 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from vigen.evaluation.statistics import performance_profile, performance_profile_ci
+
 
 def _new_file(path: str | Path) -> Path:
     path = Path(path)
@@ -217,6 +221,143 @@ def plot_intensity(
     axes.set_ylabel(ylabel)
     band = "± std over runs" if statistic == "rlvigen_mean" else "95 % CI"
     axes.set_title(title or f"robustness to {factor}: {statistic.replace('_', ' ')} ({band})", fontsize="medium")
+    axes.spines[["top", "right"]].set_visible(False)
+    axes.legend(frameon=False, fontsize="small")
+    figure.tight_layout()
+    figure.savefig(path, dpi=120)
+    plt.close(figure)
+    return path
+
+
+def comparison_table(lines: Sequence[Mapping[str, Any]]) -> str:
+    """A markdown table of :func:`vigen.results.compare` lines: the vigen run beside each published number.
+
+    Examples:
+        >>> from vigen.evaluation import comparison_table
+        >>> line = {"method": "svea", "env": "dmc/walker-stand", "level": "video_hard", "runs": 2, "mean": 850.0, "std": 70.7,
+        ...         "frames": 2_000_000, "published_method": "svea", "source": "sgqn", "published": 747.0, "published_spread": 43.0,
+        ...         "published_seeds": 5, "published_frames": 2_000_000, "budget_matches": True, "difference": 103.0}
+        >>> print(comparison_table([line]).splitlines()[2])
+        | dmc/walker-stand | video_hard | svea | 850.0 ± 70.7 (2 runs) | 747.0 ± 43.0 (5 seeds) | sgqn: svea | +103.0 |
+    """
+    table = ["| env | level | method | vigen | published | source: method | vigen − published |", "|---|---|---|---|---|---|---|"]
+    budget_notes = []
+    for line in lines:
+        std = "" if _number(line.get("std")) is None else f" ± {line['std']:.1f}"
+        spread = "" if _number(line.get("published_spread")) is None else f" ± {line['published_spread']:.1f}"
+        mark = ""
+        if not line.get("budget_matches", True):
+            mark = " †"
+            budget_notes.append(f"{line['method']} on {line['env']}: run at {line['frames']:,} frames, "
+                                f"published at {line['published_frames']:,}")
+        table.append(f"| {line['env']} | {line['level']} | {line['method']} | {line['mean']:.1f}{std} ({line['runs']} run{'s' * (line['runs'] != 1)}){mark} | "
+                     f"{line['published']:.1f}{spread} ({line['published_seeds']} seeds) | {line['source']}: "
+                     f"{line['published_method']} | {line['difference']:+.1f} |")
+    notes = ["", "vigen: mean ± sample std over runs of each run's mean; published: as the source prints it (mean ± std over seeds)."]
+    if budget_notes:
+        notes.append("† different training budgets, shown on request (--allow-budget-mismatch): " + "; ".join(dict.fromkeys(budget_notes)) + ".")
+    return "\n".join(table + notes)
+
+
+def plot_comparison(lines: Sequence[Mapping[str, Any]], path: str | Path, *, title: str | None = None,
+                    ylabel: str = "episode return") -> Path:
+    """Bars of the vigen runs (mean ± std over runs) with the published ranges (value ± spread) of each source beside them.
+
+    Examples:
+        >>> import tempfile, pathlib
+        >>> from vigen.evaluation import plot_comparison
+        >>> line = {"method": "svea", "env": "dmc/walker-stand", "level": "video_hard", "mean": 850.0, "std": 70.7,
+        ...         "published_method": "svea", "source": "sgqn", "published": 747.0, "published_spread": 43.0}
+        >>> plot_comparison([line], pathlib.Path(tempfile.mkdtemp()) / "published.png").suffix
+        '.png'
+    """
+    if not lines:
+        raise ValueError("no comparison lines to plot; pass the lines of vigen.results.compare.")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = _new_file(path)
+    groups = list(dict.fromkeys((line["method"], line["env"], line["level"]) for line in lines))
+    figure, axes = plt.subplots(figsize=(max(4.5, 1.6 * len(groups) + 1.5), 3.6))
+    sources = list(dict.fromkeys(f"{line['source']}: {line['published_method']}" for line in lines))
+    markers = "osD^v<>p*h"
+    for position, group in enumerate(groups):
+        members = [line for line in lines if (line["method"], line["env"], line["level"]) == group]
+        first = members[0]
+        std = _number(first.get("std"))
+        axes.bar(position, first["mean"], width=0.5, yerr=None if std is None else [[std], [std]], capsize=4,
+                 color="tab:blue", alpha=0.8, label="vigen (mean ± std over runs)" if position == 0 else None)
+        for offset, line in enumerate(members):
+            label = f"{line['source']}: {line['published_method']}"
+            index = sources.index(label)
+            spread = _number(line.get("published_spread")) or 0.0
+            axes.errorbar(position + 0.32 + 0.08 * offset, line["published"], yerr=spread, fmt=markers[index % len(markers)],
+                          color=f"C{1 + index}", capsize=3, label=label if label not in axes.get_legend_handles_labels()[1] else None)
+    axes.set_xticks(range(len(groups)), [f"{method}\n{env.split('/', 1)[-1]}\n{level}" for method, env, level in groups],
+                    fontsize="small")
+    axes.set_ylabel(ylabel)
+    axes.set_title(title or "vigen beside the published numbers (published: mean ± std over seeds)", fontsize="medium")
+    axes.spines[["top", "right"]].set_visible(False)
+    axes.legend(frameon=False, fontsize="x-small")
+    figure.tight_layout()
+    figure.savefig(path, dpi=120)
+    plt.close(figure)
+    return path
+
+
+def plot_performance_profile(
+    rows: Sequence[Mapping[str, Any]],
+    path: str | Path,
+    *,
+    levels: Sequence[str] | None = None,
+    value: str = "return",
+    taus: Sequence[float] | None = None,
+    reps: int = 2000,
+    title: str | None = None,
+) -> Path:
+    """rliable's performance profile: the fraction of runs × (task, level) scores above τ, one line per method, 95 % band.
+
+    ``levels`` picks the levels pooled (default: every level but ``train``); each (env, level)
+    pair is one task of the score matrix. ``taus`` default to 101 points from 0 to the highest score.
+
+    Examples:
+        >>> import tempfile, pathlib
+        >>> from vigen.evaluation import plot_performance_profile
+        >>> rows = [{"method": m, "level": "color_hard", "env": "dmc/a", "run": run, "return": r + 50.0 * run}
+        ...         for m, r in [("svea", 700.0), ("drqv2", 300.0)] for run in range(3)]
+        >>> plot_performance_profile(rows, pathlib.Path(tempfile.mkdtemp()) / "profile.png", reps=100).suffix
+        '.png'
+    """
+    from vigen.evaluation.summary import score_matrix
+
+    chosen = [row for row in rows if (row["level"] in levels if levels is not None else row["level"] != "train")]
+    if not chosen:
+        raise ValueError(f"no rows at levels {levels or 'other than train'}; evaluate a test level or pass levels=.")
+    run = "run" if "run" in chosen[0] else "seed"
+    pooled = [dict(row, task=f"{row['env']}|{row['level']}") for row in chosen]
+    methods = list(dict.fromkeys(str(row.get("method", "agent")) for row in pooled))
+    scores = {method: score_matrix([row for row in pooled if str(row.get("method", "agent")) == method], run=run, task="task",
+                                   value=value) for method in methods}
+    top = max(float(matrix.max()) for matrix in scores.values())
+    taus = np.linspace(0.0, top if top > 0 else 1.0, 101) if taus is None else np.asarray(taus, dtype=np.float64)
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = _new_file(path)
+    figure, axes = plt.subplots(figsize=(5.0, 3.4))
+    for method, matrix in scores.items():
+        (drawn,) = axes.plot(taus, performance_profile(matrix, taus), label=method)
+        low, high = performance_profile_ci(matrix, taus, reps=reps)
+        axes.fill_between(taus, low, high, color=drawn.get_color(), alpha=0.2, linewidth=0)
+    axes.set_xlabel(f"{value} threshold τ")
+    axes.set_ylabel("fraction of runs with score > τ")
+    pooled_levels = ", ".join(dict.fromkeys(row["level"] for row in chosen))
+    axes.set_title(title or f"performance profile over {pooled_levels} (95 % CI)", fontsize="small")
     axes.spines[["top", "right"]].set_visible(False)
     axes.legend(frameon=False, fontsize="small")
     figure.tight_layout()

@@ -1,4 +1,4 @@
-"""From per-episode rows to one summary line per method and level."""
+"""From per-episode rows to summary lines: per method and level, generalization gaps, probabilities of improvement."""
 
 from __future__ import annotations
 
@@ -9,6 +9,8 @@ from typing import Any
 import numpy as np
 
 from vigen.evaluation.aggregate import iqm, rlvigen_mean_std, stratified_bootstrap_ci
+from vigen.evaluation.statistics import (generalization_gap, generalization_gap_ci, probability_of_improvement,
+                                         probability_of_improvement_ci)
 
 
 def score_matrix(rows: Iterable[Mapping[str, Any]], *, run: str = "run", task: str = "env", value: str = "return") -> np.ndarray:
@@ -95,4 +97,78 @@ def summarize(
             "iqm": iqm(scores), "iqm_low": iqm_low, "iqm_high": iqm_high,
             "rlvigen_mean": rlvigen.mean, "rlvigen_std": rlvigen.std,
         })
+    return lines
+
+
+def _run_column(rows: Sequence[Mapping[str, Any]]) -> str:
+    return "run" if "run" in rows[0] else "seed"
+
+
+def generalization_gaps(
+    rows: Sequence[Mapping[str, Any]], *, train_level: str = "train", value: str = "return", reps: int = 2000,
+) -> list[dict[str, Any]]:
+    """Per method and test level, the generalization gap: mean test return over the same runs' mean ``train_level`` return.
+
+    Columns: ``method``, ``level``, ``gap`` with its 95 % bootstrap interval (``gap_low``,
+    ``gap_high``; runs resampled jointly for both levels), and the sweep columns ``factor`` and
+    ``intensity`` when the level has them. Methods without a ``train_level`` row are skipped.
+
+    Examples:
+        >>> from vigen.evaluation import generalization_gaps
+        >>> rows = [{"method": "svea", "level": level, "run": run, "env": "dmc/a", "return": r * (run + 1)}
+        ...         for level, r in [("train", 800.0), ("video_hard", 200.0)] for run in range(3)]
+        >>> [(line["level"], line["gap"]) for line in generalization_gaps(rows, reps=100)]
+        [('video_hard', 0.25)]
+    """
+    if not rows:
+        raise ValueError("no rows; pass the rows of an evaluation that includes the training level.")
+    run = _run_column(rows)
+    lines = []
+    for method in dict.fromkeys(row.get("method", "agent") for row in rows):
+        mine = [row for row in rows if row.get("method", "agent") == method]
+        train = [row for row in mine if row["level"] == train_level]
+        if not train:
+            continue
+        reference = score_matrix(train, run=run, value=value)
+        for level in dict.fromkeys(row["level"] for row in mine if row["level"] != train_level):
+            members = [row for row in mine if row["level"] == level]
+            test = score_matrix(members, run=run, value=value)
+            if test.shape != reference.shape:
+                raise ValueError(f"{method}: level {level!r} has {test.shape} runs x tasks, {train_level!r} {reference.shape}; "
+                                 "the gap pairs each run with itself, so evaluate the same runs and tasks on both.")
+            if reference.mean() <= 0:
+                continue  # a ratio to a non-positive training return means nothing
+            low, high = generalization_gap_ci(test, reference, reps=reps)
+            extra = {key: members[0][key] for key in ("factor", "intensity") if key in members[0]}
+            lines.append({"method": method, "level": level, **extra, "gap": generalization_gap(test, reference),
+                          "gap_low": low, "gap_high": high})
+    return lines
+
+
+def improvements(rows: Sequence[Mapping[str, Any]], *, value: str = "return", reps: int = 2000) -> list[dict[str, Any]]:
+    """Per level, the probability of improvement P(X > Y) of every method X over every other method Y, with its 95 % interval.
+
+    Examples:
+        >>> from vigen.evaluation import improvements
+        >>> rows = [{"method": m, "level": "train", "run": run, "env": "dmc/a", "return": r + run}
+        ...         for m, r in [("svea", 900.0), ("drqv2", 100.0)] for run in range(3)]
+        >>> [(line["method"], line["over"], line["probability"]) for line in improvements(rows, reps=100)]
+        [('svea', 'drqv2', 1.0), ('drqv2', 'svea', 0.0)]
+    """
+    if not rows:
+        raise ValueError("no rows; pass the rows of an evaluation of two methods or more.")
+    run = _run_column(rows)
+    lines = []
+    for level in dict.fromkeys(row["level"] for row in rows):
+        at_level = [row for row in rows if row["level"] == level]
+        methods = list(dict.fromkeys(row.get("method", "agent") for row in at_level))
+        scores = {method: score_matrix([row for row in at_level if row.get("method", "agent") == method], run=run, value=value)
+                  for method in methods}
+        for x in methods:
+            for y in methods:
+                if x == y:
+                    continue
+                low, high = probability_of_improvement_ci(scores[x], scores[y], reps=reps)
+                lines.append({"level": level, "method": x, "over": y, "probability": probability_of_improvement(scores[x], scores[y]),
+                              "low": low, "high": high})
     return lines

@@ -1,0 +1,63 @@
+"""Generalization gap, probability of improvement and performance profiles against their definitions (rliable)."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from vigen.evaluation import (generalization_gap, generalization_gap_ci, generalization_gaps, improvements, performance_profile,
+                              performance_profile_ci, probability_of_improvement, probability_of_improvement_ci)
+
+
+def brute_force_improvement(x: np.ndarray, y: np.ndarray) -> float:
+    """P(X > Y) by counting every pair of runs on every task, a tie counting one half."""
+    per_task = []
+    for task in range(x.shape[1]):
+        pairs = list(itertools.product(x[:, task], y[:, task]))
+        per_task.append(sum(1.0 if a > b else 0.5 if a == b else 0.0 for a, b in pairs) / len(pairs))
+    return float(np.mean(per_task))
+
+
+def test_probability_of_improvement_is_the_mann_whitney_average_over_tasks():
+    rng = np.random.default_rng(0)
+    x, y = rng.integers(0, 5, size=(4, 3)).astype(float), rng.integers(0, 5, size=(6, 3)).astype(float)  # ties included
+    assert probability_of_improvement(x, y) == pytest.approx(brute_force_improvement(x, y))
+    assert probability_of_improvement(x, y) + probability_of_improvement(y, x) == pytest.approx(1.0)
+    low, high = probability_of_improvement_ci(x, y, reps=300)
+    assert 0.0 <= low <= probability_of_improvement(x, y) <= high <= 1.0
+    with pytest.raises(ValueError, match="same tasks"):
+        probability_of_improvement(x, y[:, :2])
+
+
+def test_performance_profile_is_the_fraction_of_scores_above_tau():
+    scores = np.array([[100.0, 900.0], [500.0, 700.0], [300.0, 300.0]])
+    taus = [0.0, 299.0, 300.0, 600.0, 900.0]
+    expected = [np.mean(scores > tau) for tau in taus]
+    assert performance_profile(scores, taus).tolist() == pytest.approx(expected)
+    low, high = performance_profile_ci(scores, taus, reps=300)
+    assert np.all(low <= np.asarray(expected) + 1e-12) and np.all(np.asarray(expected) <= high + 1e-12)
+    assert np.all(np.diff(performance_profile(scores, np.linspace(0, 1000, 50))) <= 0), "a profile never rises"
+
+
+def test_generalization_gap_is_test_over_train_of_the_same_runs():
+    train = np.array([[800.0, 600.0], [900.0, 500.0]])
+    test = np.array([[400.0, 300.0], [450.0, 250.0]])
+    assert generalization_gap(test, train) == pytest.approx(0.5)
+    assert generalization_gap_ci(test, train, reps=200) == pytest.approx((0.5, 0.5)), "each run keeps half: no spread"
+    with pytest.raises(ValueError, match="same runs and tasks"):
+        generalization_gap(test[:1], train)
+    with pytest.raises(ValueError, match="positive training score"):
+        generalization_gap(test, -train)
+
+
+def test_rows_give_gaps_and_improvements_per_level():
+    rows = [{"method": method, "level": level, "run": run, "env": "dmc/a", "return": base * factor + run}
+            for method, base in [("svea", 800.0), ("drqv2", 600.0)] for level, factor in [("train", 1.0), ("video_hard", 0.5)]
+            for run in range(3)]
+    gaps = {(line["method"], line["level"]): line["gap"] for line in generalization_gaps(rows, reps=100)}
+    assert gaps[("svea", "video_hard")] == pytest.approx(401.0 / 801.0)
+    assert set(gaps) == {("svea", "video_hard"), ("drqv2", "video_hard")}
+    better = {(line["level"], line["method"], line["over"]): line["probability"] for line in improvements(rows, reps=100)}
+    assert better[("video_hard", "svea", "drqv2")] == 1.0 and better[("train", "drqv2", "svea")] == 0.0

@@ -1,0 +1,75 @@
+"""compare(): a run beside the published numbers only under the same protocol, settings, budget and unit."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from vigen.results import ProtocolMismatch, compare, published
+
+
+def rows(method="svea", env="dmc/walker-stand", level="video_hard", frames=2_000_000, returns=(800.0, 900.0), **settings):
+    settings = {"action_repeat": 4, "frame_stack": 3, "image_size": 84, **settings}
+    return [{"method": method, "env": env, "level": level, "run": run, "frames": frames, "return": value, **settings}
+            for run, value in enumerate(returns)]
+
+
+def test_a_run_under_the_protocol_sits_beside_every_source_of_it():
+    lines = compare(rows(), source=["sgqn", "madi", "simgrl"], protocol="dmcgb")
+    assert [(line["source"], line["published"]) for line in lines] == [("sgqn", 747.0), ("madi", 847.0), ("simgrl", 834.0)]
+    line = lines[0]
+    assert (line["runs"], line["mean"], line["std"]) == (2, 850.0, pytest.approx(math.sqrt(5000.0)))
+    assert line["difference"] == pytest.approx(103.0) and line["published_spread"] == 43.0 and line["budget_matches"]
+    assert line["published_frames"] == 2_000_000, "500k agent steps at action repeat 4"
+
+
+def test_every_differing_setting_is_named():
+    with pytest.raises(ProtocolMismatch) as caught:
+        compare(rows(action_repeat=2, frame_stack=1, image_size=64), source="sgqn", protocol="dmcgb")
+    assert caught.value.differences == [
+        "dmc/walker-stand: action repeat 2 in the run, 4 in protocol dmcgb",
+        "dmc/walker-stand: frame stack 1 in the run, 3 in protocol dmcgb",
+        "dmc/walker-stand: image size 64 in the run, 84 in protocol dmcgb"]
+
+
+def test_another_protocols_run_or_source_is_refused():
+    with pytest.raises(ProtocolMismatch, match="trained under protocol rlvigen, the published numbers under dmcgb"):
+        compare(rows(protocol="rlvigen"), source="sgqn", protocol="dmcgb")
+    with pytest.raises(ProtocolMismatch, match="source dmcgb2 publishes under protocol dmcgb2, the run follows dmcgb"):
+        compare(rows(), source="dmcgb2", protocol="dmcgb")
+
+
+def test_frames_and_agent_steps_are_never_mixed():
+    """A run of 500k frames at action repeat 4 has 125k agent steps: not DMC-GB's 500k agent steps."""
+    with pytest.raises(ProtocolMismatch, match="checkpoint is at 500,000 frames; sgqn publish.* at 2,000,000 frames"):
+        compare(rows(frames=500_000), source="sgqn", protocol="dmcgb")
+    lines = compare(rows(frames=500_000), source="sgqn", protocol="dmcgb", allow_budget_mismatch=True)
+    assert not lines[0]["budget_matches"] and lines[0]["frames"] == 500_000
+
+
+def test_drqv2_curves_are_matched_at_the_runs_frame_count():
+    run = rows(method="drqv2", env="dmc/cartpole-balance", level="train", frames=40_000, action_repeat=2)
+    line = compare(run, source="drqv2", protocol="drqv2")[0]
+    expected = published(source="drqv2", task="cartpole-balance", budget=40_000, statistic="mean")[0]
+    assert (line["published"], line["published_frames"], line["published_seeds"]) == (expected.value, 40_000, 10)
+    with pytest.raises(ProtocolMismatch, match="publish.* train at 0, 20,000, 40,000"):
+        compare([dict(row, frames=30_000) for row in run], source="drqv2", protocol="drqv2")
+
+
+def test_success_rates_compare_with_published_success_in_percent():
+    run = [{"method": "pieg", "env": "adroit/door", "level": "camera_easy", "run": r, "frames": 100, "success": s,
+            "return": 0.0, "action_repeat": 2, "frame_stack": 3, "image_size": 84} for r, s in enumerate([1.0, 0.0])]
+    line = compare(run, source="rlvigen", protocol="rlvigen", value="success")[0]
+    seeds = [row.value for row in published(source="rlvigen", method="pieg", task="door", level="camera_easy")]
+    assert line["mean"] == 50.0 and line["published"] == pytest.approx(sum(seeds) / 5) and line["published_seeds"] == 5
+    assert line["published_frames"] is None and line["budget_matches"], "RL-ViGen does not state its budget"
+    with pytest.raises(ProtocolMismatch, match="sgqn publish.* no success"):
+        compare([dict(row, success=1.0) for row in rows()], source="sgqn", protocol="dmcgb", value="success")
+
+
+def test_nothing_published_for_the_rows_says_what_is():
+    with pytest.raises(ValueError, match="publish.* nothing for the rows"):
+        compare(rows(method="random"), source="sgqn", protocol="dmcgb")
+    with pytest.raises(KeyError, match="lack the column"):
+        compare([{"method": "svea"}], source="sgqn", protocol="dmcgb")

@@ -1,0 +1,161 @@
+"""Statistics that compare methods and levels: generalization gap, probability of improvement, performance profiles.
+
+Scores are ``[runs, tasks]`` arrays, as in :mod:`vigen.evaluation.aggregate`. The definitions follow
+rliable (Agarwal et al. 2021, "Deep RL at the Edge of the Statistical Precipice",
+https://arxiv.org/abs/2108.13264):
+
+* **probability of improvement** P(X > Y): for each task, the probability that a run of X scores
+  above a run of Y (the Mann–Whitney U statistic over ``n·m``, ties counting ½), averaged over tasks;
+  its interval comes from a stratified bootstrap that resamples X's and Y's runs independently within
+  each task;
+* **performance profile**: the fraction of all ``runs × tasks`` scores above each threshold τ (rliable's
+  run-score distribution), with a stratified-bootstrap band;
+* **generalization gap**: mean test score over mean training score of the same runs (1 = no loss),
+  with a bootstrap that resamples runs jointly for both levels (each run is paired with itself).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from vigen.evaluation.aggregate import as_scores
+
+
+def _percentiles(values: np.ndarray, confidence: float) -> tuple[np.ndarray, np.ndarray]:
+    if not 0 < confidence < 1:
+        raise ValueError(f"confidence must be in (0, 1), got {confidence}.")
+    tail = 100 * (1 - confidence) / 2
+    low, high = np.percentile(values, [tail, 100 - tail], axis=0)
+    return low, high
+
+
+def _resample(scores: np.ndarray, rng: np.random.Generator, reps: int) -> np.ndarray:
+    """``reps`` stratified resamples ``[reps, runs, tasks]``: runs drawn with replacement within each task."""
+    runs, tasks = scores.shape
+    picks = rng.integers(0, runs, size=(reps, runs, tasks))
+    return np.take_along_axis(np.broadcast_to(scores, (reps, runs, tasks)), picks, axis=1)
+
+
+def _improvement(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """P(X > Y) per leading batch: x ``[..., n, tasks]``, y ``[..., m, tasks]`` -> ``[...]``."""
+    above = (x[..., :, None, :] > y[..., None, :, :]).mean(axis=(-3, -2))
+    ties = (x[..., :, None, :] == y[..., None, :, :]).mean(axis=(-3, -2))
+    return (above + 0.5 * ties).mean(axis=-1)
+
+
+def probability_of_improvement(x: np.ndarray | list, y: np.ndarray | list) -> float:
+    """P(X > Y): the chance that a run of method X beats a run of Y on a task, averaged over tasks.
+
+    ``x`` is ``[runs_x, tasks]`` and ``y`` is ``[runs_y, tasks]`` over the same tasks (runs may differ).
+
+    Examples:
+        >>> from vigen.evaluation import probability_of_improvement
+        >>> probability_of_improvement([[3.0], [4.0]], [[1.0], [2.0]])  # every run of X beats every run of Y
+        1.0
+        >>> probability_of_improvement([[1.0], [3.0]], [[1.0], [2.0]])  # (tie ½ + 0 + 1 + 1) / 4
+        0.625
+    """
+    x, y = as_scores(x), as_scores(y)
+    if x.shape[1] != y.shape[1]:
+        raise ValueError(f"x and y must cover the same tasks, got {x.shape[1]} and {y.shape[1]} task columns.")
+    return float(_improvement(x, y))
+
+
+def probability_of_improvement_ci(
+    x: np.ndarray | list, y: np.ndarray | list, *, confidence: float = 0.95, reps: int = 2000, seed: int = 0,
+) -> tuple[float, float]:
+    """Percentile interval of P(X > Y) under rliable's stratified independent bootstrap (X's and Y's runs apart).
+
+    Examples:
+        >>> from vigen.evaluation import probability_of_improvement_ci
+        >>> low, high = probability_of_improvement_ci([[3.0], [4.0], [0.0]], [[1.0], [2.0], [2.5]], reps=500)
+        >>> 0.0 <= low < 2 / 3 < high <= 1.0
+        True
+    """
+    x, y = as_scores(x), as_scores(y)
+    rng = np.random.default_rng(seed)
+    values = np.concatenate([_improvement(_resample(x, rng, chunk), _resample(y, rng, chunk))
+                             for chunk in _chunks(reps, x.shape[0] * y.shape[0] * x.shape[1])])
+    low, high = _percentiles(values, confidence)
+    return float(low), float(high)
+
+
+def _chunks(reps: int, cost: int, budget: int = 4_000_000) -> list[int]:
+    """Split ``reps`` so that one chunk's pairwise comparisons stay below ``budget`` elements."""
+    size = max(1, budget // max(1, cost))
+    return [min(size, reps - start) for start in range(0, reps, size)]
+
+
+def performance_profile(scores: np.ndarray | list, taus: Sequence[float] | np.ndarray) -> np.ndarray:
+    """The fraction of all ``runs × tasks`` scores strictly above each threshold in ``taus`` (rliable's run-score distribution).
+
+    Examples:
+        >>> from vigen.evaluation import performance_profile
+        >>> performance_profile([[100.0, 900.0], [500.0, 700.0]], [0, 500, 1000]).tolist()
+        [1.0, 0.5, 0.0]
+    """
+    scores = as_scores(scores)
+    taus = np.asarray(taus, dtype=np.float64)
+    return (scores.reshape(-1)[None, :] > taus[:, None]).mean(axis=1)
+
+
+def performance_profile_ci(
+    scores: np.ndarray | list, taus: Sequence[float] | np.ndarray, *, confidence: float = 0.95, reps: int = 2000, seed: int = 0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Pointwise percentile band of :func:`performance_profile` under the stratified bootstrap (rliable: 2 000 reps).
+
+    Examples:
+        >>> from vigen.evaluation import performance_profile_ci
+        >>> low, high = performance_profile_ci([[100.0], [500.0], [900.0]], [400.0], reps=500)
+        >>> bool(0.0 <= low[0] <= 2 / 3 <= high[0] <= 1.0)
+        True
+    """
+    scores = as_scores(scores)
+    taus = np.asarray(taus, dtype=np.float64)
+    resamples = _resample(scores, np.random.default_rng(seed), reps).reshape(reps, -1)
+    values = (resamples[:, None, :] > taus[None, :, None]).mean(axis=2)
+    return _percentiles(values, confidence)
+
+
+def generalization_gap(test: np.ndarray | list, train: np.ndarray | list) -> float:
+    """Mean test score over mean training score of the same ``[runs, tasks]`` (1: no loss, 0.4: 60 % lost).
+
+    Examples:
+        >>> from vigen.evaluation import generalization_gap
+        >>> generalization_gap([[400.0], [200.0]], [[800.0], [400.0]])
+        0.5
+    """
+    test, train = as_scores(test), as_scores(train)
+    if test.shape != train.shape:
+        raise ValueError(f"test and train must hold the same runs and tasks, got shapes {test.shape} and {train.shape}.")
+    reference = train.mean()
+    if reference <= 0:
+        raise ValueError(f"the mean training score is {reference:g}; a test / train ratio needs a positive training score.")
+    return float(test.mean() / reference)
+
+
+def generalization_gap_ci(
+    test: np.ndarray | list, train: np.ndarray | list, *, confidence: float = 0.95, reps: int = 2000, seed: int = 0,
+) -> tuple[float, float]:
+    """Percentile interval of :func:`generalization_gap`, resampling runs within each task, the same draw for both levels.
+
+    Examples:
+        >>> from vigen.evaluation import generalization_gap_ci
+        >>> low, high = generalization_gap_ci([[400.0], [300.0], [500.0]], [[800.0], [800.0], [800.0]], reps=500)
+        >>> 0.3 < low < 0.5 < high < 0.65
+        True
+    """
+    test, train = as_scores(test), as_scores(train)
+    generalization_gap(test, train)  # checks shapes and the training score
+    runs, tasks = test.shape
+    picks = np.random.default_rng(seed).integers(0, runs, size=(reps, runs, tasks))
+
+    def take(scores: np.ndarray) -> np.ndarray:
+        return np.take_along_axis(np.broadcast_to(scores, (reps, runs, tasks)), picks, axis=1)
+
+    train_means = take(train).mean(axis=(1, 2))
+    ratios = take(test).mean(axis=(1, 2)) / np.where(train_means > 0, train_means, np.nan)
+    low, high = _percentiles(ratios[np.isfinite(ratios)], confidence)
+    return float(low), float(high)

@@ -1,0 +1,282 @@
+"""The training and evaluation protocols of the papers vigen's users compare against, as data.
+
+A protocol is what a paper fixes and a reader cannot see in its tables: how long agents train
+and in which unit (DMC-GB counts *agent steps*, DrQ-v2 and RL-ViGen count *frames*, i.e.
+simulator steps with the action repeat), the action repeat per task, the frame stack and image
+size, how the agent is evaluated while it trains and at the end (episodes and levels), how many
+seeds, and which statistic the tables print. Two published numbers, or a run and a published
+number, are only comparable under the same protocol (``vigen.results.compare`` checks it).
+
+``examples/train.py --protocol dmcgb`` and the same from Python:
+
+Examples:
+    >>> from vigen.protocols import get_protocol
+    >>> dmcgb = get_protocol("dmcgb")
+    >>> dmcgb.env_options("dmc/cartpole-swingup")
+    {'action_repeat': 8, 'frame_stack': 3, 'image_size': 84}
+    >>> dmcgb.frames("dmc/cartpole-swingup"), dmcgb.budget_text("dmc/cartpole-swingup")
+    (4000000, '500,000 agent steps (4,000,000 frames at action repeat 8)')
+    >>> get_protocol("drqv2").frames("dmc/cheetah-run")
+    3000000
+
+Sources: DMC-GB (Hansen & Wang 2021, https://arxiv.org/abs/2011.13389, and SVEA,
+https://arxiv.org/abs/2107.00644); DMC-GB2 (Almuzairee et al. 2024, https://arxiv.org/abs/2405.17416);
+RL-ViGen (Yuan et al. 2023, https://arxiv.org/abs/2307.10224); DrQ-v2 (Yarats et al. 2021,
+https://arxiv.org/abs/2107.09645); the PlaNet benchmark as CURL reports it (Srinivas et al. 2020,
+https://arxiv.org/abs/2004.04136).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any, Literal
+
+BudgetUnit = Literal["agent_steps", "frames"]
+BUDGET_UNITS: tuple[str, ...] = ("agent_steps", "frames")
+
+
+def _frozen(mapping: Mapping[str, Any]) -> Mapping[str, Any]:
+    return MappingProxyType(dict(mapping))
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """How a protocol evaluates: ``episodes`` per level (and seed), on ``levels``, while training every ``every`` (the budget's unit)."""
+
+    episodes: int
+    levels: tuple[str, ...]
+    every: int | None = None
+
+
+@dataclass(frozen=True)
+class Protocol:
+    """What one paper fixes for training and evaluation; per-task values are looked up by env name.
+
+    Args:
+        name: the preset's name (``--protocol NAME``).
+        title: the paper or benchmark, for reports.
+        url: where the protocol is defined.
+        suites: the env suites it covers (``"dmc"``, ...).
+        budget: training length in ``budget_unit``; ``budget_by_task`` overrides it per task
+            (``"cheetah-run"``) or per domain (``"cheetah"``).
+        budget_unit: ``"agent_steps"`` (DMC-GB's ``train_steps``) or ``"frames"`` (agent steps × action repeat).
+        action_repeat: simulator steps per agent step; ``action_repeat_by_task`` overrides it per task, domain or
+            suite (``None``: the suite has no action repeat, its control rate is fixed, e.g. robosuite's 20 Hz).
+        frame_stack: frames stacked in an observation.
+        image_size: pixels per side.
+        train_eval: the evaluation while training (``every`` in ``budget_unit``).
+        test: the final zero-shot evaluation the tables report; ``test_levels_by_suite`` replaces its
+            levels on other suites than the first.
+        seeds: seeds per method in the papers' tables.
+        statistic: what the tables print, in words.
+        notes: what else a reader must know (caveats, known deviations between the papers that use it).
+
+    Examples:
+        >>> from vigen.protocols import PROTOCOLS
+        >>> PROTOCOLS["dmcgb"].action_repeat_for("dmc/finger-spin"), PROTOCOLS["dmcgb"].action_repeat_for("dmc/walker-walk")
+        (2, 4)
+    """
+
+    name: str
+    title: str
+    url: str
+    suites: tuple[str, ...]
+    budget: int
+    budget_unit: BudgetUnit
+    action_repeat: int
+    frame_stack: int
+    image_size: int
+    train_eval: Evaluation
+    test: Evaluation
+    seeds: int
+    statistic: str
+    action_repeat_by_task: Mapping[str, int | None] = field(default_factory=dict)
+    budget_by_task: Mapping[str, int] = field(default_factory=dict)
+    test_levels_by_suite: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    notes: str = ""
+
+    def __post_init__(self) -> None:
+        if self.budget_unit not in BUDGET_UNITS:
+            raise ValueError(f"budget_unit must be one of {BUDGET_UNITS}, got {self.budget_unit!r}.")
+        object.__setattr__(self, "action_repeat_by_task", _frozen(self.action_repeat_by_task))
+        object.__setattr__(self, "budget_by_task", _frozen(self.budget_by_task))
+        object.__setattr__(self, "test_levels_by_suite", _frozen(self.test_levels_by_suite))
+
+    def _task(self, env: str) -> tuple[str, str]:
+        suite, _, task = env.partition("/")
+        if not task:
+            raise ValueError(f"{env!r} is not an env name; pass '<suite>/<task>', e.g. 'dmc/walker-walk'.")
+        if suite not in self.suites:
+            raise ValueError(f"protocol {self.name!r} covers the {', '.join(self.suites)} suite(s), not {suite!r} ({env}); "
+                             f"pick a protocol of that suite or none.")
+        return task, task.split("-", 1)[0]
+
+    def _lookup(self, table: Mapping[str, Any], env: str, default: Any) -> Any:
+        task, domain = self._task(env)
+        return table.get(task, table.get(domain, table.get(env.split("/", 1)[0], default)))
+
+    def action_repeat_for(self, env: str) -> int:
+        """The action repeat the protocol uses on ``env`` (e.g. ``"dmc/cartpole-swingup"``); 1 where the suite has none."""
+        return self._lookup(self.action_repeat_by_task, env, self.action_repeat) or 1
+
+    def budget_for(self, env: str) -> int:
+        """The training length on ``env`` in the protocol's own unit (:attr:`budget_unit`)."""
+        return self._lookup(self.budget_by_task, env, self.budget)
+
+    def frames(self, env: str) -> int:
+        """The training length on ``env`` in frames (simulator steps), whatever unit the protocol counts in."""
+        budget = self.budget_for(env)
+        return budget * self.action_repeat_for(env) if self.budget_unit == "agent_steps" else budget
+
+    def budget_text(self, env: str) -> str:
+        """The budget as the paper states it and in frames, e.g. ``'500,000 agent steps (2,000,000 frames at action repeat 4)'``."""
+        repeat = self.action_repeat_for(env)
+        if self.budget_unit == "agent_steps":
+            return f"{self.budget_for(env):,} agent steps ({self.frames(env):,} frames at action repeat {repeat})"
+        return f"{self.frames(env):,} frames ({self.frames(env) // repeat:,} agent steps at action repeat {repeat})"
+
+    def eval_every_frames(self, env: str) -> int | None:
+        """How often the protocol evaluates while training on ``env``, in frames."""
+        every = self.train_eval.every
+        return every * self.action_repeat_for(env) if every is not None and self.budget_unit == "agent_steps" else every
+
+    def test_levels(self, env: str) -> tuple[str, ...]:
+        """The levels of the final zero-shot evaluation on ``env``'s suite."""
+        self._task(env)
+        return self.test_levels_by_suite.get(env.split("/", 1)[0], self.test.levels)
+
+    def env_options(self, env: str) -> dict[str, int]:
+        """The :func:`vigen.envs.make_env` options the protocol fixes on ``env``."""
+        repeat = self._lookup(self.action_repeat_by_task, env, self.action_repeat)
+        return {**({} if repeat is None else {"action_repeat": repeat}), "frame_stack": self.frame_stack,
+                "image_size": self.image_size}
+
+    def settings(self, env: str) -> dict[str, Any]:
+        """Every value the protocol fixes on ``env``, flat, in frames (what ``examples/train.py`` records in ``config.json``).
+
+        Examples:
+            >>> from vigen.protocols import get_protocol
+            >>> settings = get_protocol("rlvigen").settings("dmc/walker-walk")
+            >>> settings["frames"], settings["action_repeat"], settings["test_episodes"]
+            (1100000, 2, 100)
+        """
+        return {
+            "frames": self.frames(env), "action_repeat": self.action_repeat_for(env), **self.env_options(env),
+            "eval_every": self.eval_every_frames(env), "eval_episodes": self.train_eval.episodes,
+            "eval_levels": list(self.train_eval.levels), "test_episodes": self.test.episodes,
+            "test_levels": list(self.test_levels(env)), "seeds": self.seeds,
+        }
+
+    def describe(self, env: str) -> list[str]:
+        """The protocol on ``env`` as lines a run prints at its start."""
+        return [
+            f"protocol {self.name}: {self.title} ({self.url})",
+            f"  budget: {self.budget_text(env)}",
+            f"  frame stack {self.frame_stack}, image {self.image_size}x{self.image_size}",
+            f"  while training: {self.train_eval.episodes} episodes on {', '.join(self.train_eval.levels)} every "
+            f"{self.eval_every_frames(env):,} frames",
+            f"  final test: {self.test.episodes} episodes per level on {', '.join(self.test_levels(env))}",
+            f"  reported: {self.statistic}, {self.seeds} seeds",
+            *([f"  note: {self.notes}"] if self.notes else []),
+        ]
+
+
+DMCGB_LEVELS = ("color_easy", "color_hard", "video_easy", "video_hard")
+DMCGB2_LEVELS = tuple(f"{mode}_{difficulty}" for mode in ("rotate", "shift", "rotate_shift", "color", "video", "color_video")
+                      for difficulty in ("easy", "hard"))
+RLVIGEN_LEVELS = ("color_easy", "color_hard", "objects_color_easy", "objects_color_hard", "video_easy", "video_hard",
+                  "light_easy", "light_hard", "camera_easy", "camera_hard")
+
+DRQV2_MEDIUM_TASKS = ("acrobot-swingup", "cheetah-run", "finger-turn_easy", "finger-turn_hard", "hopper-hop",
+                      "quadruped-run", "quadruped-walk", "reacher-easy", "reacher-hard", "walker-run")
+"""DrQ-v2's medium tasks (3M frames); its hard ones are humanoid's (30M); the rest are easy (1M)."""
+
+PROTOCOLS: Mapping[str, Protocol] = _frozen({protocol.name: protocol for protocol in (
+    Protocol(
+        name="dmcgb",
+        title="DMControl Generalization Benchmark (Hansen & Wang 2021; SVEA, SGQN, MaDi, SimGRL tables)",
+        url="https://github.com/nicklashansen/dmcontrol-generalization-benchmark",
+        suites=("dmc",), budget=500_000, budget_unit="agent_steps",
+        action_repeat=4, action_repeat_by_task={"cartpole": 8, "finger": 2},
+        frame_stack=3, image_size=84,
+        train_eval=Evaluation(episodes=30, levels=("train", "color_hard"), every=10_000),
+        test=Evaluation(episodes=100, levels=DMCGB_LEVELS),
+        seeds=5, statistic="mean ± std over seeds of each seed's mean episode return",
+        notes="train_steps counts agent steps, so its '500k' is 2M frames at action repeat 4 (RL-ViGen #11 confused "
+              "the two); RAD, CURL, PAD and SODA render 100x100 and crop to 84.",
+    ),
+    Protocol(
+        name="dmcgb2",
+        title="DMControl Generalization Benchmark 2 (Almuzairee et al. 2024, SADA)",
+        url="https://github.com/aalmuzairee/dmcgb2",
+        suites=("dmc",), budget=1_000_000, budget_unit="frames", action_repeat=2,
+        frame_stack=3, image_size=84,
+        train_eval=Evaluation(episodes=10, levels=("train", "color_hard", "rotate_hard"), every=20_000),
+        test=Evaluation(episodes=100, levels=DMCGB2_LEVELS),
+        seeds=5, statistic="mean over seeds of each seed's mean episode return (figures with 95 % CIs)",
+        notes="DMC-GB2's video levels show the video on an in-simulation back cube and video_hard also drops the floor "
+              "and rails: they are not DMC-GB's video levels.",
+    ),
+    Protocol(
+        name="rlvigen",
+        title="RL-ViGen (Yuan et al. 2023)",
+        url="https://github.com/gemcollector/RL-ViGen",
+        suites=("dmc", "robosuite", "adroit"), budget=1_100_000, budget_unit="frames", action_repeat=2,
+        action_repeat_by_task={"robosuite": None},
+        test_levels_by_suite={"robosuite": ("easy", "medium", "hard", "robot_iiwa", "robot_kinova3"),
+                              "adroit": ("color_easy", "color_hard", "video_easy", "video_hard", "camera_easy", "camera_hard")},
+        budget_by_task=dict.fromkeys(DRQV2_MEDIUM_TASKS, 3_100_000),
+        frame_stack=3, image_size=84,
+        train_eval=Evaluation(episodes=10, levels=("train",), every=10_000),
+        test=Evaluation(episodes=100, levels=RLVIGEN_LEVELS),
+        seeds=5, statistic="per seed, the mean over a category's tasks; then mean ± sample std (ddof=1) over seeds",
+        notes="the DMC budgets are its configs' num_train_frames (task/easy.yaml 1.1M, task/medium.yaml 3.1M); for the "
+              "published scores of the other suites its configs (unitree, Lift, TwoArm 3.1M; Door, CARLA, Habitat 1.1M; "
+              "Adroit 4.1M) and launch scripts (1.0M, Habitat 0.7M) disagree, so vigen.results leaves their budget "
+              "blank; robosuite runs at 20 Hz control without action repeat and evaluates 10 scenes x 10 trials per "
+              "level; the paper's figures show 95 % CIs, its results sheet mean ± std.",
+    ),
+    Protocol(
+        name="drqv2",
+        title="DrQ-v2 (Yarats et al. 2021)",
+        url="https://github.com/facebookresearch/drqv2",
+        suites=("dmc",), budget=1_000_000, budget_unit="frames", action_repeat=2,
+        budget_by_task={**dict.fromkeys(DRQV2_MEDIUM_TASKS, 3_000_000), "humanoid": 30_000_000},
+        frame_stack=3, image_size=84,
+        train_eval=Evaluation(episodes=10, levels=("train",), every=20_000),
+        test=Evaluation(episodes=10, levels=("train",)),
+        seeds=10, statistic="mean over seeds of the evaluation return at each frame count (curves)",
+        notes="its configs train 0.1M frames longer (1.1M/3.1M/30.1M, drqv2 #25); the published curves evaluate every "
+              "20k frames (100k for humanoid) on the training scene only.",
+    ),
+    Protocol(
+        name="planet",
+        title="PlaNet benchmark as CURL and DrQ report it (Srinivas et al. 2020)",
+        url="https://github.com/MishaLaskin/curl",
+        suites=("dmc",), budget=500_000, budget_unit="frames", action_repeat=4,
+        action_repeat_by_task={"cartpole": 8, "finger": 2, "walker": 2},
+        frame_stack=3, image_size=84,
+        train_eval=Evaluation(episodes=10, levels=("train",), every=10_000),
+        test=Evaluation(episodes=10, levels=("train",)),
+        seeds=10, statistic="mean ± std over seeds at 100k and 500k environment steps (frames)",
+        notes="CURL renders 100x100 and crops to 84; its '500k steps' are frames.",
+    ),
+)})
+"""Protocol name -> :class:`Protocol`."""
+
+
+def get_protocol(name: str | Protocol) -> Protocol:
+    """The protocol of a name (a :class:`Protocol` passes through); an unknown name raises listing the known ones.
+
+    Examples:
+        >>> from vigen.protocols import get_protocol
+        >>> get_protocol("dmcgb2").budget_unit
+        'frames'
+    """
+    if isinstance(name, Protocol):
+        return name
+    if name not in PROTOCOLS:
+        raise ValueError(f"Unknown protocol {name!r}; the protocols are {', '.join(PROTOCOLS)}.")
+    return PROTOCOLS[name]

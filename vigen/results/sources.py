@@ -1,0 +1,54 @@
+"""Where each file of published numbers comes from: the paper, the repository and commit, the license."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Source:
+    """One source of published numbers, stored as ``vigen/results/data/<name>.csv``.
+
+    Args:
+        name: the file's name and the ``source`` column of its rows.
+        title: the paper.
+        url: the paper.
+        repository: the repository the numbers were read in, with the commit.
+        license: the repository's license.
+        read_from: the file(s) in that repository (or the paper's table) the numbers were read from, and how.
+    """
+
+    name: str
+    title: str
+    url: str
+    repository: str
+    license: str
+    read_from: str
+
+
+SOURCES: dict[str, Source] = {source.name: source for source in (
+    Source("dmcgb", "Hansen & Wang 2021, Generalization in RL by Soft Data Augmentation (SODA); SVEA (Hansen et al. 2021)",
+           "https://arxiv.org/abs/2107.00644", "nicklashansen/dmcontrol-generalization-benchmark (table also in bofusun/SCPL@e77b623)",
+           "MIT", "figures/results_table.png, transcribed by hand: random colors = color_hard, natural videos = video_easy"),
+    Source("sgqn", "Bertoin et al. 2022, Look where you look! Saliency-guided Q-networks (SGQN), NeurIPS",
+           "https://arxiv.org/abs/2209.09203", "SuReLI/SGQN", "MIT (DMC/LICENSE)",
+           "Table 2 as DMC/figures/sgqn_perf.png, transcribed by hand"),
+    Source("madi", "Grooten et al. 2024, MaDi: Learning to Mask Distractions for Generalization in Visual Deep RL, AAMAS",
+           "https://arxiv.org/abs/2312.15339", "bramgrooten/mask-distractions@70982ce", "MIT",
+           "figures/results_video_hard.png, transcribed by hand (MaDi's own re-runs of every method)"),
+    Source("simgrl", "Song et al. 2024, A Simple Framework for Generalization in Visual RL under Dynamic Scene Perturbations, NeurIPS",
+           "https://w-song11.github.io/SimGRL", "W-Song11/SimGRL-Code@08722a8", "MIT",
+           "the paper's DMC-GB video_hard table (SimGRL with std; the baselines' means as SimGRL prints them)"),
+    Source("dmcgb2", "Almuzairee et al. 2024, A Recipe for Unbounded Data Augmentation in Visual RL (SADA, DMC-GB2), RLC",
+           "https://arxiv.org/abs/2405.17416", "aalmuzairee/SADA@bee2fba (linked from aalmuzairee/dmcgb2's README)", "MIT",
+           "Fig. 6, static/images/repo/overall_results.png, transcribed by hand; checked against the paper's 6-task means"),
+    Source("rlvigen", "Yuan et al. 2023, RL-ViGen: A Reinforcement Learning Benchmark for Visual Generalization, NeurIPS D&B",
+           "https://arxiv.org/abs/2307.10224", "gemcollector/RL-ViGen@90d8b8c", "MIT",
+           "results/evaluation_score.xlsx, every literal per-seed cell, by scripts/extract_published.py"),
+    Source("drqv2", "Yarats et al. 2021, Mastering Visual Continuous Control: Improved Data-Augmented RL (DrQ-v2)",
+           "https://arxiv.org/abs/2107.09645", "facebookresearch/drqv2 (archived)", "MIT",
+           "curves/dmc_<task>.csv: mean, sample std and median over seeds at each evaluated frame count, by scripts/extract_published.py"),
+    Source("curl", "Srinivas et al. 2020, CURL: Contrastive Unsupervised Representations for RL, ICML",
+           "https://arxiv.org/abs/2004.04136", "MishaLaskin/curl", "MIT", "Table 1 of the paper, transcribed by hand"),
+)}
+"""Source name -> :class:`Source`; each has ``vigen/results/data/<name>.csv``."""
