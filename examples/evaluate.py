@@ -53,7 +53,8 @@ from vigen.losses import make_loss
 from vigen.policies import make_policy
 from vigen.protocols import PROTOCOLS
 from vigen.rendering import RenderSettings
-from vigen.results import SOURCES, ProtocolMismatch, compare, load
+from vigen.results import SOURCES, ProtocolMismatch, compare, load, published
+from vigen.results.compare import VALUE_UNITS
 
 
 DEFAULT_GROUPS = {"dmc": "dmcgb", "robosuite": "rlvigen", "adroit": "rlvigen"}
@@ -144,13 +145,11 @@ def main() -> None:
     agents = [load_agent(path) for path in args.runs]
     protocol, sources = compare_sources(args.compare) if args.compare else (None, [])
     if protocol is not None:  # the published numbers need the same protocol: check before any episode runs
-        probe = [{**run_tags(config), "env": config["env"], "level": level, "return": 0.0} for config, _ in agents
+        probe = [{**run_tags(config), "env": config["env"], "level": level, "return": 0.0, "success": 0.0} for config, _ in agents
                  for level in args.levels or ["train", *PROTOCOLS[protocol].test_levels(config["env"])]]
         try:
-            compare(probe, source=sources, protocol=protocol, allow_budget_mismatch=args.allow_budget_mismatch)
-        except ProtocolMismatch as error:
-            raise SystemExit(f"--compare {args.compare}: {error}") from None
-        except ValueError as error:
+            published_lines(probe, sources, protocol, args.allow_budget_mismatch)
+        except ValueError as error:  # ProtocolMismatch included
             raise SystemExit(f"--compare {args.compare}: {error}") from None
     levels = {}  # env name -> its levels
     for config, _ in agents:
@@ -212,11 +211,15 @@ def main() -> None:
         report += "\n## Robustness curves\n\n" + "".join(f"![{curve.name}]({curve.name})\n" for curve in curves)
     published_table = ""
     if protocol is not None:
-        compared = compare([row for row in rows if row["method"] != "random"], source=sources, protocol=protocol,
-                           allow_budget_mismatch=args.allow_budget_mismatch)
+        compared = published_lines([row for row in rows if row["method"] != "random"], sources, protocol,
+                                   args.allow_budget_mismatch)
         written.append(write_csv(compared, out / "published.csv"))
         figures.append(plot_comparison(compared, out / "published.png"))
-        published_table = comparison_table(compared)
+        played = args.episodes * len(args.seeds)
+        wanted = PROTOCOLS[protocol].test.episodes
+        published_table = comparison_table(compared) + ("" if played >= wanted else
+            f"\nThis evaluation played {played} episodes per level and run; protocol {protocol} plays {wanted} "
+            f"(--episodes {wanted}): fewer episodes, a noisier mean.")
         report += (f"\n## Published ({PROTOCOLS[protocol].title}; sources: {', '.join(sources)})\n\n{published_table}\n\n"
                    f"{level_notes(rows, args.videos)}\n![published.png](published.png)\n")
     atomic_write(out / "report.md", report)
@@ -225,6 +228,22 @@ def main() -> None:
         print(f"\nPublished numbers, protocol {protocol}:\n\n{published_table}\n\n{level_notes(rows, args.videos)}")
     names = [path.name for path in [*written, out / "report.md", *figures, *curves]]
     print(f"\nwrote {out}/: {', '.join(names)}")
+
+
+def published_lines(rows: list[dict], sources: list[str], protocol: str, allow_budget_mismatch: bool) -> list[dict]:
+    """compare() on the return and, where the rows and the sources have one, the success rate (Adroit publishes success only)."""
+    lines, nothing = [], []
+    for value in ("return", "success"):
+        if all(value in row for row in rows) and published(source=sources, unit=VALUE_UNITS[value]):
+            try:
+                lines += compare(rows, source=sources, protocol=protocol, value=value, allow_budget_mismatch=allow_budget_mismatch)
+            except ProtocolMismatch:
+                raise
+            except ValueError as error:  # nothing published in this unit for these rows
+                nothing.append(str(error))
+    if not lines:
+        raise ValueError(" ".join(nothing) or f"{', '.join(sources)} publish nothing comparable.")
+    return lines
 
 
 def markdown_cells(lines: list[dict], cell, *, rows: str = "level", columns: str = "method") -> str:
@@ -247,7 +266,7 @@ def level_notes(rows: list[dict], videos: str | None) -> str:
         if "video" in level and videos:
             source += f" (videos from {videos})"
         notes.append(f"- {level}: {source}")
-    return "vigen's levels, for reading the comparison:\n\n" + "\n".join(dict.fromkeys(notes)) + "\n"
+    return "vigen's levels, for reading the comparison:\n\n" + "\n".join(dict.fromkeys(notes)) + "\n" if notes else ""
 
 
 if __name__ == "__main__":

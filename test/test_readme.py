@@ -24,7 +24,7 @@ def run_example(code: str, tmp_path: Path) -> str:
 
 
 def test_every_example_is_checked():
-    assert len(EXAMPLES) == 7
+    assert len(EXAMPLES) == 8
 
 
 @pytest.mark.slow
@@ -62,8 +62,14 @@ def test_evaluation_example_runs(tmp_path):
     assert "'level': 'train'" in out and "| level | random |" in out and "| color_hard |" in out
 
 
+def test_published_results_example_runs(tmp_path):
+    out = run_example(EXAMPLES[6], tmp_path)
+    assert "sgqn dmcgb 747.0 43.0 500,000 agent_steps" in out and "dmcgb2 dmcgb2 429.0" in out
+    assert "'mean_std': '304.8 ± 22.0'" in out
+
+
 @pytest.mark.render
 def test_manipulation_example_runs(tmp_path):
     pytest.importorskip("robosuite", reason="the robosuite extra is not installed: pip install -e '.[robosuite]'")
-    out = run_example(EXAMPLES[6], tmp_path)
+    out = run_example(EXAMPLES[7], tmp_path)
     assert "('train', 0, 20, False)" in out and "('robot_iiwa', 1, 20, " in out

@@ -79,8 +79,11 @@ def test_evaluate_example_with_sweeps(trained, tmp_path):
     out = tmp_path / "report"
     result = run("evaluate.py", trained, "--levels", "train", "--sweep", "camera_rotation", "0.1", "0.3",
                  "--sweep", "object_color", "0.5", "--episodes", "1", "--episode-length", "6", "--out", out)
-    assert {p.name for p in out.iterdir()} == {"episodes.csv", "summary.csv", "report.md", "levels.png",
+    assert {p.name for p in out.iterdir()} == {"episodes.csv", "summary.csv", "report.md", "levels.png", "gaps.csv", "profile.png",
                                                "intensity_camera_rotation.png", "intensity_object_color.png"}
+    gaps = {r["level"]: r for r in _rows(out / "gaps.csv")}
+    assert set(gaps) == {"camera_rotation=0.1", "camera_rotation=0.3", "object_color=0.5"}
+    assert gaps["camera_rotation=0.3"]["factor"] == "camera_rotation" and float(gaps["camera_rotation=0.3"]["gap"]) > 0
     assert "intensity_object_color.png" in result.stdout
     rows = _rows(out / "episodes.csv")
     assert [(r["level"], r["factor"], r["intensity"]) for r in rows] == [

@@ -209,7 +209,7 @@ def test_compare_puts_the_run_beside_the_published_curve(trained, tmp_path):
                               "--out", str(out)], capture_output=True, text=True, cwd=ROOT)
     assert refused.returncode != 0 and "checkpoint is at 400 frames; drqv2 publish" in refused.stderr
     result = run("evaluate.py", trained, "--compare", "drqv2", "--allow-budget-mismatch", "--episodes", "1", "--out", out)
-    assert "| dmc/cartpole-balance | train | drqv2 |" in result.stdout and "drqv2: drqv2" in result.stdout
+    assert "| dmc/cartpole-balance | train | drqv2 | return |" in result.stdout and "drqv2: drqv2" in result.stdout
     lines = list(csv.DictReader((out / "published.csv").open()))
     assert [(line["source"], line["published_frames"], line["budget_matches"]) for line in lines] == [("drqv2", "0", "False")]
     assert (out / "published.png").exists() and "## Published" in (out / "report.md").read_text()

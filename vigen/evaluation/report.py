@@ -236,11 +236,12 @@ def comparison_table(lines: Sequence[Mapping[str, Any]]) -> str:
         >>> from vigen.evaluation import comparison_table
         >>> line = {"method": "svea", "env": "dmc/walker-stand", "level": "video_hard", "runs": 2, "mean": 850.0, "std": 70.7,
         ...         "frames": 2_000_000, "published_method": "svea", "source": "sgqn", "published": 747.0, "published_spread": 43.0,
-        ...         "published_seeds": 5, "published_frames": 2_000_000, "budget_matches": True, "difference": 103.0}
+        ...         "published_seeds": 5, "published_frames": 2_000_000, "budget_matches": True, "difference": 103.0,
+        ...         "unit": "return"}
         >>> print(comparison_table([line]).splitlines()[2])
-        | dmc/walker-stand | video_hard | svea | 850.0 ± 70.7 (2 runs) | 747.0 ± 43.0 (5 seeds) | sgqn: svea | +103.0 |
+        | dmc/walker-stand | video_hard | svea | return | 850.0 ± 70.7 (2 runs) | 747.0 ± 43.0 (5 seeds) | sgqn: svea | +103.0 |
     """
-    table = ["| env | level | method | vigen | published | source: method | vigen − published |", "|---|---|---|---|---|---|---|"]
+    table = ["| env | level | method | unit | vigen | published | source: method | vigen − published |", "|---|---|---|---|---|---|---|---|"]
     budget_notes = []
     for line in lines:
         std = "" if _number(line.get("std")) is None else f" ± {line['std']:.1f}"
@@ -250,7 +251,7 @@ def comparison_table(lines: Sequence[Mapping[str, Any]]) -> str:
             mark = " †"
             budget_notes.append(f"{line['method']} on {line['env']}: run at {line['frames']:,} frames, "
                                 f"published at {line['published_frames']:,}")
-        table.append(f"| {line['env']} | {line['level']} | {line['method']} | {line['mean']:.1f}{std} ({line['runs']} run{'s' * (line['runs'] != 1)}){mark} | "
+        table.append(f"| {line['env']} | {line['level']} | {line['method']} | {line.get('unit', 'return')} | {line['mean']:.1f}{std} ({line['runs']} run{'s' * (line['runs'] != 1)}){mark} | "
                      f"{line['published']:.1f}{spread} ({line['published_seeds']} seeds) | {line['source']}: "
                      f"{line['published_method']} | {line['difference']:+.1f} |")
     notes = ["", "vigen: mean ± sample std over runs of each run's mean; published: as the source prints it (mean ± std over seeds)."]

@@ -155,20 +155,12 @@ def compare(
         repeat = protocol.action_repeat_for(env)
         for source_name, variant in dict.fromkeys(key[3:5] for key in matches):
             budgets = {key[5]: cells[key] for key in matches if key[3:5] == (source_name, variant)}
-            at_frames = {cell[0].frames(repeat): budget for budget, cell in budgets.items()}
-            if run_frames in at_frames or None in at_frames:
-                chosen = at_frames.get(run_frames, at_frames.get(None))
-            elif allow_budget_mismatch:
-                chosen = _nearest(at_frames, run_frames)
-            else:
-                published_at = sorted(at_frames)
-                shown = ", ".join(f"{f:,}" for f in published_at[:6]) + (" ..." if len(published_at) > 6 else "")
-                nearest = budgets[_nearest(at_frames, run_frames)][0].budget_text
-                key = (method, env, run_frames, f"{shown} frames ({nearest} at action repeat {repeat})")
+            cell, problem = _at_budget(budgets, run_frames, repeat, allow_budget_mismatch)
+            if cell is None:
+                key = (method, env, run_frames, problem)
                 budget_problems.setdefault(key, ({}, {}))[0][source_name] = None
                 budget_problems[key][1][level] = None
                 continue
-            cell = budgets[chosen]
             mean, spread, seeds = _published_mean(cell)
             scores = _run_scores(members, value)
             lines.append({
@@ -192,6 +184,14 @@ def compare(
     return lines
 
 
-def _nearest(at_frames: Mapping[int, Any], run_frames: int | None) -> Any:
-    """The published budget whose frames are nearest to the run's."""
-    return at_frames[min(at_frames, key=lambda f: abs(f - (run_frames or 0)))]
+def _at_budget(budgets: Mapping[int | None, list[PublishedScore]], run_frames: int | None, repeat: int, allow_mismatch: bool
+               ) -> tuple[list[PublishedScore] | None, str]:
+    """The published cell at the run's frames (or at an unstated budget); else the nearest one if allowed, else why not."""
+    at_frames = {cell[0].frames(repeat): cell for cell in budgets.values()}
+    if run_frames in at_frames or None in at_frames:
+        return at_frames.get(run_frames, at_frames.get(None)), ""
+    nearest = at_frames[min(at_frames, key=lambda frames: abs(frames - (run_frames or 0)))]
+    if allow_mismatch:
+        return nearest, ""
+    shown = ", ".join(f"{frames:,}" for frames in sorted(at_frames)[:6]) + (" ..." if len(at_frames) > 6 else "")
+    return None, f"{shown} frames ({nearest[0].budget_text} at action repeat {repeat})"

@@ -31,7 +31,7 @@ SOURCES: dict[str, Source] = {source.name: source for source in (
            "https://arxiv.org/abs/2107.00644", "nicklashansen/dmcontrol-generalization-benchmark (table also in bofusun/SCPL@e77b623)",
            "MIT", "figures/results_table.png, transcribed by hand: random colors = color_hard, natural videos = video_easy"),
     Source("sgqn", "Bertoin et al. 2022, Look where you look! Saliency-guided Q-networks (SGQN), NeurIPS",
-           "https://arxiv.org/abs/2209.09203", "SuReLI/SGQN", "MIT (DMC/LICENSE)",
+           "https://arxiv.org/abs/2209.09203", "SuReLI/SGQN@f383fc0", "MIT (DMC/LICENSE)",
            "Table 2 as DMC/figures/sgqn_perf.png, transcribed by hand"),
     Source("madi", "Grooten et al. 2024, MaDi: Learning to Mask Distractions for Generalization in Visual Deep RL, AAMAS",
            "https://arxiv.org/abs/2312.15339", "bramgrooten/mask-distractions@70982ce", "MIT",
