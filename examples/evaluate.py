@@ -124,12 +124,22 @@ RUN_SETTINGS = ("action_repeat", "frame_stack", "image_size")
 """The env options a run was trained with (``config.json``); its evaluation uses the same."""
 
 
-def run_tags(config: dict) -> dict:
+def run_env_options(config: dict, args: argparse.Namespace, level_options: dict | None) -> dict:
+    """The evaluation env of a run: its action repeat, frame stack and image size, and the episode length asked for."""
+    length = args.episode_length or config.get("episode_length")
+    return {"render_settings": RenderSettings.fast(), "level_options": level_options,
+            **({} if length is None else {"episode_length": length}),
+            **{name: config[name] for name in RUN_SETTINGS if config.get(name) is not None}}
+
+
+def run_tags(config: dict, env_options: dict) -> dict:
     """The columns every row of a run carries: method, run, frames, and the settings a protocol fixes (for --compare)."""
     channels, _, width = config["observation_shape"]  # uint8 [3 * frame stack, H, W]
-    repeat = config.get("action_repeat") or get_suite(config["env"]).env_options.get("action_repeat")
+    defaults = get_suite(config["env"]).env_options
+    settings = {"action_repeat": config.get("action_repeat") or defaults.get("action_repeat"), "frame_stack": channels // 3,
+                "image_size": width, "episode_length": env_options.get("episode_length", defaults.get("episode_length"))}
     return {"method": config["algo"], "run": config["seed"], "frames": config["frames"], "protocol": config.get("protocol") or "",
-            **({} if repeat is None else {"action_repeat": repeat}), "frame_stack": channels // 3, "image_size": width}
+            **{name: value for name, value in settings.items() if value is not None}}
 
 
 def compare_sources(name: str) -> tuple[str, list[str]]:
@@ -144,36 +154,36 @@ def main() -> None:
     level_options = {"videos": args.videos} if args.videos else None
     agents = [load_agent(path) for path in args.runs]
     protocol, sources = compare_sources(args.compare) if args.compare else (None, [])
-    if protocol is not None:  # the published numbers need the same protocol: check before any episode runs
-        probe = [{**run_tags(config), "env": config["env"], "level": level, "return": 0.0, "success": 0.0} for config, _ in agents
-                 for level in args.levels or ["train", *PROTOCOLS[protocol].test_levels(config["env"])]]
-        try:
-            published_lines(probe, sources, protocol, args.allow_budget_mismatch)
-        except ValueError as error:  # ProtocolMismatch included
-            raise SystemExit(f"--compare {args.compare}: {error}") from None
     levels = {}  # env name -> its levels
     for config, _ in agents:
         suite = config["env"].split("/")[0]
-        default = ["train", *PROTOCOLS[protocol].test_levels(config["env"])] if protocol else ["train", DEFAULT_GROUPS.get(suite, "all")]
         try:
+            default = ["train", *PROTOCOLS[protocol].test_levels(config["env"])] if protocol else ["train", DEFAULT_GROUPS.get(suite, "all")]
             levels[config["env"]] = resolve_levels(args.levels or default, suite=suite)
         except ValueError as error:
-            raise SystemExit(str(error)) from None
+            raise SystemExit(f"--compare {args.compare}: {error}" if protocol else str(error)) from None
         for swept in args.sweep:
             if swept[0].factor not in factors(config["env"]):
                 raise SystemExit(f"--sweep {swept[0].factor}: not a factor of {config['env']}; its factors are "
                                  f"{', '.join(factors(config['env']))}.")
             levels[config["env"]] += swept
+    options = [run_env_options(config, args, level_options) for config, _ in agents]
+    if protocol is not None:  # the published numbers need the same protocol: check before any episode runs
+        probe = [{**run_tags(config, env_options), "env": config["env"], "level": level, "return": 0.0, "success": 0.0}
+                 for (config, _), env_options in zip(agents, options) for level in levels[config["env"]] if isinstance(level, str)]
+        try:
+            published_lines(probe, sources, protocol, args.allow_budget_mismatch)
+        except ValueError as error:  # ProtocolMismatch included
+            raise SystemExit(f"--compare {args.compare}: {error}") from None
     rows = []
-    for config, policy in agents:
-        length = args.episode_length or config.get("episode_length")
-        env_options = {"render_settings": RenderSettings.fast(), "level_options": level_options,
-                       **({} if length is None else {"episode_length": length}),
-                       **{name: config[name] for name in RUN_SETTINGS if config.get(name) is not None}}
+    for (config, policy), env_options in zip(agents, options):
         rows += evaluate(policy, config["env"], levels[config["env"]], episodes=args.episodes, seeds=args.seeds,
-                         env_options=env_options, tags=run_tags(config))
-    if args.random:
-        for env in dict.fromkeys(row["env"] for row in rows):
+                         env_options=env_options, tags=run_tags(config, env_options))
+    if args.random:  # in each env as its first run saw it
+        first: dict[str, dict] = {}
+        for (config, _), env_options in zip(agents, options):
+            first.setdefault(config["env"], env_options)
+        for env, env_options in first.items():
             rows += evaluate(None, env, levels[env], episodes=args.episodes, seeds=args.seeds,
                              env_options=env_options, tags={"method": "random", "run": 0})
 
@@ -214,14 +224,18 @@ def main() -> None:
         compared = published_lines([row for row in rows if row["method"] != "random"], sources, protocol,
                                    args.allow_budget_mismatch)
         written.append(write_csv(compared, out / "published.csv"))
-        figures.append(plot_comparison(compared, out / "published.png"))
+        for unit in dict.fromkeys(line["unit"] for line in compared):
+            name = "published.png" if unit == "return" else f"published_{unit}.png"
+            figures.append(plot_comparison([line for line in compared if line["unit"] == unit], out / name,
+                                           ylabel="episode return" if unit == "return" else "success rate (%)"))
         played = args.episodes * len(args.seeds)
         wanted = PROTOCOLS[protocol].test.episodes
         published_table = comparison_table(compared) + ("" if played >= wanted else
             f"\nThis evaluation played {played} episodes per level and run; protocol {protocol} plays {wanted} "
             f"(--episodes {wanted}): fewer episodes, a noisier mean.")
         report += (f"\n## Published ({PROTOCOLS[protocol].title}; sources: {', '.join(sources)})\n\n{published_table}\n\n"
-                   f"{level_notes(rows, args.videos)}\n![published.png](published.png)\n")
+                   f"{level_notes(rows, args.videos)}\n" + "".join(f"![{figure.name}]({figure.name})\n"
+                                                                   for figure in figures if figure.name.startswith("published")))
     atomic_write(out / "report.md", report)
     print(markdown_table(lines))
     if published_table:

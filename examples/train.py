@@ -87,7 +87,8 @@ DEFAULTS = dict(algo="drqv2", env="dmc/cartpole-balance", preset="cpu", seed=0, 
                 logger="csv", episode_length=None, encoder_weights=None, protocol=None, action_repeat=None,
                 frame_stack=None, image_size=None)  # a new run's values of the flags a resumed run takes from config.json
 DEFAULT_FRAMES = 100_000
-PROTOCOL_KEYS = ("frames", "action_repeat", "frame_stack", "image_size", "eval_every", "eval_episodes", "eval_levels")
+PROTOCOL_KEYS = ("frames", "action_repeat", "frame_stack", "image_size", "episode_length", "eval_every", "eval_episodes",
+                 "eval_levels")
 """The run settings a protocol fixes (vigen.protocols.Protocol.settings); explicit flags override them."""
 WEIGHTS_OPTION = {"pieg": "encoder_weights", "vrl3": "stage1_weights"}  # --encoder-weights -> make_loss option
 
@@ -163,7 +164,10 @@ def configure(args: argparse.Namespace) -> dict:
     if conflicts:
         raise SystemExit(f"--resume {args.resume}: these flags contradict its config.json: {'; '.join(conflicts)}. "
                          "Drop them to continue the run as it was, or start a new run.")
-    return dict(config, frames=config.get("protocol_settings", {}).get("frames", DEFAULT_FRAMES) if args.frames is None else args.frames)
+    if args.frames is not None:
+        return dict(config, frames=args.frames)
+    overridden = config.get("protocol_overrides", {}).get("frames")  # the run's own budget, when a flag set it
+    return dict(config, frames=overridden["flag"] if overridden else config.get("protocol_settings", {}).get("frames", DEFAULT_FRAMES))
 
 
 def protocol_config(name: str, env: str, given: dict) -> dict:
@@ -225,7 +229,7 @@ def main() -> None:
         torch.set_num_threads(args.threads)
     torch.manual_seed(config["seed"])
 
-    if config.get("protocol") is not None and args.resume is None:
+    if config.get("protocol") is not None:
         print("\n".join(PROTOCOLS[config["protocol"]].describe(config["env"])), flush=True)
         for key, values in config["protocol_overrides"].items():
             print(f"  overridden by a flag: {key} = {values['flag']} (protocol: {values['protocol']})", flush=True)

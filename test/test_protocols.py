@@ -27,6 +27,26 @@ def test_frame_protocols_keep_their_budget_in_frames():
     assert get_protocol("planet").action_repeat_for("dmc/cartpole-swingup") == 8
 
 
+@pytest.mark.render
+def test_a_robosuite_protocol_run_builds_its_env():
+    """RL-ViGen's robosuite runs have no action repeat (20 Hz control): the settings say None and make_env gets no option."""
+    pytest.importorskip("robosuite", reason="the robosuite extra is not installed: pip install -e '.[robosuite]'")
+    from vigen.envs import make_env
+
+    rlvigen = get_protocol("rlvigen")
+    assert rlvigen.settings("robosuite/door")["action_repeat"] is None
+    assert rlvigen.frames("robosuite/lift") == 3_100_000 and rlvigen.episode_length_for("robosuite/door") == 500
+    env = make_env("robosuite/door", **{**rlvigen.env_options("robosuite/door"), "image_size": 32})
+    assert env.reset()["pixels"].shape == (9, 32, 32)
+    env.close()
+
+
+def test_level_differences_name_test_levels():
+    for protocol in PROTOCOLS.values():
+        assert set(protocol.level_differences) <= set(protocol.test.levels)
+    assert set(get_protocol("dmcgb2").level_differences) == {"video_easy", "video_hard", "color_video_easy", "color_video_hard"}
+
+
 def test_env_options_build_the_protocols_env():
     assert get_protocol("dmcgb").env_options("dmc/finger-spin") == {"action_repeat": 2, "frame_stack": 3, "image_size": 84}
     assert "action_repeat" not in get_protocol("rlvigen").env_options("robosuite/door"), "robosuite has a fixed 20 Hz control"

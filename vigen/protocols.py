@@ -43,7 +43,13 @@ def _frozen(mapping: Mapping[str, Any]) -> Mapping[str, Any]:
 
 @dataclass(frozen=True)
 class Evaluation:
-    """How a protocol evaluates: ``episodes`` per level (and seed), on ``levels``, while training every ``every`` (the budget's unit)."""
+    """How a protocol evaluates: ``episodes`` per level (and seed), on ``levels``, while training every ``every`` (the budget's unit).
+
+    Examples:
+        >>> from vigen.protocols import Evaluation
+        >>> Evaluation(episodes=10, levels=("train",), every=20_000).levels
+        ('train',)
+    """
 
     episodes: int
     levels: tuple[str, ...]
@@ -69,6 +75,8 @@ class Protocol:
         train_eval: the evaluation while training (``every`` in ``budget_unit``).
         test: the final zero-shot evaluation the tables report; ``test_levels_by_suite`` replaces its
             levels on other suites than the first.
+        episode_length: simulator steps per episode, per suite (the returns' scale depends on it).
+        level_differences: levels whose vigen version is not the paper's, and how it differs.
         seeds: seeds per method in the papers' tables.
         statistic: what the tables print, in words.
         notes: what else a reader must know (caveats, known deviations between the papers that use it).
@@ -95,6 +103,8 @@ class Protocol:
     action_repeat_by_task: Mapping[str, int | None] = field(default_factory=dict)
     budget_by_task: Mapping[str, int] = field(default_factory=dict)
     test_levels_by_suite: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    episode_length: Mapping[str, int] = field(default_factory=lambda: {"dmc": 1000})
+    level_differences: Mapping[str, str] = field(default_factory=dict)
     notes: str = ""
 
     def __post_init__(self) -> None:
@@ -103,6 +113,8 @@ class Protocol:
         object.__setattr__(self, "action_repeat_by_task", _frozen(self.action_repeat_by_task))
         object.__setattr__(self, "budget_by_task", _frozen(self.budget_by_task))
         object.__setattr__(self, "test_levels_by_suite", _frozen(self.test_levels_by_suite))
+        object.__setattr__(self, "episode_length", _frozen(self.episode_length))
+        object.__setattr__(self, "level_differences", _frozen(self.level_differences))
 
     def _task(self, env: str) -> tuple[str, str]:
         suite, _, task = env.partition("/")
@@ -142,6 +154,15 @@ class Protocol:
         every = self.train_eval.every
         return every * self.action_repeat_for(env) if every is not None and self.budget_unit == "agent_steps" else every
 
+    def action_repeat_option(self, env: str) -> int | None:
+        """The ``action_repeat`` option of ``env`` under this protocol; ``None`` where the suite has no such option."""
+        return self._lookup(self.action_repeat_by_task, env, self.action_repeat)
+
+    def episode_length_for(self, env: str) -> int | None:
+        """Simulator steps per episode on ``env``'s suite; ``None`` where the protocol leaves it to the suite."""
+        self._task(env)
+        return self.episode_length.get(env.split("/", 1)[0])
+
     def test_levels(self, env: str) -> tuple[str, ...]:
         """The levels of the final zero-shot evaluation on ``env``'s suite."""
         self._task(env)
@@ -149,7 +170,7 @@ class Protocol:
 
     def env_options(self, env: str) -> dict[str, int]:
         """The :func:`vigen.envs.make_env` options the protocol fixes on ``env``."""
-        repeat = self._lookup(self.action_repeat_by_task, env, self.action_repeat)
+        repeat = self.action_repeat_option(env)
         return {**({} if repeat is None else {"action_repeat": repeat}), "frame_stack": self.frame_stack,
                 "image_size": self.image_size}
 
@@ -161,9 +182,12 @@ class Protocol:
             >>> settings = get_protocol("rlvigen").settings("dmc/walker-walk")
             >>> settings["frames"], settings["action_repeat"], settings["test_episodes"]
             (1100000, 2, 100)
+            >>> get_protocol("rlvigen").settings("robosuite/door")["action_repeat"] is None  # robosuite: fixed 20 Hz control
+            True
         """
         return {
-            "frames": self.frames(env), "action_repeat": self.action_repeat_for(env), **self.env_options(env),
+            "frames": self.frames(env), "action_repeat": self.action_repeat_option(env), "frame_stack": self.frame_stack,
+            "image_size": self.image_size, "episode_length": self.episode_length_for(env),
             "eval_every": self.eval_every_frames(env), "eval_episodes": self.train_eval.episodes,
             "eval_levels": list(self.train_eval.levels), "test_episodes": self.test.episodes,
             "test_levels": list(self.test_levels(env)), "seeds": self.seeds,
@@ -215,7 +239,10 @@ PROTOCOLS: Mapping[str, Protocol] = _frozen({protocol.name: protocol for protoco
         frame_stack=3, image_size=84,
         train_eval=Evaluation(episodes=10, levels=("train", "color_hard", "rotate_hard"), every=20_000),
         test=Evaluation(episodes=100, levels=DMCGB2_LEVELS),
-        seeds=5, statistic="mean over seeds of each seed's mean episode return (figures with 95 % CIs)",
+        seeds=5, statistic="mean ± std over seeds of each seed's mean episode return",
+        level_differences={level: "vigen keys the video into the sky (and floor) as DMC-GB does; DMC-GB2 renders it on an "
+                                  "in-simulation back cube and its video_hard also drops the floor and rails"
+                           for level in ("video_easy", "video_hard", "color_video_easy", "color_video_hard")},
         notes="DMC-GB2's video levels show the video on an in-simulation back cube and video_hard also drops the floor "
               "and rails: they are not DMC-GB's video levels.",
     ),
@@ -225,17 +252,19 @@ PROTOCOLS: Mapping[str, Protocol] = _frozen({protocol.name: protocol for protoco
         url="https://github.com/gemcollector/RL-ViGen",
         suites=("dmc", "robosuite", "adroit"), budget=1_100_000, budget_unit="frames", action_repeat=2,
         action_repeat_by_task={"robosuite": None},
+        budget_by_task={**dict.fromkeys(DRQV2_MEDIUM_TASKS, 3_100_000), "lift": 3_100_000, "two-arm-peg-in-hole": 3_100_000,
+                        "adroit": 4_100_000},
+        episode_length={"dmc": 1000, "robosuite": 500},
         test_levels_by_suite={"robosuite": ("easy", "medium", "hard", "robot_iiwa", "robot_kinova3"),
                               "adroit": ("color_easy", "color_hard", "video_easy", "video_hard", "camera_easy", "camera_hard")},
-        budget_by_task=dict.fromkeys(DRQV2_MEDIUM_TASKS, 3_100_000),
         frame_stack=3, image_size=84,
         train_eval=Evaluation(episodes=10, levels=("train",), every=10_000),
         test=Evaluation(episodes=100, levels=RLVIGEN_LEVELS),
         seeds=5, statistic="per seed, the mean over a category's tasks; then mean ± sample std (ddof=1) over seeds",
-        notes="the DMC budgets are its configs' num_train_frames (task/easy.yaml 1.1M, task/medium.yaml 3.1M); for the "
-              "published scores of the other suites its configs (unitree, Lift, TwoArm 3.1M; Door, CARLA, Habitat 1.1M; "
-              "Adroit 4.1M) and launch scripts (1.0M, Habitat 0.7M) disagree, so vigen.results leaves their budget "
-              "blank; robosuite runs at 20 Hz control without action repeat and evaluates 10 scenes x 10 trials per "
+        notes="budgets are its configs' num_train_frames (cfgs/task/easy.yaml 1.1M, medium.yaml 3.1M: robosuite Lift and "
+              "TwoArmPegInHole; ViGen-adroit's task configs 4.1M); its launch scripts pass other lengths (1.0M, Habitat "
+              "0.7M) and its results sheet does not say which produced the scores, so vigen.results leaves those "
+              "budgets blank; robosuite runs at 20 Hz control without action repeat and evaluates 10 scenes x 10 trials per "
               "level; the paper's figures show 95 % CIs, its results sheet mean ± std.",
     ),
     Protocol(

@@ -61,3 +61,12 @@ def test_rows_give_gaps_and_improvements_per_level():
     assert set(gaps) == {("svea", "video_hard"), ("drqv2", "video_hard")}
     better = {(line["level"], line["method"], line["over"]): line["probability"] for line in improvements(rows, reps=100)}
     assert better[("video_hard", "svea", "drqv2")] == 1.0 and better[("train", "drqv2", "svea")] == 0.0
+
+
+def test_improvements_pair_methods_on_the_envs_both_ran():
+    rows = [{"method": method, "level": "train", "run": run, "env": env, "return": value + run}
+            for method, env, value in [("svea", "dmc/walker-walk", 900.0), ("svea", "dmc/cheetah-run", 100.0),
+                                       ("drqv2", "dmc/cheetah-run", 500.0)] for run in range(3)]
+    lines = improvements(rows, reps=50)
+    assert [(line["method"], line["over"], line["tasks"], line["probability"]) for line in lines] == [
+        ("svea", "drqv2", 1, 0.0), ("drqv2", "svea", 1, 1.0)], "svea's walker runs are not set against drqv2's cheetah runs"

@@ -205,11 +205,19 @@ def test_compare_refuses_another_protocol_before_evaluating(trained, tmp_path):
 @pytest.mark.render
 def test_compare_puts_the_run_beside_the_published_curve(trained, tmp_path):
     out = tmp_path / "report"
-    refused = subprocess.run([sys.executable, str(ROOT / "examples/evaluate.py"), str(trained), "--compare", "drqv2",
-                              "--out", str(out)], capture_output=True, text=True, cwd=ROOT)
-    assert refused.returncode != 0 and "checkpoint is at 400 frames; drqv2 publish" in refused.stderr
-    result = run("evaluate.py", trained, "--compare", "drqv2", "--allow-budget-mismatch", "--episodes", "1", "--out", out)
+
+    def refused(*flags: str) -> str:
+        result = subprocess.run([sys.executable, str(ROOT / "examples/evaluate.py"), str(trained), "--compare", "drqv2",
+                                 *flags, "--out", str(out)], capture_output=True, text=True, cwd=ROOT)
+        assert result.returncode != 0 and not out.exists(), "refused before any episode"
+        return result.stderr
+
+    assert "episode length 100 in the run, 1000 in protocol drqv2" in refused(), "the run's 100-step episodes"
+    assert "checkpoint is at 400 frames; drqv2 publish" in refused("--episode-length", "1000")
+    result = run("evaluate.py", trained, "--compare", "drqv2", "--allow-budget-mismatch", "--episode-length", "1000",
+                 "--episodes", "1", "--out", out)
     assert "| dmc/cartpole-balance | train | drqv2 | return |" in result.stdout and "drqv2: drqv2" in result.stdout
     lines = list(csv.DictReader((out / "published.csv").open()))
     assert [(line["source"], line["published_frames"], line["budget_matches"]) for line in lines] == [("drqv2", "0", "False")]
+    assert lines[0]["notes"] == "budget: run 400 frames, published 0"
     assert (out / "published.png").exists() and "## Published" in (out / "report.md").read_text()

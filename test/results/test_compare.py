@@ -10,7 +10,7 @@ from vigen.results import ProtocolMismatch, compare, published
 
 
 def rows(method="svea", env="dmc/walker-stand", level="video_hard", frames=2_000_000, returns=(800.0, 900.0), **settings):
-    settings = {"action_repeat": 4, "frame_stack": 3, "image_size": 84, **settings}
+    settings = {"action_repeat": 4, "frame_stack": 3, "image_size": 84, "episode_length": 1000, **settings}
     return [{"method": method, "env": env, "level": level, "run": run, "frames": frames, "return": value, **settings}
             for run, value in enumerate(returns)]
 
@@ -22,22 +22,47 @@ def test_a_run_under_the_protocol_sits_beside_every_source_of_it():
     assert (line["runs"], line["mean"], line["std"]) == (2, 850.0, pytest.approx(math.sqrt(5000.0)))
     assert line["difference"] == pytest.approx(103.0) and line["published_spread"] == 43.0 and line["budget_matches"]
     assert line["published_frames"] == 2_000_000, "500k agent steps at action repeat 4"
+    assert line["notes"] == "published from another implementation of svea than vigen's svea", \
+        "SGQN's SVEA is DMC-GB's SAC-based one; vigen's svea is RL-ViGen's DrQ-v2-based one"
+
+
+def test_an_implementation_vigen_reproduces_carries_no_note():
+    line = compare(rows(method="madi"), source="madi", protocol="dmcgb")[0]
+    assert (line["published"], line["notes"]) == (824.0, "")
 
 
 def test_every_differing_setting_is_named():
     with pytest.raises(ProtocolMismatch) as caught:
-        compare(rows(action_repeat=2, frame_stack=1, image_size=64), source="sgqn", protocol="dmcgb")
+        compare(rows(action_repeat=2, frame_stack=1, image_size=64, episode_length=500), source="sgqn", protocol="dmcgb")
     assert caught.value.differences == [
         "dmc/walker-stand: action repeat 2 in the run, 4 in protocol dmcgb",
         "dmc/walker-stand: frame stack 1 in the run, 3 in protocol dmcgb",
-        "dmc/walker-stand: image size 64 in the run, 84 in protocol dmcgb"]
+        "dmc/walker-stand: image size 64 in the run, 84 in protocol dmcgb",
+        "dmc/walker-stand: episode length 500 in the run, 1000 in protocol dmcgb"]
+    assert str(caught.value).endswith("Train with the settings of protocol dmcgb (examples/train.py --protocol dmcgb).")
+
+
+def test_rows_without_their_settings_cannot_be_compared():
+    bare = [{key: value for key, value in row.items() if key not in ("frame_stack", "image_size")} for row in rows()]
+    with pytest.raises(ProtocolMismatch, match="rows without a 'frame_stack' column"):
+        compare(bare, source="sgqn", protocol="dmcgb")
 
 
 def test_another_protocols_run_or_source_is_refused():
     with pytest.raises(ProtocolMismatch, match="trained under protocol rlvigen, the published numbers under dmcgb"):
         compare(rows(protocol="rlvigen"), source="sgqn", protocol="dmcgb")
-    with pytest.raises(ProtocolMismatch, match="source dmcgb2 publishes under protocol dmcgb2, the run follows dmcgb"):
-        compare(rows(), source="dmcgb2", protocol="dmcgb")
+    with pytest.raises(ProtocolMismatch, match="source dmcgb2 publishes under protocol dmcgb2, the run follows dmcgb(.|\n)*"
+                                               "Drop dmcgb2 or compare under its protocol"):
+        compare(rows(), source=["sgqn", "dmcgb2"], protocol="dmcgb")
+
+
+def test_a_level_vigen_only_approximates_is_noted():
+    """DMC-GB2 shows its videos on an in-simulation cube; vigen's video_hard keys them in as DMC-GB does."""
+    run = rows(method="sada", env="dmc/walker-walk", frames=1_000_000, action_repeat=2)
+    line = compare(run, source="dmcgb2", protocol="dmcgb2")[0]
+    assert line["published"] == 270.0 and line["notes"].startswith("video_hard differs: vigen keys the video")
+    rotated = compare([dict(row, level="rotate_hard") for row in run], source="dmcgb2", protocol="dmcgb2")[0]
+    assert rotated["notes"] == ""
 
 
 def test_frames_and_agent_steps_are_never_mixed():
@@ -46,6 +71,7 @@ def test_frames_and_agent_steps_are_never_mixed():
         compare(rows(frames=500_000), source="sgqn", protocol="dmcgb")
     lines = compare(rows(frames=500_000), source="sgqn", protocol="dmcgb", allow_budget_mismatch=True)
     assert not lines[0]["budget_matches"] and lines[0]["frames"] == 500_000
+    assert lines[0]["notes"].startswith("budget: run 500,000 frames, published 2,000,000")
 
 
 def test_drqv2_curves_are_matched_at_the_runs_frame_count():
@@ -63,7 +89,8 @@ def test_success_rates_compare_with_published_success_in_percent():
     line = compare(run, source="rlvigen", protocol="rlvigen", value="success")[0]
     seeds = [row.value for row in published(source="rlvigen", method="pieg", task="door", level="camera_easy")]
     assert line["mean"] == 50.0 and line["published"] == pytest.approx(sum(seeds) / 5) and line["published_seeds"] == 5
-    assert line["published_frames"] is None and line["budget_matches"], "RL-ViGen does not state its budget"
+    assert line["published_frames"] is None and line["budget_matches"] is None, "RL-ViGen's sheet does not state its budget"
+    assert line["notes"] == "budget not published" and line["published_statistic"] == "seed"
     with pytest.raises(ProtocolMismatch, match="sgqn publish.* no success"):
         compare([dict(row, success=1.0) for row in rows()], source="sgqn", protocol="dmcgb", value="success")
 

@@ -17,11 +17,9 @@ def test_every_row_follows_the_schema_and_its_protocols_unit(source):
         assert tuple(csv.DictReader(file).fieldnames) == COLUMNS
     rows = load(source)
     assert rows, f"{source}.csv is empty"
-    keys = [(r.method, r.variant, r.suite, r.task, r.level, r.statistic, r.unit, r.budget, r.seed) for r in rows]
-    assert len(keys) == len(set(keys)), "a published cell appears twice"
     for row in rows:
-        assert row.budget is None or row.budget_unit in ("agent_steps", "frames")
         assert row.unit == "return" or row.suite in ("adroit", "habitat"), "only Adroit and Habitat publish success rates"
+    assert all(row.budget is None for row in rows if row.source == "rlvigen"), "RL-ViGen's sheet states no budget"
 
 
 def test_only_the_csv_files_of_known_sources_ship():
@@ -61,14 +59,22 @@ GEOMETRIC = [f"{m}_{d}" for m in ("rotate", "shift", "rotate_shift") for d in ("
 PHOTOMETRIC = [f"{m}_{d}" for m in ("color", "video", "color_video") for d in ("easy", "hard")]
 
 
+SGQN_OWN_ROUNDING = {("video_easy", "sac"): 290.4, ("video_easy", "soda"): 777.6, ("video_easy", "svea"): 788.2,
+                     ("video_hard", "sac"): 126.4, ("video_hard", "soda"): 397.8, ("video_hard", "svea"): 439.2}
+"""SGQN's printed averages that are not the mean of its own printed cells: the exact means of the cells."""
+
+
 @pytest.mark.parametrize("level", list(SGQN_AVERAGES))
-def test_sgqn_table_averages_reproduce_within_its_own_rounding(level):
-    """SGQN's printed averages differ from the mean of its own printed cells by up to 3 points (e.g. SVEA
-    video_easy: 785 printed, (828 + 966 + 908 + 702 + 537) / 5 = 788.2): the paper averaged something else."""
+def test_sgqn_table_averages_reproduce_except_where_sgqn_averaged_something_else(level):
+    """SGQN's Table 2 (checked against DMC/figures/sgqn_perf.png @f383fc0) prints averages that differ by up to
+    3 points from the mean of its own cells for SAC, SODA and SVEA (e.g. SVEA video_easy: 785 printed, 788.2)."""
     means = task_means(published(source="sgqn", level=level), by=("method",))
     assert set(means) == {(method,) for method in SGQN_AVERAGES[level]}
     for (method,), value in means.items():
-        assert abs(value - SGQN_AVERAGES[level][method]) <= 3.5, (method, value)
+        if (level, method) in SGQN_OWN_ROUNDING:
+            assert value == pytest.approx(SGQN_OWN_ROUNDING[level, method]) and round(value) != SGQN_AVERAGES[level][method]
+        else:
+            assert round(value) == SGQN_AVERAGES[level][method], (method, value)
 
 
 def test_madi_table_averages_reproduce():

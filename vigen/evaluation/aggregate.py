@@ -23,7 +23,13 @@ Statistic = Callable[[np.ndarray], float]
 
 
 def as_scores(scores: np.ndarray | list) -> np.ndarray:
-    """``scores`` as a checked float64 ``[runs, tasks]`` array (one task's ``[runs]`` becomes a column); bad input raises."""
+    """``scores`` as a checked float64 ``[runs, tasks]`` array (one task's ``[runs]`` becomes a column); bad input raises.
+
+    Examples:
+        >>> from vigen.evaluation import as_scores
+        >>> as_scores([1, 2, 3]).shape
+        (3, 1)
+    """
     array = np.asarray(scores, dtype=np.float64)
     if array.ndim == 1:
         array = array[:, None]

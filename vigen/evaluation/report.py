@@ -230,34 +230,29 @@ def plot_intensity(
 
 
 def comparison_table(lines: Sequence[Mapping[str, Any]]) -> str:
-    """A markdown table of :func:`vigen.results.compare` lines: the vigen run beside each published number.
+    """A markdown table of :func:`vigen.results.compare` lines: the vigen run beside each published number, with its notes.
 
     Examples:
         >>> from vigen.evaluation import comparison_table
         >>> line = {"method": "svea", "env": "dmc/walker-stand", "level": "video_hard", "runs": 2, "mean": 850.0, "std": 70.7,
-        ...         "frames": 2_000_000, "published_method": "svea", "source": "sgqn", "published": 747.0, "published_spread": 43.0,
-        ...         "published_seeds": 5, "published_frames": 2_000_000, "budget_matches": True, "difference": 103.0,
-        ...         "unit": "return"}
+        ...         "published_method": "svea", "source": "sgqn", "published": 747.0, "published_spread": 43.0,
+        ...         "published_seeds": 5, "difference": 103.0, "unit": "return", "notes": ""}
         >>> print(comparison_table([line]).splitlines()[2])
-        | dmc/walker-stand | video_hard | svea | return | 850.0 ± 70.7 (2 runs) | 747.0 ± 43.0 (5 seeds) | sgqn: svea | +103.0 |
+        | dmc/walker-stand | video_hard | svea | return | 850.0 ± 70.7 (2 runs) | 747.0 ± 43.0 (5 seeds) | sgqn: svea | +103.0 |  |
     """
-    table = ["| env | level | method | unit | vigen | published | source: method | vigen − published |", "|---|---|---|---|---|---|---|---|"]
-    budget_notes = []
+    table = ["| env | level | method | unit | vigen | published | source: method | vigen − published | notes |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for line in lines:
         std = "" if _number(line.get("std")) is None else f" ± {line['std']:.1f}"
         spread = "" if _number(line.get("published_spread")) is None else f" ± {line['published_spread']:.1f}"
-        mark = ""
-        if not line.get("budget_matches", True):
-            mark = " †"
-            budget_notes.append(f"{line['method']} on {line['env']}: run at {line['frames']:,} frames, "
-                                f"published at {line['published_frames']:,}")
-        table.append(f"| {line['env']} | {line['level']} | {line['method']} | {line.get('unit', 'return')} | {line['mean']:.1f}{std} ({line['runs']} run{'s' * (line['runs'] != 1)}){mark} | "
-                     f"{line['published']:.1f}{spread} ({line['published_seeds']} seeds) | {line['source']}: "
-                     f"{line['published_method']} | {line['difference']:+.1f} |")
-    notes = ["", "vigen: mean ± sample std over runs of each run's mean; published: as the source prints it (mean ± std over seeds)."]
-    if budget_notes:
-        notes.append("† different training budgets, shown on request (--allow-budget-mismatch): " + "; ".join(dict.fromkeys(budget_notes)) + ".")
-    return "\n".join(table + notes)
+        runs = f"{line['runs']} run{'s' * (line['runs'] != 1)}"
+        table.append(f"| {line['env']} | {line['level']} | {line['method']} | {line.get('unit', 'return')} | "
+                     f"{line['mean']:.1f}{std} ({runs}) | {line['published']:.1f}{spread} ({line['published_seeds']} seeds) | "
+                     f"{line['source']}: {line['published_method']} | {line['difference']:+.1f} | {line.get('notes', '')} |")
+    seeded = sorted({line["source"] for line in lines if line.get("published_statistic") == "seed"})
+    table += ["", "vigen: mean ± sample std over runs of each run's mean. Published: mean ± std over seeds"
+              + (f" (for {', '.join(seeded)} computed here from its per-seed values)." if seeded else ", as the source prints it.")]
+    return "\n".join(table)
 
 
 def plot_comparison(lines: Sequence[Mapping[str, Any]], path: str | Path, *, title: str | None = None,
@@ -274,6 +269,9 @@ def plot_comparison(lines: Sequence[Mapping[str, Any]], path: str | Path, *, tit
     """
     if not lines:
         raise ValueError("no comparison lines to plot; pass the lines of vigen.results.compare.")
+    units = {line.get("unit", "return") for line in lines}
+    if len(units) > 1:
+        raise ValueError(f"lines of several units {sorted(units)} share no axis; plot each unit on its own.")
     import matplotlib
 
     matplotlib.use("Agg")

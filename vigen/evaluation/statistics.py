@@ -1,8 +1,8 @@
 """Statistics that compare methods and levels: generalization gap, probability of improvement, performance profiles.
 
-Scores are ``[runs, tasks]`` arrays, as in :mod:`vigen.evaluation.aggregate`. The definitions follow
+Scores are ``[runs, tasks]`` arrays, as in :mod:`vigen.evaluation.aggregate`. The first two follow
 rliable (Agarwal et al. 2021, "Deep RL at the Edge of the Statistical Precipice",
-https://arxiv.org/abs/2108.13264):
+https://arxiv.org/abs/2108.13264; ``benchmarks/rliable_parity.py`` checks them against its code):
 
 * **probability of improvement** P(X > Y): for each task, the probability that a run of X scores
   above a run of Y (the Mann–Whitney U statistic over ``n·m``, ties counting ½), averaged over tasks;
@@ -10,8 +10,10 @@ https://arxiv.org/abs/2108.13264):
   each task;
 * **performance profile**: the fraction of all ``runs × tasks`` scores above each threshold τ (rliable's
   run-score distribution), with a stratified-bootstrap band;
-* **generalization gap**: mean test score over mean training score of the same runs (1 = no loss),
-  with a bootstrap that resamples runs jointly for both levels (each run is paired with itself).
+* **generalization gap** as a ratio: mean test score over mean training score of the same runs
+  (1 = nothing lost; 1 − gap is the fraction lost), the form visual-RL papers quote ("test
+  performance at 14 % of training", CNSN 2024); the difference train − test (Cobbe et al. 2019) is
+  ``train.mean() * (1 − gap)``. Its interval resamples runs jointly for both levels (each run is paired with itself).
 """
 
 from __future__ import annotations

@@ -148,6 +148,9 @@ def generalization_gaps(
 def improvements(rows: Sequence[Mapping[str, Any]], *, value: str = "return", reps: int = 2000) -> list[dict[str, Any]]:
     """Per level, the probability of improvement P(X > Y) of every method X over every other method Y, with its 95 % interval.
 
+    Each pair is compared on the envs (tasks) both methods were evaluated on (``tasks`` says how
+    many); a pair without a shared env is left out.
+
     Examples:
         >>> from vigen.evaluation import improvements
         >>> rows = [{"method": m, "level": "train", "run": run, "env": "dmc/a", "return": r + run}
@@ -162,13 +165,15 @@ def improvements(rows: Sequence[Mapping[str, Any]], *, value: str = "return", re
     for level in dict.fromkeys(row["level"] for row in rows):
         at_level = [row for row in rows if row["level"] == level]
         methods = list(dict.fromkeys(row.get("method", "agent") for row in at_level))
-        scores = {method: score_matrix([row for row in at_level if row.get("method", "agent") == method], run=run, value=value)
-                  for method in methods}
+        envs = {method: {row["env"] for row in at_level if row.get("method", "agent") == method} for method in methods}
         for x in methods:
             for y in methods:
-                if x == y:
+                shared = envs[x] & envs[y]  # the tasks both were evaluated on; columns pair by task
+                if x == y or not shared:
                     continue
-                low, high = probability_of_improvement_ci(scores[x], scores[y], reps=reps)
-                lines.append({"level": level, "method": x, "over": y, "probability": probability_of_improvement(scores[x], scores[y]),
-                              "low": low, "high": high})
+                x_scores, y_scores = (score_matrix([row for row in at_level if row.get("method", "agent") == method
+                                                    and row["env"] in shared], run=run, value=value) for method in (x, y))
+                low, high = probability_of_improvement_ci(x_scores, y_scores, reps=reps)
+                lines.append({"level": level, "method": x, "over": y, "tasks": len(shared),
+                              "probability": probability_of_improvement(x_scores, y_scores), "low": low, "high": high})
     return lines

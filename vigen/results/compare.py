@@ -2,28 +2,41 @@
 
 A published number is only comparable to a run trained and evaluated the way the paper did: the
 same budget counted in the same unit (DMC-GB's 500k *agent steps* are 2M frames at action repeat
-4), action repeat, frame stack and image size. :func:`compare` checks all of them and raises
-:class:`ProtocolMismatch`, naming every difference, instead of printing unlike numbers side by side.
+4), action repeat, frame stack, image size and episode length. :func:`compare` checks all of them
+and raises :class:`ProtocolMismatch`, naming every difference, instead of printing unlike numbers
+side by side. What it cannot check it states on each line (``notes``): a published number from
+another implementation of the method than vigen's, a level vigen only approximates, a budget the
+source does not state.
 """
 
 from __future__ import annotations
 
 from collections import defaultdict
 from collections.abc import Iterable, Mapping, Sequence
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 
 from vigen.protocols import Protocol, get_protocol
 from vigen.results.published import PublishedScore, published
+from vigen.results.sources import SOURCES
 
-VALUE_UNITS = {"return": "return", "success": "success_percent"}
+VALUE_UNITS: Mapping[str, str] = MappingProxyType({"return": "return", "success": "success_percent"})
 """Evaluation column -> the published unit it is compared with (``success`` rows are 0/1, shown in %)."""
-SETTINGS = ("action_repeat", "frame_stack", "image_size")
+SETTINGS = ("action_repeat", "frame_stack", "image_size", "episode_length")
+"""The row columns that must match the protocol (``examples/evaluate.py`` tags every row with them)."""
 
 
 class ProtocolMismatch(ValueError):
-    """The run and the published numbers were not produced under the same protocol; ``differences`` lists how."""
+    """The run and the published numbers were not produced under the same protocol; ``differences`` lists how.
+
+    Examples:
+        >>> from vigen.results import ProtocolMismatch
+        >>> error = ProtocolMismatch(["dmc/walker-walk: action repeat 2 in the run, 4 in protocol dmcgb"])
+        >>> error.differences
+        ['dmc/walker-walk: action repeat 2 in the run, 4 in protocol dmcgb']
+    """
 
     def __init__(self, differences: Sequence[str], hint: str = "") -> None:
         self.differences = list(differences)
@@ -31,11 +44,57 @@ class ProtocolMismatch(ValueError):
                          "\n".join(f"  - {difference}" for difference in self.differences) + (f"\n{hint}" if hint else ""))
 
 
+def check_protocol(rows: Sequence[Mapping[str, Any]], protocol: str | Protocol) -> list[str]:
+    """How the rows' settings differ from ``protocol``: one sentence per difference, empty when they follow it.
+
+    Each row must carry the settings the protocol fixes for its env (``action_repeat`` where the
+    suite has one, ``frame_stack``, ``image_size``, ``episode_length`` where the protocol fixes
+    it); a missing column is a difference too, since nothing then shows the run followed the
+    protocol. A ``protocol`` column naming another protocol is one as well.
+
+    Examples:
+        >>> from vigen.results import check_protocol
+        >>> row = {"env": "dmc/walker-walk", "action_repeat": 2, "frame_stack": 3, "image_size": 84, "episode_length": 1000}
+        >>> check_protocol([row], "dmcgb")
+        ['dmc/walker-walk: action repeat 2 in the run, 4 in protocol dmcgb']
+        >>> check_protocol([dict(row, action_repeat=4)], "dmcgb")
+        []
+    """
+    protocol = get_protocol(protocol)
+    differences = []
+    for env in dict.fromkeys(row["env"] for row in rows):
+        of_env = [row for row in rows if row["env"] == env]
+        named = {row.get("protocol") for row in of_env} - {None, ""}
+        if named and named != {protocol.name}:
+            differences.append(f"{env}: the run was trained under protocol {', '.join(sorted(map(str, named)))}, "
+                               f"the published numbers under {protocol.name}")
+        try:
+            expected = {"action_repeat": protocol.action_repeat_option(env), "frame_stack": protocol.frame_stack,
+                        "image_size": protocol.image_size, "episode_length": protocol.episode_length_for(env)}
+        except ValueError as error:
+            differences.append(str(error))
+            continue
+        for name in SETTINGS:
+            if expected[name] is None:
+                continue
+            found = {row.get(name) for row in of_env}
+            if None in found or "" in found:
+                differences.append(f"{env}: rows without a {name!r} column; tag them with the run's settings "
+                                   f"(examples/evaluate.py does) so that the protocol can be checked")
+            elif found != {expected[name]}:
+                differences.append(f"{env}: {name.replace('_', ' ')} {', '.join(map(str, sorted(found)))} in the run, "
+                                   f"{expected[name]} in protocol {protocol.name}")
+    return differences
+
+
 def _published_mean(members: Sequence[PublishedScore]) -> tuple[float, float | None, int]:
     """Mean, spread and seeds of a published cell: its ``mean`` row, or the mean ± sample std of its ``seed`` rows."""
-    if members[0].statistic == "seed":
+    statistics = {row.statistic for row in members}
+    if statistics == {"seed"}:
         values = np.array([row.value for row in members])
         return float(values.mean()), float(values.std(ddof=1)) if values.size > 1 else None, int(values.size)
+    if statistics != {"mean"} or len(members) != 1:
+        raise ValueError(f"a published cell must be one 'mean' row or per-seed rows, got {sorted(statistics)} x {len(members)}.")
     return members[0].value, members[0].spread, members[0].seeds
 
 
@@ -47,27 +106,19 @@ def _run_scores(rows: Sequence[Mapping[str, Any]], value: str) -> list[float]:
     return [float(np.mean(scores)) for scores in per_run.values()]
 
 
-def check_protocol(rows: Sequence[Mapping[str, Any]], protocol: Protocol) -> list[str]:
-    """How the rows' own settings (``protocol``, ``action_repeat``, ``frame_stack``, ``image_size`` columns) differ from ``protocol``."""
-    differences = []
-    for env in dict.fromkeys(row["env"] for row in rows):
-        of_env = [row for row in rows if row["env"] == env]
-        named = {row.get("protocol") for row in of_env} - {None, ""}
-        if named and named != {protocol.name}:
-            differences.append(f"{env}: the run was trained under protocol {', '.join(sorted(map(str, named)))}, "
-                               f"the published numbers under {protocol.name}")
-        try:
-            expected = {"action_repeat": protocol.action_repeat_for(env), "frame_stack": protocol.frame_stack,
-                        "image_size": protocol.image_size}
-        except ValueError as error:
-            differences.append(str(error))
-            continue
-        for name in SETTINGS:
-            found = {row[name] for row in of_env if row.get(name) not in (None, "")}
-            if found and found != {expected[name]}:
-                differences.append(f"{env}: {name.replace('_', ' ')} {', '.join(map(str, sorted(found)))} in the run, "
-                                   f"{expected[name]} in protocol {protocol.name}")
-    return differences
+def _at_budget(budgets: Mapping[int | None, list[PublishedScore]], run_frames: int | None, repeat: int, allow_mismatch: bool
+               ) -> tuple[list[PublishedScore] | None, str]:
+    """The published cell at the run's frames (or the only, unstated, budget); else the nearest if allowed, else why not."""
+    if list(budgets) == [None]:
+        return budgets[None], ""
+    at_frames = {cell[0].frames(repeat): cell for budget, cell in budgets.items() if budget is not None}
+    if run_frames in at_frames:
+        return at_frames[run_frames], ""
+    nearest = at_frames[min(at_frames, key=lambda frames: abs(frames - (run_frames or 0)))]
+    if allow_mismatch:
+        return nearest, ""
+    shown = ", ".join(f"{frames:,}" for frames in sorted(at_frames)[:6]) + (" ..." if len(at_frames) > 6 else "")
+    return None, f"{shown} frames ({nearest[0].budget_text} at action repeat {repeat})"
 
 
 def compare(
@@ -82,20 +133,21 @@ def compare(
 
     Args:
         rows: :func:`vigen.evaluation.evaluate` rows (one per episode) with ``method``, ``env``,
-            ``level``, ``run`` and ``frames`` (the checkpoint's frames) columns; ``examples/evaluate.py``
-            also tags the run's ``protocol``, ``action_repeat``, ``frame_stack`` and ``image_size``,
-            which are checked when present.
+            ``level``, ``run``, ``frames`` (the checkpoint's frames) and the settings of
+            :func:`check_protocol` (``examples/evaluate.py`` tags all of them).
         source: the source(s) to compare with (:data:`vigen.results.SOURCES`).
         protocol: the protocol the rows were produced under; it must be the source's.
         value: ``"return"`` or ``"success"`` (compared with published success rates in %).
         allow_budget_mismatch: put a run beside published numbers measured after a different
-            training length (e.g. a run still in progress); each line states both budgets.
+            training length (e.g. a run still in progress); each such line says so in ``notes``.
 
     Returns:
         Lines with the vigen side (``runs``, ``mean``, ``std`` over runs of each run's mean, as
         the papers compute theirs), the published side (``published``, ``published_spread``,
         ``published_seeds``, ``published_method`` with its variant, ``source``, ``where``), both
-        budgets in frames, and ``difference`` (vigen − published).
+        budgets in frames (``budget_matches`` is ``None`` where the source does not state its
+        budget), ``difference`` (vigen − published) and ``notes``: what the reader must know
+        (a different budget, a budget not published, another implementation, a level vigen approximates).
 
     Raises:
         ProtocolMismatch: the protocols, a setting, the budget or the unit differ (each difference listed).
@@ -103,16 +155,17 @@ def compare(
 
     Examples:
         >>> from vigen.results import compare
-        >>> rows = [{"method": "svea", "env": "dmc/walker-stand", "level": "video_hard", "run": run, "frames": 2_000_000,
-        ...          "action_repeat": 4, "return": value} for run, value in enumerate([800.0, 900.0])]
-        >>> [(line["source"], line["published"], line["mean"]) for line in compare(rows, source="sgqn", protocol="dmcgb")]
-        [('sgqn', 747.0, 850.0)]
-        >>> compare([dict(row, action_repeat=2) for row in rows], source="sgqn", protocol="dmcgb")
+        >>> rows = [{"method": "sada", "env": "dmc/walker-walk", "level": "rotate_hard", "run": run, "frames": 1_000_000,
+        ...          "action_repeat": 2, "frame_stack": 3, "image_size": 84, "episode_length": 1000, "return": value}
+        ...         for run, value in enumerate([700.0, 800.0])]
+        >>> [(line["source"], line["published"], line["mean"], line["notes"]) for line in compare(rows, source="dmcgb2", protocol="dmcgb2")]
+        [('dmcgb2', 799.0, 750.0, '')]
+        >>> compare([dict(row, action_repeat=4) for row in rows], source="dmcgb2", protocol="dmcgb2")
         Traceback (most recent call last):
         ...
         vigen.results.compare.ProtocolMismatch: cannot compare with the published numbers; what differs:
-          - dmc/walker-stand: action repeat 2 in the run, 4 in protocol dmcgb
-        Train with the published protocol's settings (examples/train.py --protocol dmcgb) or compare with a source published under the run's.
+          - dmc/walker-walk: action repeat 4 in the run, 2 in protocol dmcgb2
+        Train with the settings of protocol dmcgb2 (examples/train.py --protocol dmcgb2).
     """
     rows = list(rows)
     if not rows:
@@ -124,16 +177,18 @@ def compare(
         raise KeyError(f"rows lack the column(s) {missing}; pass the rows of vigen.evaluation.evaluate with method tags.")
     protocol = get_protocol(protocol)
     sources = [source] if isinstance(source, str) else list(source)
-    candidates = published(source=sources, unit=VALUE_UNITS[value])
+    candidates = published(source=sources, unit=VALUE_UNITS[value], statistic=["mean", "seed"])
     if not candidates:
         raise ProtocolMismatch([f"{', '.join(sources)} publish(es) no {value} ({VALUE_UNITS[value]}) numbers"])
-    differences = [f"source {name} publishes under protocol {', '.join(sorted({row.protocol for row in candidates if row.source == name}))}, "
-                   f"the run follows {protocol.name}" for name in sources
-                   if {row.protocol for row in candidates if row.source == name} - {protocol.name}]
+    others = {name: sorted({row.protocol for row in candidates if row.source == name} - {protocol.name}) for name in sources}
+    differences = [f"source {name} publishes under protocol {', '.join(found)}, the run follows {protocol.name}"
+                   for name, found in others.items() if found]
     differences += check_protocol(rows, protocol)
     if differences:
-        raise ProtocolMismatch(differences, f"Train with the published protocol's settings (examples/train.py --protocol "
-                                            f"{candidates[0].protocol}) or compare with a source published under the run's.")
+        hint = (f"Drop {', '.join(name for name, found in others.items() if found)} or compare under its protocol."
+                if any(others.values()) else
+                f"Train with the settings of protocol {protocol.name} (examples/train.py --protocol {protocol.name}).")
+        raise ProtocolMismatch(differences, hint)
 
     cells: dict[tuple, list[PublishedScore]] = defaultdict(list)
     for row in candidates:
@@ -163,35 +218,35 @@ def compare(
                 continue
             mean, spread, seeds = _published_mean(cell)
             scores = _run_scores(members, value)
+            published_frames = cell[0].frames(repeat)
+            notes = []
+            if published_frames is None:
+                notes.append("budget not published")
+            elif published_frames != run_frames:
+                notes.append(f"budget: run {run_frames or 0:,} frames, published {published_frames:,}")
+            if SOURCES[source_name].reproduced_by.get(cell[0].method) != method:
+                notes.append(f"published from another implementation of {cell[0].label} than vigen's {method}")
+            if level in protocol.level_differences:
+                notes.append(f"{level} differs: {protocol.level_differences[level]}")
             lines.append({
                 "method": method, "env": env, "level": level, "runs": len(scores), "frames": run_frames,
                 "mean": float(np.mean(scores)), "std": float(np.std(scores, ddof=1)) if len(scores) > 1 else float("nan"),
                 "published_method": cell[0].label, "source": source_name, "published": mean,
-                "published_spread": spread, "published_seeds": seeds, "published_frames": cell[0].frames(repeat),
-                "budget_matches": cell[0].frames(repeat) in (run_frames, None),
-                "difference": float(np.mean(scores)) - mean, "unit": cell[0].unit, "where": cell[0].where,
+                "published_spread": spread, "published_seeds": seeds, "published_statistic": cell[0].statistic,
+                "published_frames": published_frames,
+                "budget_matches": None if published_frames is None else published_frames == run_frames,
+                "difference": float(np.mean(scores)) - mean, "unit": cell[0].unit, "notes": "; ".join(notes),
+                "where": cell[0].where,
             })
     if budget_problems:
         raise ProtocolMismatch([
             f"{method} on {env}: the run's checkpoint is at {'an unknown number of' if frames is None else f'{frames:,}'} frames; "
             f"{', '.join(names)} publish(es) {', '.join(levels)} at {budget}"
-            for (method, env, frames, budget), (names, levels) in budget_problems.items()], "Evaluate a checkpoint at the published budget, or pass "
-                                                "allow_budget_mismatch=True (--allow-budget-mismatch) to show them anyway, labelled.")
+            for (method, env, frames, budget), (names, levels) in budget_problems.items()],
+            "Evaluate a checkpoint at the published budget, or pass allow_budget_mismatch=True (--allow-budget-mismatch) "
+            "to show them anyway, labelled.")
     if not lines:
         have = sorted({(row.method, row.env, row.level) for row in candidates})
         raise ValueError(f"{', '.join(sources)} publish(es) nothing for the rows' (method, env, level) "
                          f"{sorted(groups)[:6]}; it has e.g. {have[:6]}.")
     return lines
-
-
-def _at_budget(budgets: Mapping[int | None, list[PublishedScore]], run_frames: int | None, repeat: int, allow_mismatch: bool
-               ) -> tuple[list[PublishedScore] | None, str]:
-    """The published cell at the run's frames (or at an unstated budget); else the nearest one if allowed, else why not."""
-    at_frames = {cell[0].frames(repeat): cell for cell in budgets.values()}
-    if run_frames in at_frames or None in at_frames:
-        return at_frames.get(run_frames, at_frames.get(None)), ""
-    nearest = at_frames[min(at_frames, key=lambda frames: abs(frames - (run_frames or 0)))]
-    if allow_mismatch:
-        return nearest, ""
-    shown = ", ".join(f"{frames:,}" for frames in sorted(at_frames)[:6]) + (" ..." if len(at_frames) > 6 else "")
-    return None, f"{shown} frames ({nearest[0].budget_text} at action repeat {repeat})"

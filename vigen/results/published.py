@@ -9,10 +9,12 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Iterable, Sequence
+from collections import Counter
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, fields
 from functools import lru_cache
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any
 
 from vigen.protocols import BUDGET_UNITS, PROTOCOLS
@@ -25,6 +27,9 @@ UNITS = ("return", "success_percent")
 """``return``: episode return; ``success_percent``: episodes that succeeded, in %."""
 SPREAD_KINDS = ("std", "")
 """``std``: standard deviation over seeds; empty: no spread published."""
+OTHER_SUITES: Mapping[str, tuple[str, ...]] = MappingProxyType({
+    "locomotion": ("easy", "hard"), "habitat": ("test",), "carla": ("easy", "medium", "hard")})
+"""Suites RL-ViGen publishes that vigen does not build (yet), with their levels; the others' levels are vigen's."""
 
 
 @dataclass(frozen=True)
@@ -86,7 +91,15 @@ def _optional(text: str, kind: type) -> Any:
 
 
 def parse_row(raw: dict[str, str], where: str = "") -> PublishedScore:
-    """A CSV row as a :class:`PublishedScore`, checked against the schema; a bad row raises naming the column."""
+    """A CSV row as a :class:`PublishedScore`, checked against the schema; a bad row raises naming the column.
+
+    Examples:
+        >>> from vigen.results.published import COLUMNS, parse_row
+        >>> raw = dict(zip(COLUMNS, ["svea", "", "sgqn", "dmcgb", "dmc", "walker-walk", "video_hard", "mean", "return", "500000",
+        ...                          "agent_steps", "5", "", "385", "63", "std", "SGQN Table 2"]))
+        >>> parse_row(raw).spread
+        63.0
+    """
     if tuple(raw) != COLUMNS:
         raise ValueError(f"{where}: columns {list(raw)} are not the schema's {list(COLUMNS)}.")
     try:
@@ -102,9 +115,33 @@ def parse_row(raw: dict[str, str], where: str = "") -> PublishedScore:
     return row
 
 
+def _levels(suite: str) -> tuple[str, ...] | None:
+    """The level names a published row of ``suite`` may use; ``None`` for an unknown suite."""
+    if suite in OTHER_SUITES:
+        return OTHER_SUITES[suite]
+    from vigen.envs.registry import SUITES  # the simulators themselves load only when an env is built
+
+    return tuple(SUITES[suite].levels) if suite in SUITES else None
+
+
 def check_row(row: PublishedScore, where: str = "") -> None:
-    """Raise ``ValueError`` naming what is wrong if ``row`` breaks the schema (vocabularies, units, seeds, spreads)."""
+    """Raise ``ValueError`` naming what is wrong if ``row`` breaks the schema (vocabularies, units, seeds, spreads).
+
+    Examples:
+        >>> import dataclasses
+        >>> from vigen.results import published
+        >>> from vigen.results.published import check_row
+        >>> check_row(dataclasses.replace(published(source="sgqn")[0], level="vidoe_hard"), "sgqn.csv")
+        Traceback (most recent call last):
+        ...
+        ValueError: sgqn.csv: level 'vidoe_hard' is not a level of suite dmc (e.g. train, color_easy, color_hard).
+    """
     problems = []
+    levels = _levels(row.suite)
+    if levels is None:
+        problems.append(f"suite {row.suite!r} is neither a vigen suite nor one of {list(OTHER_SUITES)}")
+    elif row.level not in levels:
+        problems.append(f"level {row.level!r} is not a level of suite {row.suite} (e.g. {', '.join(levels[:3])})")
     if row.source not in SOURCES:
         problems.append(f"source {row.source!r} is not one of {list(SOURCES)}")
     if row.protocol not in PROTOCOLS:
@@ -154,6 +191,10 @@ def load(source: str) -> tuple[PublishedScore, ...]:
     stray = {row.source for row in rows} - {source}
     if stray:
         raise ValueError(f"{path.name} holds rows of source(s) {sorted(stray)}; each file holds its own source only.")
+    counts = Counter((r.method, r.variant, r.suite, r.task, r.level, r.statistic, r.unit, r.budget, r.seed) for r in rows)
+    twice = sorted((key for key, count in counts.items() if count > 1), key=str)
+    if twice:
+        raise ValueError(f"{path.name}: the cell(s) {twice[:3]} appear more than once; one row per published number.")
     return rows
 
 
@@ -176,5 +217,11 @@ def published(*, source: str | Sequence[str] | None = None, **filters: Any) -> l
 
 
 def as_dicts(rows: Iterable[PublishedScore]) -> list[dict[str, Any]]:
-    """Rows as plain dicts (for CSV writers and pandas)."""
+    """Rows as plain dicts (for CSV writers and pandas).
+
+    Examples:
+        >>> from vigen.results import as_dicts, published
+        >>> as_dicts(published(source="madi", method="madi", task="finger-spin"))[0]["value"]
+        566.0
+    """
     return [asdict(row) for row in rows]

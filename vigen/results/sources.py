@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
 
 
 @dataclass(frozen=True)
@@ -16,6 +18,15 @@ class Source:
         repository: the repository the numbers were read in, with the commit.
         license: the repository's license.
         read_from: the file(s) in that repository (or the paper's table) the numbers were read from, and how.
+        reproduced_by: published method -> the vigen algorithm (``vigen.losses.ALGOS``) that runs the same update as
+            the code behind these numbers (checked by ``benchmarks/parity.py``); a method not listed was published
+            from another implementation than vigen's algorithm of that name (e.g. DMC-GB's SAC-based SVEA, where
+            vigen's ``svea`` is RL-ViGen's DrQ-v2-based one).
+
+    Examples:
+        >>> from vigen.results import SOURCES
+        >>> SOURCES["rlvigen"].reproduced_by["svea"], "svea" in SOURCES["sgqn"].reproduced_by
+        ('svea', False)
     """
 
     name: str
@@ -24,9 +35,13 @@ class Source:
     repository: str
     license: str
     read_from: str
+    reproduced_by: Mapping[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "reproduced_by", MappingProxyType(dict(self.reproduced_by)))
 
 
-SOURCES: dict[str, Source] = {source.name: source for source in (
+SOURCES: Mapping[str, Source] = MappingProxyType({source.name: source for source in (
     Source("dmcgb", "Hansen & Wang 2021, Generalization in RL by Soft Data Augmentation (SODA); SVEA (Hansen et al. 2021)",
            "https://arxiv.org/abs/2107.00644", "nicklashansen/dmcontrol-generalization-benchmark (table also in bofusun/SCPL@e77b623)",
            "MIT", "figures/results_table.png, transcribed by hand: random colors = color_hard, natural videos = video_easy"),
@@ -35,20 +50,24 @@ SOURCES: dict[str, Source] = {source.name: source for source in (
            "Table 2 as DMC/figures/sgqn_perf.png, transcribed by hand"),
     Source("madi", "Grooten et al. 2024, MaDi: Learning to Mask Distractions for Generalization in Visual Deep RL, AAMAS",
            "https://arxiv.org/abs/2312.15339", "bramgrooten/mask-distractions@70982ce", "MIT",
-           "figures/results_video_hard.png, transcribed by hand (MaDi's own re-runs of every method)"),
+           "figures/results_video_hard.png, transcribed by hand (MaDi's own re-runs of every method)", {"madi": "madi"}),
     Source("simgrl", "Song et al. 2024, A Simple Framework for Generalization in Visual RL under Dynamic Scene Perturbations, NeurIPS",
            "https://w-song11.github.io/SimGRL", "W-Song11/SimGRL-Code@08722a8", "MIT",
-           "the paper's DMC-GB video_hard table (SimGRL with std; the baselines' means as SimGRL prints them)"),
+           "the paper's DMC-GB video_hard table (SimGRL with std; the baselines' means as SimGRL prints them)",
+           {"simgrl": "simgrl"}),
     Source("dmcgb2", "Almuzairee et al. 2024, A Recipe for Unbounded Data Augmentation in Visual RL (SADA, DMC-GB2), RLC",
            "https://arxiv.org/abs/2405.17416", "aalmuzairee/SADA@bee2fba (linked from aalmuzairee/dmcgb2's README)", "MIT",
-           "Fig. 6, static/images/repo/overall_results.png, transcribed by hand; checked against the paper's 6-task means"),
+           "Fig. 6, static/images/repo/overall_results.png, transcribed by hand; checked against the paper's 6-task means",
+           {"sada": "sada"}),
     Source("rlvigen", "Yuan et al. 2023, RL-ViGen: A Reinforcement Learning Benchmark for Visual Generalization, NeurIPS D&B",
            "https://arxiv.org/abs/2307.10224", "gemcollector/RL-ViGen@90d8b8c", "MIT",
-           "results/evaluation_score.xlsx, every literal per-seed cell, by scripts/extract_published.py"),
+           "results/evaluation_score.xlsx, every literal per-seed cell, by scripts/extract_published.py",
+           {name: name for name in ("drqv2", "drq", "curl", "svea", "srm", "sgqn", "pieg", "vrl3")}),
     Source("drqv2", "Yarats et al. 2021, Mastering Visual Continuous Control: Improved Data-Augmented RL (DrQ-v2)",
            "https://arxiv.org/abs/2107.09645", "facebookresearch/drqv2 (archived)", "MIT",
-           "curves/dmc_<task>.csv: mean, sample std and median over seeds at each evaluated frame count, by scripts/extract_published.py"),
+           "curves/dmc_<task>.csv: mean, sample std and median over seeds at each evaluated frame count, by scripts/extract_published.py",
+           {"drqv2": "drqv2"}),
     Source("curl", "Srinivas et al. 2020, CURL: Contrastive Unsupervised Representations for RL, ICML",
            "https://arxiv.org/abs/2004.04136", "MishaLaskin/curl", "MIT", "Table 1 of the paper, transcribed by hand"),
-)}
+)})
 """Source name -> :class:`Source`; each has ``vigen/results/data/<name>.csv``."""
