@@ -113,3 +113,13 @@ def test_plot_levels_writes_a_png(tmp_path):
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with pytest.raises(FileExistsError):
         plot_levels(summarize(_rows(), reps=100), path)
+
+
+def test_a_plot_that_fails_while_drawing_leaves_no_file(tmp_path):
+    pytest.importorskip("matplotlib")
+    import matplotlib.pyplot as plt
+
+    lines = [{key: value for key, value in line.items() if key != "iqm_high"} for line in summarize(_rows(), reps=100)]
+    with pytest.raises(KeyError, match="iqm_high"):
+        plot_levels(lines, tmp_path / "levels.png")
+    assert list(tmp_path.iterdir()) == [] and plt.get_fignums() == [], "nothing half-written, the figure closed"

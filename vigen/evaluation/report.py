@@ -8,13 +8,15 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from vigen.evaluation.statistics import performance_profile, performance_profile_ci
+from vigen.io import atomic_write
 
 
 def _new_file(path: str | Path) -> Path:
@@ -23,6 +25,24 @@ def _new_file(path: str | Path) -> Path:
         raise FileExistsError(f"{path} exists and would be overwritten; choose another path or folder.")
     path.parent.mkdir(parents=True, exist_ok=True)
     return path
+
+
+@contextmanager
+def _figure(path: Path, size: tuple[float, float]) -> Iterator[Any]:
+    """One figure's axes to draw on; when drawing succeeds it is saved to ``path`` (PNG, written atomically); always closed."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, axes = plt.subplots(figsize=size)
+    try:
+        yield axes
+        axes.spines[["top", "right"]].set_visible(False)
+        figure.tight_layout()
+        atomic_write(path, lambda file: figure.savefig(file, format="png", dpi=120))
+    finally:
+        plt.close(figure)
 
 
 def write_csv(rows: Sequence[Mapping[str, Any]], path: str | Path) -> Path:
@@ -96,43 +116,35 @@ def plot_levels(
         >>> plot_levels(lines, pathlib.Path(tempfile.mkdtemp()) / "levels.png").suffix
         '.png'
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     path = _new_file(path)
     levels = list(dict.fromkeys(str(line["level"]) for line in lines))
     methods = list(dict.fromkeys(str(line.get("method", "agent")) for line in lines))
     by_cell = {(str(line["level"]), str(line.get("method", "agent"))): line for line in lines}
     width = 0.8 / len(methods)
-    figure, axes = plt.subplots(figsize=(max(4.0, 1.1 * len(levels) * max(1, len(methods)) ** 0.5 + 1.5), 3.2))
-    for index, method in enumerate(methods):
-        xs, heights, below, above = [], [], [], []
-        for position, level in enumerate(levels):
-            line = by_cell.get((level, method))
-            if line is None:
-                continue
-            height = float(line[statistic])
-            if statistic == "rlvigen_mean":
-                spread = 0.0 if math.isnan(line["rlvigen_std"]) else float(line["rlvigen_std"])
-                low, high = height - spread, height + spread
-            else:
-                low, high = float(line[f"{statistic}_low"]), float(line[f"{statistic}_high"])
-            xs.append(position - 0.4 + width * (index + 0.5))
-            heights.append(height)
-            below.append(height - low)
-            above.append(high - height)
-        axes.bar(xs, heights, width=width * 0.92, yerr=[below, above], capsize=3, label=method)
-    axes.set_xticks(range(len(levels)), levels, rotation=30 if len(levels) > 4 else 0, ha="right" if len(levels) > 4 else "center")
-    axes.set_ylabel(ylabel)
-    axes.set_title(title or f"zero-shot {statistic.replace('_', ' ')} per level (95 % CI)")
-    axes.spines[["top", "right"]].set_visible(False)
-    if len(methods) > 1:
-        axes.legend(frameon=False, fontsize="small")
-    figure.tight_layout()
-    figure.savefig(path, dpi=120)
-    plt.close(figure)
+    with _figure(path, (max(4.0, 1.1 * len(levels) * max(1, len(methods)) ** 0.5 + 1.5), 3.2)) as axes:
+        for index, method in enumerate(methods):
+            xs, heights, below, above = [], [], [], []
+            for position, level in enumerate(levels):
+                line = by_cell.get((level, method))
+                if line is None:
+                    continue
+                height = float(line[statistic])
+                if statistic == "rlvigen_mean":
+                    spread = 0.0 if math.isnan(line["rlvigen_std"]) else float(line["rlvigen_std"])
+                    low, high = height - spread, height + spread
+                else:
+                    low, high = float(line[f"{statistic}_low"]), float(line[f"{statistic}_high"])
+                xs.append(position - 0.4 + width * (index + 0.5))
+                heights.append(height)
+                below.append(height - low)
+                above.append(high - height)
+            axes.bar(xs, heights, width=width * 0.92, yerr=[below, above], capsize=3, label=method)
+        crowded = len(levels) > 4
+        axes.set_xticks(range(len(levels)), levels, rotation=30 if crowded else 0, ha="right" if crowded else "center")
+        axes.set_ylabel(ylabel)
+        axes.set_title(title or f"zero-shot {statistic.replace('_', ' ')} per level (95 % CI)")
+        if len(methods) > 1:
+            axes.legend(frameon=False, fontsize="small")
     return path
 
 
@@ -198,34 +210,25 @@ def plot_intensity(
     if missing:
         raise ValueError(f"lines of levels {missing} have no {statistic!r} column; pass summarize() lines or statistic=.")
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     path = _new_file(path)
     curves: dict[str, list[Mapping[str, Any]]] = {}
     for line in swept:
         method, fixed = str(line.get("method", "agent")), str(line.get("fixed") or "")
         curves.setdefault(f"{method} ({fixed})" if fixed else method, []).append(line)
-    figure, axes = plt.subplots(figsize=(5.0, 3.4))
-    for label, members in curves.items():
-        members = sorted(members, key=lambda line: float(line["intensity"]))
-        xs = [float(line["intensity"]) for line in members]
-        (drawn,) = axes.plot(xs, [float(line[statistic]) for line in members], marker="o", label=label)
-        bands = [_band(line, statistic) for line in members]
-        if all(band is not None for band in bands):
-            axes.fill_between(xs, [band[0] for band in bands], [band[1] for band in bands], color=drawn.get_color(),
-                              alpha=0.2, linewidth=0)
-    axes.set_xlabel(f"{factor} intensity")
-    axes.set_ylabel(ylabel)
-    band = "± std over runs" if statistic == "rlvigen_mean" else "95 % CI"
-    axes.set_title(title or f"robustness to {factor}: {statistic.replace('_', ' ')} ({band})", fontsize="medium")
-    axes.spines[["top", "right"]].set_visible(False)
-    axes.legend(frameon=False, fontsize="small")
-    figure.tight_layout()
-    figure.savefig(path, dpi=120)
-    plt.close(figure)
+    with _figure(path, (5.0, 3.4)) as axes:
+        for label, members in curves.items():
+            members = sorted(members, key=lambda line: float(line["intensity"]))
+            xs = [float(line["intensity"]) for line in members]
+            (drawn,) = axes.plot(xs, [float(line[statistic]) for line in members], marker="o", label=label)
+            bands = [_band(line, statistic) for line in members]
+            if all(band is not None for band in bands):
+                axes.fill_between(xs, [band[0] for band in bands], [band[1] for band in bands], color=drawn.get_color(),
+                                  alpha=0.2, linewidth=0)
+        axes.set_xlabel(f"{factor} intensity")
+        axes.set_ylabel(ylabel)
+        band = "± std over runs" if statistic == "rlvigen_mean" else "95 % CI"
+        axes.set_title(title or f"robustness to {factor}: {statistic.replace('_', ' ')} ({band})", fontsize="medium")
+        axes.legend(frameon=False, fontsize="small")
     return path
 
 
@@ -272,37 +275,29 @@ def plot_comparison(lines: Sequence[Mapping[str, Any]], path: str | Path, *, tit
     units = {line.get("unit", "return") for line in lines}
     if len(units) > 1:
         raise ValueError(f"lines of several units {sorted(units)} share no axis; plot each unit on its own.")
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     path = _new_file(path)
     groups = list(dict.fromkeys((line["method"], line["env"], line["level"]) for line in lines))
-    figure, axes = plt.subplots(figsize=(max(4.5, 1.6 * len(groups) + 1.5), 3.6))
-    sources = list(dict.fromkeys(f"{line['source']}: {line['published_method']}" for line in lines))
-    markers = "osD^v<>p*h"
-    for position, group in enumerate(groups):
-        members = [line for line in lines if (line["method"], line["env"], line["level"]) == group]
-        first = members[0]
-        std = _number(first.get("std"))
-        axes.bar(position, first["mean"], width=0.5, yerr=None if std is None else [[std], [std]], capsize=4,
-                 color="tab:blue", alpha=0.8, label="vigen (mean ± std over runs)" if position == 0 else None)
-        for offset, line in enumerate(members):
-            label = f"{line['source']}: {line['published_method']}"
-            index = sources.index(label)
-            spread = _number(line.get("published_spread")) or 0.0
-            axes.errorbar(position + 0.32 + 0.08 * offset, line["published"], yerr=spread, fmt=markers[index % len(markers)],
-                          color=f"C{1 + index}", capsize=3, label=label if label not in axes.get_legend_handles_labels()[1] else None)
-    axes.set_xticks(range(len(groups)), [f"{method}\n{env.split('/', 1)[-1]}\n{level}" for method, env, level in groups],
-                    fontsize="small")
-    axes.set_ylabel(ylabel)
-    axes.set_title(title or "vigen beside the published numbers (published: mean ± std over seeds)", fontsize="medium")
-    axes.spines[["top", "right"]].set_visible(False)
-    axes.legend(frameon=False, fontsize="x-small")
-    figure.tight_layout()
-    figure.savefig(path, dpi=120)
-    plt.close(figure)
+    with _figure(path, (max(4.5, 1.6 * len(groups) + 1.5), 3.6)) as axes:
+        sources = list(dict.fromkeys(f"{line['source']}: {line['published_method']}" for line in lines))
+        markers = "osD^v<>p*h"
+        for position, group in enumerate(groups):
+            members = [line for line in lines if (line["method"], line["env"], line["level"]) == group]
+            first = members[0]
+            std = _number(first.get("std"))
+            axes.bar(position, first["mean"], width=0.5, yerr=None if std is None else [[std], [std]], capsize=4,
+                     color="tab:blue", alpha=0.8, label="vigen (mean ± std over runs)" if position == 0 else None)
+            for offset, line in enumerate(members):
+                label = f"{line['source']}: {line['published_method']}"
+                index = sources.index(label)
+                spread = _number(line.get("published_spread")) or 0.0
+                shown = axes.get_legend_handles_labels()[1]
+                axes.errorbar(position + 0.32 + 0.08 * offset, line["published"], yerr=spread, fmt=markers[index % len(markers)],
+                              color=f"C{1 + index}", capsize=3, label=None if label in shown else label)
+        axes.set_xticks(range(len(groups)), [f"{method}\n{env.split('/', 1)[-1]}\n{level}" for method, env, level in groups],
+                        fontsize="small")
+        axes.set_ylabel(ylabel)
+        axes.set_title(title or "vigen beside the published numbers (published: mean ± std over seeds)", fontsize="medium")
+        axes.legend(frameon=False, fontsize="x-small")
     return path
 
 
@@ -342,24 +337,15 @@ def plot_performance_profile(
     top = max(float(matrix.max()) for matrix in scores.values())
     taus = np.linspace(0.0, top if top > 0 else 1.0, 101) if taus is None else np.asarray(taus, dtype=np.float64)
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     path = _new_file(path)
-    figure, axes = plt.subplots(figsize=(5.0, 3.4))
-    for method, matrix in scores.items():
-        (drawn,) = axes.plot(taus, performance_profile(matrix, taus), label=method)
-        low, high = performance_profile_ci(matrix, taus, reps=reps)
-        axes.fill_between(taus, low, high, color=drawn.get_color(), alpha=0.2, linewidth=0)
-    axes.set_xlabel(f"{value} threshold τ")
-    axes.set_ylabel("fraction of runs with score > τ")
-    pooled_levels = ", ".join(dict.fromkeys(row["level"] for row in chosen))
-    axes.set_title(title or f"performance profile over {pooled_levels} (95 % CI)", fontsize="small")
-    axes.spines[["top", "right"]].set_visible(False)
-    axes.legend(frameon=False, fontsize="small")
-    figure.tight_layout()
-    figure.savefig(path, dpi=120)
-    plt.close(figure)
+    with _figure(path, (5.0, 3.4)) as axes:
+        for method, matrix in scores.items():
+            (drawn,) = axes.plot(taus, performance_profile(matrix, taus), label=method)
+            low, high = performance_profile_ci(matrix, taus, reps=reps)
+            axes.fill_between(taus, low, high, color=drawn.get_color(), alpha=0.2, linewidth=0)
+        axes.set_xlabel(f"{value} threshold τ")
+        axes.set_ylabel("fraction of runs with score > τ")
+        pooled_levels = ", ".join(dict.fromkeys(row["level"] for row in chosen))
+        axes.set_title(title or f"performance profile over {pooled_levels} (95 % CI)", fontsize="small")
+        axes.legend(frameon=False, fontsize="small")
     return path
