@@ -87,16 +87,54 @@ def stratified_bootstrap_ci(
         True
     """
     array = as_scores(scores)
+    check_confidence(confidence)
+    resamples = resample_runs(array, stratified_picks(np.random.default_rng(seed), reps, *array.shape))
+    low, high = percentile_interval(np.array([statistic(resample) for resample in resamples]), confidence)
+    return float(low), float(high)
+
+
+def check_confidence(confidence: float) -> None:
+    """Raise naming the fix unless ``confidence`` lies in (0, 1)."""
     if not 0 < confidence < 1:
         raise ValueError(f"confidence must be in (0, 1), got {confidence}.")
-    runs, tasks = array.shape
-    rng = np.random.default_rng(seed)
-    picks = rng.integers(0, runs, size=(reps, runs, tasks))
-    resamples = np.take_along_axis(np.broadcast_to(array, (reps, runs, tasks)), picks, axis=1)
-    values = np.array([statistic(resample) for resample in resamples])
+
+
+def stratified_picks(rng: np.random.Generator, reps: int, runs: int, tasks: int) -> np.ndarray:
+    """Run indices ``[reps, runs, tasks]`` of a stratified bootstrap: for every task, ``runs`` runs drawn with replacement.
+
+    Examples:
+        >>> import numpy as np
+        >>> from vigen.evaluation.aggregate import stratified_picks
+        >>> stratified_picks(np.random.default_rng(0), 100, 3, 2).shape
+        (100, 3, 2)
+    """
+    return rng.integers(0, runs, size=(reps, runs, tasks))
+
+
+def resample_runs(scores: np.ndarray, picks: np.ndarray) -> np.ndarray:
+    """The ``[reps, runs, tasks]`` resamples of ``scores`` at :func:`stratified_picks` (the same picks pair two levels' runs).
+
+    Examples:
+        >>> import numpy as np
+        >>> from vigen.evaluation.aggregate import resample_runs
+        >>> resample_runs(np.array([[1.0, 10.0], [2.0, 20.0]]), np.array([[[1, 0], [1, 1]]])).tolist()
+        [[[2.0, 10.0], [2.0, 20.0]]]
+    """
+    return np.take_along_axis(np.broadcast_to(scores, (picks.shape[0], *scores.shape)), picks, axis=1)
+
+
+def percentile_interval(values: np.ndarray, confidence: float) -> tuple[np.ndarray, np.ndarray]:
+    """The ``(1 − confidence)/2`` and ``(1 + confidence)/2`` percentiles of bootstrap ``values`` along their first axis.
+
+    Examples:
+        >>> import numpy as np
+        >>> from vigen.evaluation.aggregate import percentile_interval
+        >>> [float(bound) for bound in percentile_interval(np.arange(101.0), 0.9)]
+        [5.0, 95.0]
+    """
     tail = 100 * (1 - confidence) / 2
-    low, high = np.percentile(values, [tail, 100 - tail])
-    return float(low), float(high)
+    low, high = np.percentile(values, [tail, 100 - tail], axis=0)
+    return low, high
 
 
 @dataclass(frozen=True)

@@ -22,22 +22,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from vigen.evaluation.aggregate import as_scores
-
-
-def _percentiles(values: np.ndarray, confidence: float) -> tuple[np.ndarray, np.ndarray]:
-    if not 0 < confidence < 1:
-        raise ValueError(f"confidence must be in (0, 1), got {confidence}.")
-    tail = 100 * (1 - confidence) / 2
-    low, high = np.percentile(values, [tail, 100 - tail], axis=0)
-    return low, high
+from vigen.evaluation.aggregate import as_scores, check_confidence, percentile_interval, resample_runs, stratified_picks
 
 
 def _resample(scores: np.ndarray, rng: np.random.Generator, reps: int) -> np.ndarray:
     """``reps`` stratified resamples ``[reps, runs, tasks]``: runs drawn with replacement within each task."""
-    runs, tasks = scores.shape
-    picks = rng.integers(0, runs, size=(reps, runs, tasks))
-    return np.take_along_axis(np.broadcast_to(scores, (reps, runs, tasks)), picks, axis=1)
+    return resample_runs(scores, stratified_picks(rng, reps, *scores.shape))
 
 
 def _improvement(x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -77,10 +67,11 @@ def probability_of_improvement_ci(
         True
     """
     x, y = as_scores(x), as_scores(y)
+    check_confidence(confidence)
     rng = np.random.default_rng(seed)
     values = np.concatenate([_improvement(_resample(x, rng, chunk), _resample(y, rng, chunk))
                              for chunk in _chunks(reps, x.shape[0] * y.shape[0] * x.shape[1])])
-    low, high = _percentiles(values, confidence)
+    low, high = percentile_interval(values, confidence)
     return float(low), float(high)
 
 
@@ -115,10 +106,11 @@ def performance_profile_ci(
         True
     """
     scores = as_scores(scores)
+    check_confidence(confidence)
     taus = np.asarray(taus, dtype=np.float64)
     resamples = _resample(scores, np.random.default_rng(seed), reps).reshape(reps, -1)
     values = (resamples[:, None, :] > taus[None, :, None]).mean(axis=2)
-    return _percentiles(values, confidence)
+    return percentile_interval(values, confidence)
 
 
 def generalization_gap(test: np.ndarray | list, train: np.ndarray | list) -> float:
@@ -151,13 +143,9 @@ def generalization_gap_ci(
     """
     test, train = as_scores(test), as_scores(train)
     generalization_gap(test, train)  # checks shapes and the training score
-    runs, tasks = test.shape
-    picks = np.random.default_rng(seed).integers(0, runs, size=(reps, runs, tasks))
-
-    def take(scores: np.ndarray) -> np.ndarray:
-        return np.take_along_axis(np.broadcast_to(scores, (reps, runs, tasks)), picks, axis=1)
-
-    train_means = take(train).mean(axis=(1, 2))
-    ratios = take(test).mean(axis=(1, 2)) / np.where(train_means > 0, train_means, np.nan)
-    low, high = _percentiles(ratios[np.isfinite(ratios)], confidence)
+    check_confidence(confidence)
+    picks = stratified_picks(np.random.default_rng(seed), reps, *test.shape)  # one draw for both: each run stays paired
+    train_means = resample_runs(train, picks).mean(axis=(1, 2))
+    ratios = resample_runs(test, picks).mean(axis=(1, 2)) / np.where(train_means > 0, train_means, np.nan)
+    low, high = percentile_interval(ratios[np.isfinite(ratios)], confidence)
     return float(low), float(high)
