@@ -129,7 +129,7 @@ def percentile_interval(values: np.ndarray, confidence: float) -> tuple[np.ndarr
     Examples:
         >>> import numpy as np
         >>> from vigen.evaluation.aggregate import percentile_interval
-        >>> [float(bound) for bound in percentile_interval(np.arange(101.0), 0.9)]
+        >>> [round(float(bound), 6) for bound in percentile_interval(np.arange(101.0), 0.9)]
         [5.0, 95.0]
     """
     tail = 100 * (1 - confidence) / 2
