@@ -200,15 +200,14 @@ def main() -> None:
     gaps = generalization_gaps([row for row in rows if row["method"] != "random"])
     if gaps:
         written.append(write_csv(gaps, out / "gaps.csv"))
-        report += "\n## Generalization gap (test / train return of the same runs, 95 % CI)\n\n" + markdown_cells(
-            gaps, lambda line: f"{line['gap']:.2f} [{line['gap_low']:.2f}, {line['gap_high']:.2f}]") + "\n"
+        report += "\n## Generalization gap (test / train return of the same runs, 95 % CI)\n\n" + markdown_table(
+            gaps, cell=lambda line: f"{line['gap']:.2f} [{line['gap_low']:.2f}, {line['gap_high']:.2f}]") + "\n"
     if len({row["method"] for row in rows}) > 1:
         better = improvements(rows)
         written.append(write_csv(better, out / "improvements.csv"))
         report += "\n## Probability of improvement P(row beats column), per level (95 % CI)\n\n" + "\n\n".join(
-            f"{level}:\n\n" + markdown_cells([line for line in better if line["level"] == level],
-                                              lambda line: f"{line['probability']:.2f} [{line['low']:.2f}, {line['high']:.2f}]",
-                                              rows="method", columns="over")
+            f"{level}:\n\n" + markdown_table([line for line in better if line["level"] == level], rows="method", columns="over",
+                                              cell=lambda line: f"{line['probability']:.2f} [{line['low']:.2f}, {line['high']:.2f}]")
             for level in dict.fromkeys(line["level"] for line in better)) + "\n"
     figures = [plot_levels(lines, out / "levels.png", title=f"{task}: zero-shot IQM per level (95 % CI)")]
     if any(row["level"] != "train" for row in rows):
@@ -258,16 +257,6 @@ def published_lines(rows: list[dict], sources: list[str], protocol: str, allow_b
     if not lines:
         raise ValueError(" ".join(nothing) or f"{', '.join(sources)} publish nothing comparable.")
     return lines
-
-
-def markdown_cells(lines: list[dict], cell, *, rows: str = "level", columns: str = "method") -> str:
-    """A ``rows`` × ``columns`` markdown table of ``cell(line)``."""
-    row_names = list(dict.fromkeys(str(line[rows]) for line in lines))
-    column_names = list(dict.fromkeys(str(line[columns]) for line in lines))
-    cells = {(str(line[rows]), str(line[columns])): cell(line) for line in lines}
-    table = [f"| {rows} | " + " | ".join(column_names) + " |", "|" + "---|" * (len(column_names) + 1)]
-    table += [f"| {name} | " + " | ".join(cells.get((name, column), "—") for column in column_names) + " |" for name in row_names]
-    return "\n".join(table)
 
 
 def level_notes(rows: list[dict], videos: str | None) -> str:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -64,8 +64,26 @@ def write_csv(rows: Sequence[Mapping[str, Any]], path: str | Path) -> Path:
     return path
 
 
-def markdown_table(lines: Sequence[Mapping[str, Any]], *, rows: str = "level", columns: str = "method") -> str:
-    """A levels × methods markdown table of ``IQM [95 % CI]`` and RL-ViGen's ``mean ± std`` per cell.
+IQM_LEGEND = "Cells: IQM [95 % stratified-bootstrap CI] · RL-ViGen mean ± std over runs."
+
+
+def _iqm_cell(line: Mapping[str, Any]) -> str:
+    std = "" if math.isnan(line["rlvigen_std"]) else f" ± {line['rlvigen_std']:.1f}"
+    return f"{line['iqm']:.1f} [{line['iqm_low']:.1f}, {line['iqm_high']:.1f}] · {line['rlvigen_mean']:.1f}{std}"
+
+
+def markdown_table(
+    lines: Sequence[Mapping[str, Any]],
+    *,
+    rows: str = "level",
+    columns: str = "method",
+    cell: Callable[[Mapping[str, Any]], str] | None = None,
+    legend: str | None = None,
+) -> str:
+    """A ``rows`` × ``columns`` markdown table; by default levels × methods of ``IQM [95 % CI]`` and RL-ViGen's ``mean ± std``.
+
+    ``cell`` formats one line as its cell (default: the IQM cell, with its legend below the table);
+    a missing cell shows "—". ``legend`` is a line printed below the table.
 
     Examples:
         >>> from vigen.evaluation import markdown_table
@@ -77,21 +95,22 @@ def markdown_table(lines: Sequence[Mapping[str, Any]], *, rows: str = "level", c
         | train | 800.0 [780.0, 820.0] · 801.0 ± 12.0 |
         <BLANKLINE>
         Cells: IQM [95 % stratified-bootstrap CI] · RL-ViGen mean ± std over runs.
+        >>> print(markdown_table([{"level": "video_hard", "method": "svea", "gap": 0.4}], cell=lambda line: f"{line['gap']:.2f}"))
+        | level | svea |
+        |---|---|
+        | video_hard | 0.40 |
     """
+    if cell is None:
+        cell, legend = _iqm_cell, IQM_LEGEND if legend is None else legend
     row_names = list(dict.fromkeys(str(line.get(rows, "")) for line in lines))
     column_names = list(dict.fromkeys(str(line.get(columns, "agent")) for line in lines))
     cells = {(str(line.get(rows, "")), str(line.get(columns, "agent"))): line for line in lines}
-
-    def cell(line: Mapping[str, Any] | None) -> str:
-        if line is None:
-            return "—"
-        std = "" if math.isnan(line["rlvigen_std"]) else f" ± {line['rlvigen_std']:.1f}"
-        return f"{line['iqm']:.1f} [{line['iqm_low']:.1f}, {line['iqm_high']:.1f}] · {line['rlvigen_mean']:.1f}{std}"
-
     table = [f"| {rows} | " + " | ".join(column_names) + " |", "|" + "---|" * (len(column_names) + 1)]
     for name in row_names:
-        table.append(f"| {name} | " + " | ".join(cell(cells.get((name, column))) for column in column_names) + " |")
-    table += ["", "Cells: IQM [95 % stratified-bootstrap CI] · RL-ViGen mean ± std over runs."]
+        table.append(f"| {name} | " + " | ".join("—" if (name, column) not in cells else cell(cells[name, column])
+                                                for column in column_names) + " |")
+    if legend:
+        table += ["", legend]
     return "\n".join(table)
 
 
