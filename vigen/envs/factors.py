@@ -35,7 +35,7 @@ FACTORS: dict[str, str] = {
     "camera_fov": "field of view changed by U(±40°·x)",
     "dynamic_camera": "DCS dynamic camera: pose drifting every step at scale x",
     "dynamic_color": "DCS dynamic colours: every material's colour drifting every step at scale x",
-    "embodiment": "another robot arm with the same action space, further from the Panda as x grows",
+    "embodiment": "another robot of the same kind and action space, further from the training robot as x grows",
     **{name: f"pixel corruption {name.replace('_', ' ')}, severity ⌈5·x⌉ (ImageNet-C)" for name in SEVERITIES},
 }
 """Factor name -> what it changes (and how the intensity ``x`` enters)."""

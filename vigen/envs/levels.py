@@ -27,6 +27,8 @@ from typing import Any
 
 from torchrl.envs import Transform
 
+from vigen.assets.image_bank import ImageBank
+
 
 @dataclass(frozen=True)
 class LevelContext:
@@ -158,6 +160,21 @@ class Choice(Derived):
 
     def __repr__(self) -> str:
         return f"one of {self.options!r} by x"
+
+
+@dataclass(frozen=True)
+class ProceduralImages:
+    """``count`` generated images of side ``size`` from ``seed``, made at the first reset (a table-texture set)."""
+
+    count: int
+    size: int
+    seed: int
+
+    def __call__(self) -> ImageBank:
+        return ImageBank.procedural(self.count, size=self.size, seed=self.seed)
+
+    def __repr__(self) -> str:
+        return f"procedural({self.count}, size={self.size}, seed={self.seed})"
 
 
 def evaluate_value(value: Any, context: LevelContext) -> Any:

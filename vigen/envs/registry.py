@@ -12,10 +12,11 @@ from torchrl.envs import EnvBase
 
 from vigen.envs.adroit import ADROIT
 from vigen.envs.dmc import DMC
+from vigen.envs.loco import LOCO
 from vigen.envs.robosuite import ROBOSUITE
 from vigen.envs.suite import Suite
 
-SUITES: dict[str, Suite] = {suite.name: suite for suite in (DMC, ROBOSUITE, ADROIT)}
+SUITES: dict[str, Suite] = {suite.name: suite for suite in (DMC, ROBOSUITE, ADROIT, LOCO)}
 """Suite prefix -> its record."""
 
 
@@ -66,7 +67,7 @@ def make_env(name: str, **kwargs: Any) -> EnvBase:
             env options (for ``dmc/``: :func:`vigen.envs.dmc.make_dmc_env`'s, e.g. ``image_size``,
             ``action_repeat``, ``camera_id``, ``render_settings``; for ``robosuite/``:
             :func:`vigen.envs.robosuite.make_robosuite_env`'s; for ``adroit/``:
-            :func:`vigen.envs.adroit.make_adroit_env`'s).
+            :func:`vigen.envs.adroit.make_adroit_env`'s; for ``loco/``: :func:`vigen.envs.loco.make_loco_env`'s).
 
     ``make_env`` is a module-level function, so ``functools.partial(make_env, name, ...)`` pickles
     and can be handed to ``ParallelEnv`` and TorchRL's multiprocess collectors.

@@ -14,9 +14,10 @@ class RandomMaterialColors(ScenePerturbation):
     """Recolour materials and uncoloured-by-material geoms, chosen by name, once per episode.
 
     Each selected material (``mat_rgba``) and each selected geom without a material
-    (``geom_rgba``) gets ``rgb = (1 - mix) · default + mix · u`` with ``u ~ U(0, 1)³``: its own
-    ``u`` (``shared=False``), or one ``u`` for all of them (``shared=True``). Alpha is kept. A
-    textured material's colour multiplies its texture, so textures are tinted, not replaced.
+    (``geom_rgba``) gets ``rgb = clip((1 - mix) · default + mix · u + δ, 0, 1)`` with ``u ~ U(0, 1)³``
+    and ``δ ~ N(0, shift²)³``: its own draws (``shared=False``), or one for all of them
+    (``shared=True``). Alpha is kept. A textured material's colour multiplies its texture, so
+    textures are tinted, not replaced.
 
     RL-ViGen's robosuite levels use robosuite's ``TextureModder`` with ``randomize_local``:
     ``rgb = 0.8 · default + 0.2 · u`` on every non-robot geom (``mix=0.2``, ``exclude`` the robot),
@@ -31,7 +32,8 @@ class RandomMaterialColors(ScenePerturbation):
         mix: weight of the random colour, 0 (unchanged) to 1 (fully random).
         include: name prefixes of the materials and geoms to recolour; ``None`` selects all.
         exclude: name prefixes never recoloured (applied after ``include``).
-        shared: one random colour for every selected part instead of one each.
+        shift: standard deviation of a colour offset added to every channel (0: none).
+        shared: one random colour (and offset) for every selected part instead of one each.
         seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
 
     Examples:
@@ -48,15 +50,19 @@ class RandomMaterialColors(ScenePerturbation):
         include: Sequence[str] | None = None,
         exclude: Sequence[str] = (),
         shared: bool = False,
+        shift: float = 0.0,
         seed: int | None = None,
     ) -> None:
         if not 0.0 <= mix <= 1.0:
             raise ValueError(f"mix is the weight of the random colour, between 0 and 1; got {mix}.")
+        if not shift >= 0.0:
+            raise ValueError(f"shift is the standard deviation of a colour offset, >= 0; got {shift}.")
         super().__init__(seed=seed)
         self.mix = mix
         self.include = tuple(include) if include is not None else None
         self.exclude = tuple(exclude)
         self.shared = shared
+        self.shift = float(shift)
 
     def _selected(self, model: object, kind: mujoco.mjtObj, count: int) -> np.ndarray:
         names = [mujoco.mj_id2name(model, kind, i) or "" for i in range(count)]
@@ -76,8 +82,12 @@ class RandomMaterialColors(ScenePerturbation):
 
     def sample(self, rng: np.random.Generator, defaults: Defaults) -> SceneParams:
         count = len(defaults["materials"]) + len(defaults["geoms"])
-        colors = np.repeat(rng.uniform(0, 1, (1, 3)), count, axis=0) if self.shared else rng.uniform(0, 1, (count, 3))
-        return {"colors": colors}
+        draws = 1 if self.shared else count
+        colors = np.repeat(rng.uniform(0, 1, (draws, 3)), count // draws, axis=0)
+        params = {"colors": colors}
+        if self.shift > 0:
+            params["offsets"] = np.repeat(rng.normal(0, self.shift, (draws, 3)), count // draws, axis=0)
+        return params
 
     def identity_params(self, defaults: Defaults) -> SceneParams:
         return {"colors": None}
@@ -85,9 +95,12 @@ class RandomMaterialColors(ScenePerturbation):
     def apply(self, scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
         default = np.concatenate([defaults["material_rgb"], defaults["geom_rgb"]])
         rgb = default if params["colors"] is None else (1 - self.mix) * default + self.mix * params["colors"]
+        if params.get("offsets") is not None:
+            rgb = np.clip(rgb + params["offsets"], 0.0, 1.0)
         materials = len(defaults["materials"])
         scene.model.mat_rgba[defaults["materials"], :3] = rgb[:materials]
         scene.model.geom_rgba[defaults["geoms"], :3] = rgb[materials:]
 
     def extra_repr(self) -> str:
-        return f"mix={self.mix}, include={self.include}, exclude={self.exclude}, shared={self.shared}"
+        shift = f", shift={self.shift}" if self.shift else ""
+        return f"mix={self.mix}, include={self.include}, exclude={self.exclude}, shared={self.shared}{shift}"

@@ -1,0 +1,257 @@
+"""The ``loco`` suite: RL-ViGen's locomotion tasks on real robot models (Unitree stand / walk, Franka reach / push).
+
+RL-ViGen adds four tasks to its dm_control copy, on MuJoCo Menagerie's Unitree A1 and Franka Panda,
+each with its own reward (``envs/DMCVGB``). vigen builds them from installable models (the Go1 for
+the A1, see :mod:`vigen.envs.robot_models`; ``model_dir=`` loads Menagerie's), with RL-ViGen's
+frames (84×84, a stack of 3, action repeat 2, 10 s episodes) and its generalization knobs as
+levels:
+
+* ``color_*``: floor and sky (DMC-GB's colour noise) and the robot shifted by one colour offset
+  (RL-ViGen's Menagerie materials); ``objects_color_*``: the robot (and the Franka's box) only;
+* ``video_*``: the sky (easy) or sky and floor (hard) replaced by a video;
+* ``light_position_*``, ``light_color_*``, ``moving_light_*``: RL-ViGen's light offsets and motion;
+* ``camera_*``: the camera moved by U(±0.08) or U(±0.15) per axis (RL-ViGen's ``cam_pos``);
+* ``texture_*``: one of 10 textures per level on the Unitree's ground or the Franka's table
+  (RL-ViGen's ``table_texture``; vigen's textures are generated, RL-ViGen's are image files);
+* ``easy`` / ``hard``: all of the appearance and lighting knobs at once. RL-ViGen's results sheet
+  reports Unitree scores at "Easy" and "Hard" without defining them in code; these are vigen's
+  reading, not RL-ViGen's definition;
+* ``robot_go2`` / ``robot_aliengo``: cross-embodiment, a policy trained on the Go1 run on another
+  Unitree quadruped with the same 12 joints in the same order.
+
+Examples:
+    >>> from vigen.envs.loco import LOCO
+    >>> LOCO.env_names()
+    ['loco/unitree-stand', 'loco/unitree-walk', 'loco/franka-reach', 'loco/franka-push']
+    >>> LOCO.groups["rlvigen"]
+    ['easy', 'hard']
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from torchrl.envs import DoubleToFloat, Transform
+
+from vigen.envs.dmc import DMCScene
+from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
+from vigen.envs.levels import ByTask, Choice, Derived, Factor, Level, LevelContext, ProceduralImages, Scaled, Step
+from vigen.envs.pixels import PixelEnv
+from vigen.envs.suite import Suite
+from vigen.transforms import (
+    DistractingCamera,
+    RandomCamera,
+    RandomLighting,
+    RandomMaterialColors,
+    RandomSceneColors,
+    RandomTextures,
+    VideoBackground,
+)
+
+TASKS = ("unitree-stand", "unitree-walk", "franka-reach", "franka-push")
+"""RL-ViGen's ``unitree_stand``, ``unitree_walk``, ``franka_reach`` and ``franka_push``."""
+
+SOURCE = "RL-ViGen DMCVGB (gemcollector/RL-ViGen, envs/DMCVGB/cfg/config.yaml and dmcvgb/wrappers.py)"
+
+ROBOT_PARTS = ("robot",)
+"""Name prefix of the robot's materials (every visible robot geom has one, see :mod:`vigen.envs.loco_scene`)."""
+
+OBJECT_PARTS = {task: ("robot", "object") if task == "franka-push" else ("robot",) for task in TASKS}
+"""What ``objects_color`` recolours per task: the robot, and the Franka's box."""
+
+CROSS_EMBODIMENT = ("go2", "aliengo")
+"""Unitree quadrupeds a Go1 policy can drive: the same 12 leg joints, in the same order (lightest first)."""
+
+COLOR_SCALE = {"easy": 0.1, "hard": 0.2}
+"""DMC-GB's colour noise, which RL-ViGen's ``background`` and ``objects_color`` presets reuse."""
+
+CAMERA_POSITION = {"easy": 0.08, "hard": 0.15}
+"""RL-ViGen's ``cam_pos``: U(±0.08) or U(±0.15) per coordinate (position only, as in its DMC code)."""
+
+NO_LIGHT_SHIFT = {"position_offset": None, "diffuse_offset": None}
+
+
+@dataclass(frozen=True, repr=False)
+class Surface(Derived):
+    """The texture RL-ViGen's ``table_texture`` replaces: the Unitree's ground (``grid``) or the Franka's table."""
+
+    def __call__(self, context: LevelContext) -> tuple[str, ...]:
+        return ("grid",) if context.task.startswith("unitree") else ("table",)
+
+    def __repr__(self) -> str:
+        return "unitree: ('grid',), franka: ('table',)"
+
+
+@dataclass(frozen=True, repr=False)
+class MainCamera(Derived):
+    """The scene's camera 0: the Unitree's ``back_above`` or the Franka's ``side_table``."""
+
+    def __call__(self, context: LevelContext) -> str:
+        return "back_above" if context.task.startswith("unitree") else "side_table"
+
+    def __repr__(self) -> str:
+        return "unitree: 'back_above', franka: 'side_table'"
+
+
+def robot_colors(difficulty: str, parts: Any = ROBOT_PARTS) -> Step:
+    """RL-ViGen's Menagerie recolouring: every robot material shifted by one offset N(0, σ²) per channel."""
+    return Step(RandomMaterialColors, {"mix": 0.0, "shift": COLOR_SCALE[difficulty], "shared": True, "include": parts})
+
+
+def textures(difficulty: str) -> Step:
+    """One of 10 generated textures per level on the ground or the table (RL-ViGen: 10 image files per level)."""
+    return Step(RandomTextures, {"textures": Surface(), "images": ProceduralImages(10, 256, 200 + ("easy", "hard").index(difficulty))})
+
+
+def lighting(difficulty: str) -> Step:
+    return Step(RandomLighting, dict(RandomLighting.LEVELS[difficulty]))
+
+
+def combined(difficulty: str) -> tuple[Step, ...]:
+    """``easy`` / ``hard``: floor, sky and robot colours, ground or table texture, and the lights, at one difficulty."""
+    return (Step(RandomSceneColors, {"scale": COLOR_SCALE[difficulty], "parts": ("grid", "skybox")}), robot_colors(difficulty),
+            textures(difficulty), lighting(difficulty))
+
+
+LEVELS: dict[str, Level] = {
+    "train": Level("the clean training scene", "all"),
+    **{
+        f"color_{d}": Level(f"floor and sky colours default + N(0, {s}²) per channel; robot colours shifted by one N(0, {s}²) offset",
+                            f"RL-ViGen background color {d} (DMC-GB's colour statistics)",
+                            (Step(RandomSceneColors, {"scale": s, "parts": ("grid", "skybox")}), robot_colors(d)))
+        for d, s in COLOR_SCALE.items()
+    },
+    **{
+        f"objects_color_{d}": Level(f"robot (and the push box) shifted by one N(0, {s}²) colour offset",
+                                    f"RL-ViGen objects_color {d}", (robot_colors(d, ByTask(OBJECT_PARTS)),))
+        for d, s in COLOR_SCALE.items()
+    },
+    "video_easy": Level("sky replaced by a video, new frame every step", "RL-ViGen video easy (procedural videos unless a folder is given)",
+                        (Step(VideoBackground, {"floor": False}),)),
+    "video_hard": Level("sky and floor replaced by a video, new frame every step", "RL-ViGen video hard (procedural videos unless a folder is given)",
+                        (Step(VideoBackground, {"floor": True}),)),
+    **{
+        f"texture_{d}": Level(f"ground (Unitree) or table (Franka) texture: one of 10 generated images ({d} set)",
+                              f"RL-ViGen table_texture {d} (generated textures; RL-ViGen's are image files)", (textures(d),))
+        for d in ("easy", "hard")
+    },
+    **{
+        f"light_position_{d}": Level(f"every light moved by an integer in {{{lo}, {hi}}} per coordinate", f"RL-ViGen light_position {d}",
+                                     (Step(RandomLighting, {"position_offset": (lo, hi), "diffuse_offset": None}),))
+        for d, (lo, hi) in (("easy", (3, 4)), ("hard", (9, 10)))
+    },
+    **{
+        f"light_color_{d}": Level(f"light diffuse colour ± U({w})", f"RL-ViGen light_color {d}",
+                                  (Step(RandomLighting, {"position_offset": None, "diffuse_offset": w}),))
+        for d, w in (("easy", 0.2), ("hard", 10.0))
+    },
+    **{
+        f"moving_light_{d}": Level(f"lights moving {step}/step within ± {span}", f"RL-ViGen moving_light {d}",
+                                   (Step(RandomLighting, {**NO_LIGHT_SHIFT, "moving_step": step, "moving_range": span}),))
+        for d, step, span in (("easy", 0.01, 5.0), ("hard", 0.05, 10.0))
+    },
+    **{
+        f"camera_{d}": Level(f"camera moved by U(±{p}) per axis", f"RL-ViGen cam_pos {d}", (Step(RandomCamera, {"position": p}),))
+        for d, p in CAMERA_POSITION.items()
+    },
+    "easy": Level("color_easy + texture_easy + RL-ViGen's easy lights (position {3, 4}, diffuse ± 0.2, moving 0.01/step)",
+                  "vigen's reading of RL-ViGen's locomotion Easy (its knobs at easy; the sheet does not define it)", combined("easy")),
+    "hard": Level("color_hard + texture_hard + RL-ViGen's hard lights (position {9, 10}, diffuse ± 10, moving 0.05/step)",
+                  "vigen's reading of RL-ViGen's locomotion Hard (its knobs at hard; the sheet does not define it)", combined("hard")),
+    **{
+        f"robot_{robot}": Level(f"the Unitree {robot.capitalize()} instead of the Go1, same joints and servos",
+                                "RL-ViGen cross-embodiment (DMC: train on one robot, test on another)", env_options={"robot": robot})
+        for robot in CROSS_EMBODIMENT
+    },
+}
+"""Level name -> what it shows, its source, and its transforms with their exact parameters."""
+
+GROUPS: dict[str, list[str]] = {
+    "rlvigen": ["easy", "hard"],
+    "knobs": [name for name in LEVELS if name not in ("train", "easy", "hard") and not name.startswith("robot_")],
+    "embodiment": [f"robot_{robot}" for robot in CROSS_EMBODIMENT],
+    "all": list(LEVELS),
+}
+
+FACTORS: dict[str, Factor] = {
+    "background_color": Factor((Step(RandomSceneColors, {"scale": Scaled(1.0), "parts": ("grid", "skybox")}),)),
+    "object_color": Factor((Step(RandomMaterialColors, {"mix": 0.0, "shift": Scaled(1.0), "shared": True, "include": ByTask(OBJECT_PARTS)}),),
+                           points={"objects_color_easy": 0.1, "objects_color_hard": 0.2}),
+    "floor_texture": Factor((Step(RandomTextures, {"textures": ("grid",), "blend": Scaled(1.0)}),)),
+    "table_texture": Factor((Step(RandomTextures, {"textures": Surface(), "blend": Scaled(1.0)}),)),
+    "video_background": Factor((Step(VideoBackground, {"alpha": Scaled(1.0)}),)),
+    "light_position": Factor((Step(RandomLighting, {**NO_LIGHT_SHIFT, "position_jitter": Scaled((10.0, 10.0, 10.0))}),)),
+    "light_color": LIGHT_COLOR,
+    "moving_light": Factor((Step(RandomLighting, {**NO_LIGHT_SHIFT, "moving_step": Scaled(0.05), "moving_range": 10.0}),)),
+    "camera_position": Factor((Step(RandomCamera, {"position": Scaled(0.3)}),), points={"camera_easy": 0.08 / 0.3, "camera_hard": 0.5}),
+    "camera_rotation": CAMERA_ROTATION,
+    "camera_fov": CAMERA_FOV,
+    "dynamic_camera": Factor((Step(DistractingCamera, {"scale": Scaled(1.0), "dynamic": True, "camera": MainCamera(),
+                                                      "limit_to_upper_quadrant": False}),)),
+    "dynamic_color": DYNAMIC_COLOR,
+    "embodiment": Factor(env_options={"robot": Choice(CROSS_EMBODIMENT)},
+                         points={f"robot_{robot}": (index + 1) / len(CROSS_EMBODIMENT) for index, robot in enumerate(CROSS_EMBODIMENT)}),
+    **pixel_corruption_factors(),
+}
+"""Factor name -> its transforms at intensity ``x`` (``embodiment``: the Unitree tasks only)."""
+
+
+def build_loco_base(task: str, *, seed: int | None = None, **options: Any) -> Any:
+    """The raw-frame base env of ``"loco/<task>"`` (imports dm_control and the robot's package)."""
+    from vigen.envs.loco_env import build_loco_base as build
+
+    return build(task, seed=seed, **options)
+
+
+LOCO = Suite(
+    name="loco",
+    about="RL-ViGen's locomotion tasks on real robot models, loco/<task> (unitree-stand, unitree-walk, franka-reach, "
+          "franka-push); extra [loco]",
+    tasks=lambda: list(TASKS),
+    build_base=build_loco_base,
+    scene_handle=DMCScene,  # a loco env is a dm_control physics
+    levels=LEVELS,
+    groups=GROUPS,
+    factors=FACTORS,
+    example_task="unitree-stand",
+    env_options={"robot": None, "model_dir": None, "max_mesh_faces": 3000, "action_repeat": 2, "image_size": 84, "camera_id": 0,
+                 "episode_length": 1000, "render_settings": None, "device": "cpu"},
+    extra_transforms=lambda: (DoubleToFloat(),),
+    install='pip install -e ".[loco]"',
+)
+"""The loco suite record."""
+
+
+def make_loco_env(
+    task: str,
+    *,
+    frame_stack: int = 3,
+    generalization: str | dict[str, float] | Sequence[Transform] | None = None,
+    seed: int | None = None,
+    level_options: dict[str, Any] | None = None,
+    **env_options: Any,
+) -> PixelEnv:
+    """Build an RL-ViGen locomotion task as a TorchRL pixel env (84×84, a stack of 3, action repeat 2).
+
+    Args:
+        task: ``"unitree-stand"``, ``"unitree-walk"``, ``"franka-reach"`` or ``"franka-push"``.
+        frame_stack: frames stacked along channels (``"pixels"`` is ``[3·frame_stack, H, W]``).
+        generalization: a level name (:data:`LEVELS`), a dict of factor intensities (:data:`FACTORS`)
+            or a list of vigen transforms.
+        seed: seeds the task (targets, object placement) and every perturbation of the env.
+        level_options: passed to the level's transforms that accept them, e.g. ``{"videos": folder}``.
+        **env_options: options of :class:`~vigen.envs.loco_env.LocoPixelEnv`: ``robot`` (``"go1"``;
+            ``"go2"``, ``"aliengo"``, ``"a1"`` with ``model_dir``; ``"panda"``), ``model_dir`` (a MuJoCo
+            Menagerie checkout), ``max_mesh_faces``, ``action_repeat``, ``image_size``, ``camera_id``,
+            ``episode_length`` (1000 control steps of 0.01 s), ``render_settings``, ``device``.
+
+    Examples:
+        >>> from vigen.envs import make_env
+        >>> env = make_env("loco/unitree-stand", generalization="hard", seed=0)  # doctest: +SKIP
+        >>> env.rollout(2)["pixels"].shape  # doctest: +SKIP
+        torch.Size([2, 9, 84, 84])
+    """
+    return LOCO.make(task, frame_stack=frame_stack, generalization=generalization, seed=seed, level_options=level_options,
+                     **env_options)
