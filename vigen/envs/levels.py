@@ -25,6 +25,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+import torch
 from torchrl.envs import Transform
 
 from vigen.assets.image_bank import ImageBank
@@ -175,6 +176,23 @@ class ProceduralImages:
 
     def __repr__(self) -> str:
         return f"procedural({self.count}, size={self.size}, seed={self.seed})"
+
+
+@dataclass(frozen=True)
+class LabmazeImages:
+    """``count`` of labmaze's photographic floor and wall textures (installed with dm_control), chosen by ``seed``."""
+
+    count: int
+    size: int
+    seed: int
+
+    def __call__(self) -> ImageBank:
+        bank = ImageBank.builtin(self.size, procedural=0)
+        chosen = torch.randperm(len(bank), generator=torch.Generator().manual_seed(self.seed))[: self.count]
+        return ImageBank(bank.images[chosen], name=f"labmaze({self.count}, seed={self.seed})")
+
+    def __repr__(self) -> str:
+        return f"labmaze({self.count}, size={self.size}, seed={self.seed})"
 
 
 def evaluate_value(value: Any, context: LevelContext) -> Any:

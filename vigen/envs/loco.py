@@ -12,7 +12,7 @@ levels:
 * ``light_position_*``, ``light_color_*``, ``moving_light_*``: RL-ViGen's light offsets and motion;
 * ``camera_*``: the camera moved by U(±0.08) or U(±0.15) per axis (RL-ViGen's ``cam_pos``);
 * ``texture_*``: one of 10 textures per level on the Unitree's ground or the Franka's table
-  (RL-ViGen's ``table_texture``; vigen's textures are generated, RL-ViGen's are image files);
+  (RL-ViGen's ``table_texture``): photographs (easy) or generated patterns (hard);
 * ``easy`` / ``hard``: all of the appearance and lighting knobs at once. RL-ViGen's results sheet
   reports Unitree scores at "Easy" and "Hard" without defining them in code; these are vigen's
   reading, not RL-ViGen's definition;
@@ -37,7 +37,7 @@ from torchrl.envs import DoubleToFloat, Transform
 
 from vigen.envs.dmc import DMCScene
 from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
-from vigen.envs.levels import ByTask, Choice, Derived, Factor, Level, LevelContext, ProceduralImages, Scaled, Step
+from vigen.envs.levels import ByTask, Choice, Derived, Factor, LabmazeImages, Level, LevelContext, ProceduralImages, Scaled, Step
 from vigen.envs.pixels import PixelEnv
 from vigen.envs.suite import Suite
 from vigen.transforms import (
@@ -101,8 +101,14 @@ def robot_colors(difficulty: str, parts: Any = ROBOT_PARTS) -> Step:
 
 
 def textures(difficulty: str) -> Step:
-    """One of 10 generated textures per level on the ground or the table (RL-ViGen: 10 image files per level)."""
-    return Step(RandomTextures, {"textures": Surface(), "images": ProceduralImages(10, 256, 200 + ("easy", "hard").index(difficulty))})
+    """One of 10 textures per level on the ground or the table: photographs (easy) or generated patterns (hard).
+
+    RL-ViGen's easy set is marble, wood, metal and granite photographs, its hard set city photos,
+    foil and tennis-ball patterns, 10 image files each; vigen uses labmaze's photographic textures
+    and its generated high-contrast patterns.
+    """
+    images = LabmazeImages(10, 256, seed=200) if difficulty == "easy" else ProceduralImages(10, 256, seed=201)
+    return Step(RandomTextures, {"textures": Surface(), "images": images})
 
 
 def lighting(difficulty: str) -> Step:
@@ -133,9 +139,9 @@ LEVELS: dict[str, Level] = {
     "video_hard": Level("sky and floor replaced by a video, new frame every step", "RL-ViGen video hard (procedural videos unless a folder is given)",
                         (Step(VideoBackground, {"floor": True}),)),
     **{
-        f"texture_{d}": Level(f"ground (Unitree) or table (Franka) texture: one of 10 generated images ({d} set)",
-                              f"RL-ViGen table_texture {d} (generated textures; RL-ViGen's are image files)", (textures(d),))
-        for d in ("easy", "hard")
+        f"texture_{d}": Level(f"ground (Unitree) or table (Franka) texture: one of 10 {kind}",
+                              f"RL-ViGen table_texture {d} (vigen's images; RL-ViGen's are its own files)", (textures(d),))
+        for d, kind in (("easy", "labmaze photographs"), ("hard", "generated high-contrast patterns"))
     },
     **{
         f"light_position_{d}": Level(f"every light moved by an integer in {{{lo}, {hi}}} per coordinate", f"RL-ViGen light_position {d}",

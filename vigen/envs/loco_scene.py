@@ -70,8 +70,8 @@ GRIPPER_SERVO = {"kp": 100.0, "kv": 10.0, "force": 100.0, "range": (0.0, 0.04)}
 
 MAX_MESH_FACES = 3000
 """Default face budget per mesh. The source meshes are far finer than an 84×84 frame shows (Go1: 206k faces, 700k
-triangles per frame); quadric decimation towards 3000 faces per mesh leaves 19k, moves no part's extent by more than
-1.5 cm, and renders several times faster on a software rasterizer. (At 1000 the Go1's calf loses half its length.)"""
+triangles per frame); quadric decimation towards 3000 faces per mesh leaves 19k, changes no part's extent by more
+than 2.1 cm (Go2; Go1 0.8 cm, Panda 0.1 cm), and renders several times faster on a software rasterizer. (At 1000 the Go1's calf loses half its length.)"""
 
 FINGER_BODIES = {"robosuite": ("leftfinger", "rightfinger"), "menagerie": ("left_finger", "right_finger")}
 FINGER_SITE_OFFSET = 0.045
@@ -187,6 +187,17 @@ def _drop_source_elements(world: mujoco.MjSpec) -> None:
         world.delete(element)
 
 
+def _hide_collision_doubles(bodies: list) -> None:
+    """Make a body's colliding geoms invisible where it has visual geoms too (robosuite's collision meshes are group 0,
+    drawn by default, and z-fight with the visual meshes they copy)."""
+    for body in bodies:
+        visual = [geom for geom in body.geoms if not (geom.contype or geom.conaffinity)]
+        if visual:
+            for geom in body.geoms:
+                if geom.contype or geom.conaffinity:
+                    geom.rgba = [geom.rgba[0], geom.rgba[1], geom.rgba[2], 0.0]
+
+
 def _name_robot_materials(world: mujoco.MjSpec, bodies: list) -> None:
     """Give every visible geom of ``bodies`` a material named ``robot_*`` (renaming the model's own materials)."""
     materials = {material.name: material for material in world.materials}
@@ -231,7 +242,12 @@ def simplify_meshes(world: mujoco.MjSpec, max_faces: int) -> None:
         start, count = model.mesh_vertadr[index], model.mesh_vertnum[index]
         vertices = model.mesh_vert[start:start + count].astype(np.float64)
         triangles = model.mesh_face[model.mesh_faceadr[index]:model.mesh_faceadr[index] + faces]
-        vertices, triangles = fast_simplification.simplify(vertices, triangles, target_reduction=1.0 - max_faces / faces)
+        # OBJ files with normals compile to a triangle soup (three vertices per face); weld it, or the decimation can
+        # only drop whole triangles and leaves holes
+        vertices, welded = np.unique(np.round(vertices, 6), axis=0, return_inverse=True)
+        triangles = welded.reshape(-1)[triangles]
+        triangles = triangles[(triangles[:, 0] != triangles[:, 1]) & (triangles[:, 1] != triangles[:, 2]) & (triangles[:, 0] != triangles[:, 2])]
+        vertices, triangles = fast_simplification.simplify(vertices, triangles, target_count=max_faces)
         rotation = np.zeros(9)
         mujoco.mju_quat2Mat(rotation, model.mesh_quat[index])
         in_asset_frame = (vertices @ rotation.reshape(3, 3).T + model.mesh_pos[index]) / np.asarray(mesh.scale)
@@ -260,6 +276,7 @@ def _quadruped_scene(task: str, robot: str, path: Path, max_mesh_faces: int | No
         camera = base.add_camera(name=name, pos=pos, mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM)
         camera.alt.type = mujoco.mjtOrientation.mjORIENTATION_XYAXES
         camera.alt.xyaxes = [-1, 0, 0, 0, tilt, 1]
+    _hide_collision_doubles(_subtree(base))
     _name_robot_materials(world, _subtree(base))
 
     joints = {joint.name: joint for joint in world.joints}
@@ -369,6 +386,7 @@ def _arm_scene(task: str, robot: str, path: Path, gripper: Path | None, source: 
         box.add_site(name="target_ball", size=[0.01, 0, 0], rgba=[0, 1, 0, 0.5])
         world.worldbody.add_site(name="target_box", type=mujoco.mjtGeom.mjGEOM_BOX, pos=[0.74, 0, 0.04],
                                  size=[0.032, 0.032, 0.032], material="goal")
+    _hide_collision_doubles(list(bodies.values()))
     _name_robot_materials(world, list(bodies.values()))
 
     joints = {joint.name: joint for joint in world.joints}
