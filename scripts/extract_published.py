@@ -109,7 +109,7 @@ class SheetSpec:
 
 
 SHEETS = {
-    "Locomotion": SheetSpec("locomotion", "return", "blocks",
+    "Locomotion": SheetSpec("loco", "return", "blocks",
                             {"unitree walk": "unitree-walk", "unitree stand": "unitree-stand"},
                             {"easy": "easy", "hard": "hard"}),
     "Robosuite": SheetSpec("robosuite", "return", "blocks", ROBOSUITE_TASKS,

@@ -250,19 +250,19 @@ PROTOCOLS: Mapping[str, Protocol] = _frozen({protocol.name: protocol for protoco
         name="rlvigen",
         title="RL-ViGen (Yuan et al. 2023)",
         url="https://github.com/gemcollector/RL-ViGen",
-        suites=("dmc", "robosuite", "adroit"), budget=1_100_000, budget_unit="frames", action_repeat=2,
+        suites=("dmc", "robosuite", "adroit", "loco"), budget=1_100_000, budget_unit="frames", action_repeat=2,
         action_repeat_by_task={"robosuite": None},
         budget_by_task={**dict.fromkeys(DRQV2_MEDIUM_TASKS, 3_100_000), "lift": 3_100_000, "two-arm-peg-in-hole": 3_100_000,
-                        "adroit": 4_100_000},
-        episode_length={"dmc": 1000, "robosuite": 500},
-        test_levels_by_suite={"robosuite": ("easy", "medium", "hard", "robot_iiwa", "robot_kinova3"),
+                        "adroit": 4_100_000, "loco": 3_100_000},
+        episode_length={"dmc": 1000, "robosuite": 500, "loco": 1000},
+        test_levels_by_suite={"robosuite": ("easy", "medium", "hard", "robot_iiwa", "robot_kinova3"), "loco": ("easy", "hard"),
                               "adroit": ("color_easy", "color_hard", "video_easy", "video_hard", "camera_easy", "camera_hard")},
         frame_stack=3, image_size=84,
         train_eval=Evaluation(episodes=10, levels=("train",), every=10_000),
         test=Evaluation(episodes=100, levels=RLVIGEN_LEVELS),
         seeds=5, statistic="per seed, the mean over a category's tasks; then mean ± sample std (ddof=1) over seeds",
         notes="budgets are its configs' num_train_frames (cfgs/task/easy.yaml 1.1M, medium.yaml 3.1M: robosuite Lift and "
-              "TwoArmPegInHole; ViGen-adroit's task configs 4.1M); its launch scripts pass other lengths (1.0M, Habitat "
+              "TwoArmPegInHole, unitree_* and franka_reach; ViGen-adroit's task configs 4.1M); its launch scripts pass other lengths (1.0M, Habitat "
               "0.7M) and its results sheet does not say which produced the scores, so vigen.results leaves those "
               "budgets blank; robosuite runs at 20 Hz control without action repeat and evaluates 10 scenes x 10 trials per "
               "level; the paper's figures show 95 % CIs, its results sheet mean ± std.",

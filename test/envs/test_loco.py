@@ -317,7 +317,7 @@ def test_cross_embodiment_keeps_the_action_space(level, robot):
 def test_robot_errors_name_the_fix(tmp_path):
     with pytest.raises(FileNotFoundError, match="ships with no installable package. Pass model_dir="):
         loco(robot="a1")
-    with pytest.raises(ValueError, match="takes a arm robot, got 'go1'|takes a quadruped robot, got 'panda'"):
+    with pytest.raises(ValueError, match="takes a quadruped robot, got 'panda' \\(an arm\\). Robots for it: a1, go1, go2, aliengo"):
         loco(robot="panda")
     with pytest.raises(ValueError, match="Unknown robot 'spot'. Robots: a1, go1"):
         loco(robot="spot")
@@ -325,7 +325,7 @@ def test_robot_errors_name_the_fix(tmp_path):
         loco(model_dir=tmp_path / "missing")
     with pytest.raises(FileNotFoundError, match="unitree_a1/a1.xml does not exist"):
         loco(model_dir=tmp_path)  # with a Menagerie folder the default robot is RL-ViGen's A1
-    with pytest.raises(ValueError, match="loco/franka-reach takes a arm robot, got 'go2'"):
+    with pytest.raises(ValueError, match="loco/franka-reach takes an arm robot, got 'go2'"):
         loco("franka-reach", "robot_go2")
     with pytest.raises(TypeError, match="max_mesh_faces must be an int > 0"):
         loco(max_mesh_faces=2.5)

@@ -30,7 +30,7 @@ METHODS = {"drqv2", "drq", "curl", "svea", "srm", "sgqn", "pieg", "vrl3"}
 
 # sheet -> (suite, unit, levels) as the schema asks for them.
 SHEETS = {
-    "Locomotion": ("locomotion", "return", {"easy", "hard"}),
+    "Locomotion": ("loco", "return", {"easy", "hard"}),
     "Robosuite": ("robosuite", "return", {"easy", "medium", "hard"}),
     "Habitat": ("habitat", "success_percent", {"test"}),
     "Adroit": ("adroit", "success_percent", {"color_easy", "color_hard", "video_easy", "video_hard"}),

@@ -93,7 +93,7 @@ def test_dmcgb2_geometric_photometric_and_overall_means_reproduce():
 # RL-ViGen's aggregated generalization scores (paper figures; mean over 5 seeds of each seed's task average),
 # recomputed from the per-seed rows. (suite, levels) -> {method: printed means}.
 RLVIGEN = {
-    ("locomotion", ("easy", "hard")): {"sgqn": (332, 131), "pieg": (260, 224), "srm": (326, 201), "svea": (343, 202),
+    ("loco", ("easy", "hard")): {"sgqn": (332, 131), "pieg": (260, 224), "srm": (326, 201), "svea": (343, 202),
                                        "drqv2": (236, 89), "drq": (204, 53), "curl": (253, 80)},
     ("robosuite", ("easy", "medium", "hard")): {"sgqn": (258, 146, 142), "pieg": (305, 175, 142), "srm": (275, 156, 64),
                                                 "svea": (242, 144, 75), "drqv2": (48, 52, 45), "drq": (59, 58, 55),
@@ -129,7 +129,7 @@ def test_rlvigen_cross_embodiment_and_carla_means_reproduce():
 
 
 def test_rlvigen_spread_is_the_sample_std_over_seeds():
-    line = seed_aggregates(published(source="rlvigen", suite="locomotion", method="drqv2", level="easy"))[0]
+    line = seed_aggregates(published(source="rlvigen", suite="loco", method="drqv2", level="easy"))[0]
     per_seed = [242.5, 228.0, 290.5, 141.5, 279.0]  # (walk + stand) / 2 for seeds 1..5 of the sheet
     mean = sum(per_seed) / 5
     assert line["mean"] == pytest.approx(mean)

@@ -136,7 +136,9 @@ def build_scene(task: str, robot: str | None = None, model_dir: str | os.PathLik
         from vigen.envs.robot_models import ROBOT_MODELS
 
         same = [name for name, other in ROBOT_MODELS.items() if other.kind == kind]
-        raise ValueError(f"loco/{task} takes a {kind} robot, got {robot!r} (a {record.kind}). Robots for it: {', '.join(same)}.")
+        article = {"arm": "an", "quadruped": "a"}
+        raise ValueError(f"loco/{task} takes {article[kind]} {kind} robot, got {robot!r} ({article[record.kind]} {record.kind}). "
+                         f"Robots for it: {', '.join(same)}.")
     path = robot_model_path(robot, model_dir)
     gripper = gripper_model_path(robot, model_dir)
     if kind == "quadruped":

@@ -11,7 +11,7 @@ Examples:
     >>> from vigen.results import published, seed_aggregates
     >>> [(row.source, row.value) for row in published(method="sgqn", task="walker-walk", level="video_hard")]
     [('sgqn', 739.0), ('madi', 718.0), ('simgrl', 739.0)]
-    >>> easy = seed_aggregates(published(source="rlvigen", method="drqv2", suite="locomotion", level="easy"))
+    >>> easy = seed_aggregates(published(source="rlvigen", method="drqv2", suite="loco", level="easy"))
     >>> print(easy[0]["mean_std"])
     236.3 ± 58.9
 """

@@ -27,8 +27,7 @@ UNITS = ("return", "success_percent")
 """``return``: episode return; ``success_percent``: episodes that succeeded, in %."""
 SPREAD_KINDS = ("std", "")
 """``std``: standard deviation over seeds; empty: no spread published."""
-OTHER_SUITES: Mapping[str, tuple[str, ...]] = MappingProxyType({
-    "locomotion": ("easy", "hard"), "habitat": ("test",), "carla": ("easy", "medium", "hard")})
+OTHER_SUITES: Mapping[str, tuple[str, ...]] = MappingProxyType({"habitat": ("test",), "carla": ("easy", "medium", "hard")})
 """Suites RL-ViGen publishes that vigen does not build (yet), with their levels; the others' levels are vigen's."""
 
 
