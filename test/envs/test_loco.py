@@ -223,7 +223,7 @@ def test_seeds_reproduce_frames_and_targets():
 
     (a, target_a), (b, target_b), (c, target_c) = first(3), first(3), first(4)
     assert torch.equal(a, b) and np.array_equal(target_a, target_b)
-    assert not np.array_equal(target_a, target_c)
+    assert not np.array_equal(target_a, target_c) and not torch.equal(a, c)
     env = loco("franka-reach", level="hard")
     env.set_seed(3)
     assert torch.equal(env.reset()["pixels"], a)

@@ -28,13 +28,13 @@ from __future__ import annotations
 
 import os
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
-from vigen.envs.robot_models import gripper_model_path, robot_model, robot_model_path
+from vigen.envs.robot_models import ROBOT_MODELS, gripper_model_path, robot_model, robot_model_path
 
 TASK_ROBOT_KIND = {"unitree-stand": "quadruped", "unitree-walk": "quadruped", "franka-reach": "arm", "franka-push": "arm"}
 """Task -> the kind of robot it takes."""
@@ -115,7 +115,6 @@ class LocoScene:
     base_body: str = ""
     stand_height: float = 0.0
     finger_bodies: tuple[str, str] = ("", "")
-    walk_pose: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def build_scene(task: str, robot: str | None = None, model_dir: str | os.PathLike | None = None,
@@ -133,8 +132,6 @@ def build_scene(task: str, robot: str | None = None, model_dir: str | os.PathLik
     robot = robot if robot is not None else default_robot(task, model_dir)
     record = robot_model(robot)
     if record.kind != kind:
-        from vigen.envs.robot_models import ROBOT_MODELS
-
         same = [name for name, other in ROBOT_MODELS.items() if other.kind == kind]
         article = {"arm": "an", "quadruped": "a"}
         raise ValueError(f"loco/{task} takes {article[kind]} {kind} robot, got {robot!r} ({article[record.kind]} {record.kind}). "
@@ -315,8 +312,7 @@ def _quadruped_scene(task: str, robot: str, path: Path, max_mesh_faces: int | No
     lowest = _floor_clearance(model, data, base.name)
     data.qpos[address + 2] = 1.0 - lowest + START_CLEARANCE[task]
     return LocoScene(model, task, robot, data.qpos.copy(), base_body=base.name,
-                     stand_height=STAND_HEIGHT_FRACTION * _leg_length(model, "FR"),
-                     walk_pose=np.array([leg_qpos[f"{leg}_{part}_joint"] for leg in LEGS for part in LEG_JOINTS]))
+                     stand_height=STAND_HEIGHT_FRACTION * _leg_length(model, "FR"))
 
 
 def _torque_limit(source: mujoco.MjSpec, joint: str) -> float:
