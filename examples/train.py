@@ -1,4 +1,4 @@
-"""Train an augmentation-based agent from pixels on a dm_control, robosuite or Adroit task, with vigen and TorchRL.
+"""Train an augmentation-based agent from pixels on a dm_control, robosuite, Adroit or loco (Unitree, Franka) task, with vigen and TorchRL.
 
     python examples/train.py --algo svea --env dmc/cartpole-balance --preset cpu --frames 20000
     python examples/train.py --resume runs/svea-cartpole-balance-s0 --frames 40000   # continue it
