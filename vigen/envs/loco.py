@@ -168,7 +168,8 @@ LEVELS: dict[str, Level] = {
                   "vigen's reading of RL-ViGen's locomotion Hard (its knobs at hard; the sheet does not define it)", combined("hard")),
     **{
         f"robot_{robot}": Level(f"the Unitree {robot.capitalize()} instead of the Go1, same joints and servos",
-                                "RL-ViGen cross-embodiment (DMC: train on one robot, test on another)", env_options={"robot": robot})
+                                "RL-ViGen cross-embodiment (DMC: train on one robot, test on another)", env_options={"robot": robot},
+                                tasks=("unitree-stand", "unitree-walk"))
         for robot in CROSS_EMBODIMENT
     },
 }

@@ -115,6 +115,10 @@ class Suite:
             hint = f" Did you mean {' or '.join(close)}?" if close else ""
             raise ValueError(f"Unknown env {f'{self.name}/{task}'!r}.{hint} Valid names: {', '.join(names)}.")
 
+    def levels_for(self, task: str) -> list[str]:
+        """The names of the levels that apply to ``task`` (all of them, except levels limited to other tasks)."""
+        return [name for name, level in self.levels.items() if level.applies_to(task)]
+
     def resolve_levels(self, names: str | Sequence[str]) -> list[str]:
         """Expand group names into level names, in order, without repeats; unknown names raise listing the valid ones."""
         names = [names] if isinstance(names, str) else list(names)
@@ -165,6 +169,9 @@ class Suite:
                 resolved = self.resolve_levels(generalization)  # raises for unknown names
                 raise ValueError(f"{generalization!r} is a group of levels, not one level: {resolved}.")
             level = self.levels[generalization]
+            if not level.applies_to(task):
+                raise ValueError(f"Level {generalization!r} applies to {', '.join(f'{self.name}/{t}' for t in level.tasks)} only, "
+                                 f"not {self.name}/{task}.")
             return [(step, LevelContext(task)) for step in level.steps], dict(level.env_options)
         if not generalization:
             return [], {}
