@@ -38,6 +38,7 @@ from torchrl.envs import DoubleToFloat, Transform
 from vigen.envs.dmc import DMCScene
 from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
 from vigen.envs.levels import ByTask, Choice, Derived, Factor, LabmazeImages, Level, LevelContext, ProceduralImages, Scaled, Step
+from vigen.envs.loco_scene import MAX_MESH_FACES
 from vigen.envs.pixels import PixelEnv
 from vigen.envs.suite import Suite
 from vigen.transforms import (
@@ -223,7 +224,7 @@ LOCO = Suite(
     groups=GROUPS,
     factors=FACTORS,
     example_task="unitree-stand",
-    env_options={"robot": None, "model_dir": None, "max_mesh_faces": 3000, "action_repeat": 2, "image_size": 84, "camera_id": 0,
+    env_options={"robot": None, "model_dir": None, "max_mesh_faces": MAX_MESH_FACES, "action_repeat": 2, "image_size": 84, "camera_id": 0,
                  "episode_length": 1000, "render_settings": None, "device": "cpu"},
     extra_transforms=lambda: (DoubleToFloat(),),
     install='pip install -e ".[loco]"',

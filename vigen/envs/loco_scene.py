@@ -190,8 +190,7 @@ def _hide_collision_doubles(bodies: list) -> None:
     """Make a body's colliding geoms invisible where it has visual geoms too (robosuite's collision meshes are group 0,
     drawn by default, and z-fight with the visual meshes they copy)."""
     for body in bodies:
-        visual = [geom for geom in body.geoms if not (geom.contype or geom.conaffinity)]
-        if visual:
+        if any(not (geom.contype or geom.conaffinity) for geom in body.geoms):
             for geom in body.geoms:
                 if geom.contype or geom.conaffinity:
                     geom.rgba = [geom.rgba[0], geom.rgba[1], geom.rgba[2], 0.0]
@@ -275,8 +274,9 @@ def _quadruped_scene(task: str, robot: str, path: Path, max_mesh_faces: int | No
         camera = base.add_camera(name=name, pos=pos, mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM)
         camera.alt.type = mujoco.mjtOrientation.mjORIENTATION_XYAXES
         camera.alt.xyaxes = [-1, 0, 0, 0, tilt, 1]
-    _hide_collision_doubles(_subtree(base))
-    _name_robot_materials(world, _subtree(base))
+    parts = _subtree(base)
+    _hide_collision_doubles(parts)
+    _name_robot_materials(world, parts)
 
     joints = {joint.name: joint for joint in world.joints}
     walk = task == "unitree-walk"

@@ -120,16 +120,19 @@ class ScaledActionTask(base.Task):
     def __init__(self, scene: LocoScene, random: Any = None) -> None:
         super().__init__(random=random)
         self.scene = scene
-        self.action = np.zeros(scene.model.nu)
-        self.control = scene.model.actuator_ctrlrange.mean(axis=1)
+        self._command(np.zeros(scene.model.nu), scene.model.actuator_ctrlrange)
 
     def action_spec(self, physics: Physics) -> specs.BoundedArray:
         return specs.BoundedArray((physics.model.nu,), np.float64, -1.0, 1.0, name="action")
 
-    def before_step(self, action: np.ndarray, physics: Physics) -> None:
+    def _command(self, action: np.ndarray, ctrlrange: np.ndarray) -> None:
+        """Keep ``action`` (clipped to [-1, 1]) and the control it maps to: RL-ViGen's rewards read one or the other."""
         self.action = np.clip(np.asarray(action, dtype=np.float64), -1.0, 1.0)
-        low, high = physics.model.actuator_ctrlrange.T
+        low, high = ctrlrange.T
         self.control = low + (self.action + 1.0) / 2.0 * (high - low)
+
+    def before_step(self, action: np.ndarray, physics: Physics) -> None:
+        self._command(action, physics.model.actuator_ctrlrange)
         physics.set_control(self.control)
 
     def initialize_episode(self, physics: Physics) -> None:
@@ -137,8 +140,7 @@ class ScaledActionTask(base.Task):
         with physics.reset_context():
             physics.data.qpos[:] = self.scene.start_qpos
             self.place_objects(physics)
-        self.action = np.zeros(physics.model.nu)
-        self.control = physics.model.actuator_ctrlrange.mean(axis=1)
+        self._command(np.zeros(physics.model.nu), physics.model.actuator_ctrlrange)
         super().initialize_episode(physics)
 
     def place_objects(self, physics: Physics) -> None:

@@ -24,7 +24,7 @@ POSITIVE_ARGUMENTS = {
     "action_repeat": "simulator steps per agent step, e.g. action_repeat=2 (1: no repeat)",
     "episode_length": "simulator steps per episode, e.g. episode_length=1000",
     "control_freq": "control steps per simulated second, e.g. control_freq=20",
-    "max_mesh_faces": "faces per mesh after simplification, e.g. max_mesh_faces=2000 (None: the source meshes)",
+    "max_mesh_faces": "faces per mesh after simplification, e.g. max_mesh_faces=3000 (None: the source meshes)",
 }
 """Env arguments that must be ints > 0, with what they mean."""
 
