@@ -136,6 +136,22 @@ def test_material_colors_mix_the_default_with_a_uniform_draw():
         RandomMaterialColors(mix=1.5)
 
 
+def test_material_colors_shift_adds_one_normal_offset_and_clips():
+    shifted = RandomMaterialColors(mix=0.0, shift=0.2, include=("self", "torso"), exclude=("self_default",), shared=True, seed=0)
+    env = walker(shifted)
+    model = env.base_env.scene.model
+    defaults = shifted.read_defaults(env.base_env.scene)
+    env.reset()
+    offsets = shifted.params["offsets"]
+    assert (offsets == offsets[0]).all(), "shared: one offset for every part"
+    expected = np.clip(np.concatenate([defaults["material_rgb"], defaults["geom_rgb"]]) + offsets, 0.0, 1.0)
+    actual = np.concatenate([model.mat_rgba[defaults["materials"], :3], model.geom_rgba[defaults["geoms"], :3]])
+    np.testing.assert_allclose(actual, expected, rtol=0, atol=1e-6)
+    assert "offsets" not in RandomMaterialColors(mix=0.5, seed=0).sample(np.random.default_rng(0), defaults), "no shift, no draw"
+    with pytest.raises(ValueError, match="shift is the standard deviation"):
+        RandomMaterialColors(shift=-0.1)
+
+
 def test_light_height_sets_every_light_then_restores():
     lighting = RandomLighting(position_offset=None, diffuse_offset=None, height=4.0, seed=0)
     env = walker(lighting)
