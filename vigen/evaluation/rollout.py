@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
+import functools
 import io
 import os
 from collections.abc import Callable, Mapping, Sequence
@@ -27,16 +29,19 @@ EnvFactory = Callable[[Level, int], EnvBase]
 
 Policy = Callable[[TensorDictBase], TensorDictBase]
 
+BACKENDS = ("serial", "ray")
+
 
 class EvaluationError(RuntimeError):
     """An evaluation stopped on an error; the episodes that finished before it are kept in :attr:`rows`.
 
     Attributes:
         rows: one row per finished episode, as :func:`evaluate` returns them.
-        level, seed: where the error happened.
+        level, seed: where the error happened (the job: one env, its episodes).
         episode: the episode that was running, or ``None`` if building or closing the env failed.
 
-    The original exception is chained (``__cause__``).
+    The original exception is chained (``__cause__``); ``reason`` says what stopped the job when it is
+    not an exception of the job itself (a Ray worker that died).
 
     Examples:
         >>> error = EvaluationError([{"level": "train", "return": 1.0}], level="video_hard", seed=0, episode=2)
@@ -45,9 +50,10 @@ class EvaluationError(RuntimeError):
     """
 
     def __init__(self, rows: list[dict[str, Any]], *, level: str, seed: int, episode: int | None,
-                 rows_path: Path | None = None) -> None:
+                 rows_path: Path | None = None, reason: str | None = None) -> None:
         self.rows, self.level, self.seed, self.episode, self.rows_path = rows, level, seed, episode, rows_path
         where = f"level {level!r}, seed {seed}" + ("" if episode is None else f", episode {episode}")
+        where += "" if reason is None else f" ({reason})"
         kept = f"they are in .rows{'' if rows_path is None else f' and {rows_path}'}"
         super().__init__(f"evaluation failed at {where} after {len(rows)} finished episode(s); {kept}.")
 
@@ -63,6 +69,10 @@ def evaluate(
     env_options: Mapping[str, Any] | None = None,
     tags: Mapping[str, Any] | None = None,
     rows_path: str | os.PathLike | None = None,
+    device: torch.device | str | None = None,
+    backend: str = "serial",
+    workers: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> list[dict[str, Any]]:
     """Run ``policy`` zero-shot on each level and return one row per episode.
 
@@ -86,7 +96,17 @@ def evaluate(
         tags: constant columns added to every row, e.g. ``{"method": "svea", "run": 1}``.
         rows_path: a new CSV file that receives each row as soon as its episode ends (flushed to
             disk), so a crash, a kill or a failing level loses no finished episode. It must not
-            exist yet.
+            exist yet. With ``backend="ray"`` a job's rows arrive when the job ends, in the order jobs end.
+        device: the device the envs are built on (``make_env(..., device=device)``; a factory decides
+            for itself). The policy must already be there: nothing is moved for it.
+        backend: ``"serial"`` plays the jobs (one per level and seed) one after another here;
+            ``"ray"`` spreads them over Ray workers (:mod:`vigen.evaluation.ray_backend`), in the
+            session that is running or else a local cluster started and stopped for the call. The
+            rows are the same, in the same order: each job is seeded by its seed alone. (Ray tasks run
+            torch on one thread; a policy run here on more threads sums its products in another
+            order, which can move returns by float rounding.)
+        workers: with ``backend="ray"``, how many jobs run at once (default: the cluster's CPUs).
+        progress: called as ``progress(finished_jobs, total_jobs)`` after each job ends.
 
     Returns:
         Rows with ``env``, ``level`` (the level's label, :func:`vigen.envs.level_label`), ``seed``,
@@ -132,33 +152,75 @@ def evaluate(
         raise ValueError(f"episodes must be at least 1, got {episodes}.")
     if not seeds:
         raise ValueError("seeds is empty: give at least one seed, e.g. seeds=[0].")
-    rows: list[dict[str, Any]] = []
+    if backend not in BACKENDS:
+        raise ValueError(f"backend {backend!r} is unknown; use one of {', '.join(map(repr, BACKENDS))}.")
+    if workers is not None and (backend != "ray" or workers < 1):
+        raise ValueError(f"workers={workers}: it sets how many Ray jobs run at once (>= 1) and needs backend='ray'.")
     name = env if isinstance(env, str) else getattr(env, "__name__", "env")
-    todo = _check_levels(levels, env)
+    jobs = [Job(label, level, seed) for label, level in _check_levels(levels, env).items() for seed in seeds]
+    run = functools.partial(run_job, policy=policy, env=env, name=name, episodes=episodes, max_steps=max_steps,
+                            env_options=dict(env_options or {}), tags=dict(tags or {}), device=device)
     log = None if rows_path is None else _RowLog(Path(rows_path))
-    for label, level in todo.items():
-        columns = level_columns(level)
-        for seed in seeds:
-            episode: int | None = None
-            try:
-                if isinstance(env, str):
-                    instance = make_env(env, generalization=level, seed=seed, **dict(env_options or {}))
-                else:
-                    instance = env(level, seed)
-                try:
-                    acting = _random_policy(instance, seed) if policy is None else policy
-                    for episode in range(episodes):
-                        row = {**dict(tags or {}), "env": name, "level": label, **columns, "seed": seed,
-                               "episode": episode, **_play(acting, instance, max_steps)}
-                        rows.append(row)
-                        if log is not None:
-                            log.append(row)
-                    episode = None
-                finally:
-                    instance.close()
-            except Exception as error:
-                raise EvaluationError(list(rows), level=label, seed=seed, episode=episode,
-                                      rows_path=None if log is None else log.path) from error
+    if backend == "ray":
+        from vigen.evaluation.ray_backend import run_jobs_on_ray
+
+        return run_jobs_on_ray(jobs, run, workers=workers, progress=progress, log=log)
+    rows: list[dict[str, Any]] = []
+    for done, job in enumerate(jobs, start=1):
+        try:
+            job_rows = run(job, on_row=None if log is None else log.append)
+        except JobError as failure:
+            raise EvaluationError(rows + failure.rows, level=job.label, seed=job.seed, episode=failure.episode,
+                                  rows_path=None if log is None else log.path) from failure.error
+        rows += job_rows
+        if progress is not None:
+            progress(done, len(jobs))
+    return rows
+
+
+@dataclasses.dataclass(frozen=True)
+class Job:
+    """One (level, seed) of an evaluation: an env built once and ``episodes`` episodes played in it."""
+
+    label: str
+    level: Level
+    seed: int
+
+
+class JobError(Exception):
+    """A job stopped: the rows it finished, the episode that was running (``None``: building or closing the env) and why."""
+
+    def __init__(self, rows: list[dict[str, Any]], episode: int | None, error: BaseException) -> None:
+        super().__init__(rows, episode, error)
+        self.rows, self.episode, self.error = rows, episode, error
+
+
+def run_job(job: Job, *, policy: Policy | None, env: str | EnvFactory, name: str, episodes: int, max_steps: int,
+            env_options: dict[str, Any], tags: dict[str, Any], device: torch.device | str | None,
+            on_row: Callable[[dict[str, Any]], None] | None = None) -> list[dict[str, Any]]:
+    """Play one job's episodes and return their rows; raises :class:`JobError` with the finished ones."""
+    rows: list[dict[str, Any]] = []
+    episode: int | None = None
+    try:
+        if isinstance(env, str):
+            options = env_options if device is None else {**env_options, "device": device}
+            instance = make_env(env, generalization=job.level, seed=job.seed, **options)
+        else:
+            instance = env(job.level, job.seed)
+        try:
+            acting = _random_policy(instance, job.seed) if policy is None else policy
+            columns = level_columns(job.level)
+            for episode in range(episodes):
+                row = {**tags, "env": name, "level": job.label, **columns, "seed": job.seed, "episode": episode,
+                       **_play(acting, instance, max_steps)}
+                rows.append(row)
+                if on_row is not None:
+                    on_row(row)
+            episode = None
+        finally:
+            instance.close()
+    except Exception as error:
+        raise JobError(rows, episode, error) from error
     return rows
 
 
