@@ -439,6 +439,11 @@ class ActorCriticLoss(LossModule):
 
     # -- TorchRL plumbing ----------------------------------------------------------------------
     @property
+    def device(self) -> torch.device:
+        """The device of the networks (of the first parameter): batches come on it and policies act there."""
+        return next(self.parameters()).device
+
+    @property
     def in_keys(self) -> list[NestedKey]:
         keys = self.tensor_keys
         return [

@@ -149,7 +149,7 @@ class DrQv2Loss(ActorCriticLoss):
         return torch.min(*self.target_q_values(next_features, action))
 
     def metrics(self) -> dict[str, Tensor]:
-        return {"std": torch.tensor(self.stddev)}
+        return {"std": torch.tensor(self.stddev, device=self.device)}
 
     def make_policy(self, action_spec: TensorSpec, *, pixels_key: NestedKey = "pixels") -> TensorDictModuleBase:
         """``actor(encoder(pixels))`` plus exploration noise, on this loss's live parameters.
@@ -166,7 +166,7 @@ class DrQv2Loss(ActorCriticLoss):
             sigma = dict(sigma_init=schedule.init, sigma_end=schedule.final, annealing_num_steps=schedule.duration)
         else:
             sigma = dict(sigma_init=float(schedule), sigma_end=float(schedule), annealing_num_steps=1)
-        return TensorDictSequential(actor, AdditiveGaussianModule(action_spec, **sigma))
+        return TensorDictSequential(actor, AdditiveGaussianModule(action_spec.to(self.device), **sigma, device=self.device))
 
 
 class PixelsToAction(nn.Module):

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
+import torch
+
 from torch import nn
 
 from vigen.losses.base import ActorCriticLoss
@@ -60,6 +62,7 @@ def make_loss(
     hidden_dim: int = 1024,
     max_value: float | None = None,
     seed: int | None = None,
+    device: torch.device | str | None = None,
     **loss_options: Any,
 ) -> ActorCriticLoss:
     """The loss of ``algo`` on fresh networks shaped as in RL-ViGen.
@@ -92,6 +95,8 @@ def make_loss(
         seed: seeds every augmentation the loss owns (each its own stream, see
             :meth:`~vigen.losses.ActorCriticLoss.seed_augmentations`), so its views do not depend
             on the global RNG; ``None`` leaves them on torch's global RNG.
+        device: where the networks live (default: the CPU); batches must come on it, and the
+            policies of :meth:`~vigen.losses.ActorCriticLoss.make_policy` act there.
         **loss_options: keyword arguments of the loss class (e.g. ``std``, ``strong_augmentation``).
 
     Examples:
@@ -144,6 +149,8 @@ def make_loss(
             loss = CURLLoss(encoder, actor, critic, CURLHead(features), **loss_options)
         else:
             loss = ALGOS[algo](encoder, actor, critic, **loss_options)
+    if device is not None:
+        loss.to(device)
     if seed is not None:
         loss.seed_augmentations(seed)
     return loss

@@ -131,6 +131,7 @@ class SoftActorCritic(ActorCriticLoss):
         """A ``ProbabilisticActor`` sampling the tanh-squashed Gaussian (its mean under ``DETERMINISTIC``)."""
         network = PixelsToAction(self, head=_LocScale(self.actor))
         features = TensorDictModule(network, in_keys=[pixels_key], out_keys=["loc", "scale"])
+        action_spec = action_spec.to(self.device)
         return ProbabilisticActor(
             features,
             in_keys=["loc", "scale"],
