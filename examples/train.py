@@ -3,6 +3,7 @@
     python examples/train.py --algo svea --env dmc/cartpole-balance --preset cpu --frames 20000
     python examples/train.py --resume runs/svea-cartpole-balance-s0 --frames 40000   # continue it
     python examples/train.py --algo svea --env dmc/walker-walk --protocol dmcgb        # DMC-GB's protocol
+    python examples/train.py --algo svea --env dmc/walker-walk --collector ray --workers 2  # collect on Ray
 
 The run folder (printed at start) gets ``config.json``, TorchRL CSV logs (``logs/scalars/*.csv``:
 train losses, ``eval/return``), ``checkpoints/frames_XXXXXXXX.pt`` at every evaluation and the
@@ -13,6 +14,12 @@ update every 2 agent steps); ``cpu`` is the same agent with batch 64 and a 100k 
 easy tasks on a laptop CPU. An algorithm whose paper changes some of these settings gets them from
 ``algo_defaults`` (VRL3: a fixed exploration std of 0.01 and, on Adroit, RL-ViGen's reward scale,
 door ×1/20, hammer ×1/100, pen ×1/50); flags override them and ``config.json`` records them.
+
+``--collector ray --workers N`` collects with TorchRL's ``RayCollector``: N Ray actors, each with
+its own env (levels and perturbations run inside them), a batch from each per step, the policy's
+weights (and its exploration σ) sent to them after every step's updates. It starts a local Ray
+cluster on 127.0.0.1 (``pip install -e ".[ray]"``), or joins the one at ``--ray-address``. The run
+folder, checkpoints and ``--resume`` are the same as with local workers.
 
 ``--protocol dmcgb|dmcgb2|rlvigen|drqv2|planet`` (see :mod:`vigen.protocols`) trains as that paper
 did: its budget (DMC-GB's 500k *agent steps* become 2M frames at action repeat 4), its action
@@ -25,8 +32,8 @@ run beside the published numbers of the same protocol.
 What a run guarantees (``vigen.checkpoint`` does the work):
 
 * Every argument is checked before the first frame, and a failed start leaves no run folder.
-  ``--resume`` refuses flags that contradict the run's ``config.json`` (only ``--frames`` and
-  ``--threads`` may change).
+  ``--resume`` refuses flags that contradict the run's ``config.json`` (only ``--frames``,
+  ``--threads`` and ``--ray-address`` may change).
 * Killed at any moment, even while a checkpoint is written, a run resumes exactly: counters,
   networks, optimizer, every random state, the replay buffer and the CSV logs end as in a run that
   was never killed. Checkpoints are written atomically and hold only tensors and plain data (loaded
@@ -45,6 +52,8 @@ What a run guarantees (``vigen.checkpoint`` does the work):
 from __future__ import annotations
 
 import argparse
+import contextlib
+import copy
 import json
 import sys
 import time
@@ -52,6 +61,7 @@ from functools import partial
 from pathlib import Path
 
 import torch
+from tensordict import TensorDict
 from torchrl.collectors import Collector, MultiSyncCollector
 from torchrl.data import LazyMemmapStorage, TensorDictReplayBuffer
 from torchrl.envs import RewardSum, TransformedEnv
@@ -72,6 +82,7 @@ from vigen.io import atomic_write, unused_path
 from vigen.losses import ALGOS, LinearSchedule, SoftActorCritic, make_loss
 from vigen.losses.vrl3 import ADROIT_REWARD_SCALES
 from vigen.protocols import PROTOCOLS
+from vigen.ray_cluster import import_ray, ray_session
 from vigen.rendering import RenderSettings
 from vigen.seeding import ENV_SEED_LIMIT, derive_seed
 
@@ -83,7 +94,7 @@ PRESETS = {
                 gamma=0.99, tau=0.01, seed_frames=4000, update_every=2, std_duration=100_000,
                 eval_every=10_000, eval_episodes=5, std_init=1.0, std_final=0.1, reward_scale=1.0),
 }
-DEFAULTS = dict(algo="drqv2", env="dmc/cartpole-balance", preset="cpu", seed=0, workers=1, eval_levels=["train"],
+DEFAULTS = dict(algo="drqv2", env="dmc/cartpole-balance", preset="cpu", seed=0, workers=1, collector="local", eval_levels=["train"],
                 logger="csv", episode_length=None, encoder_weights=None, protocol=None, action_repeat=None,
                 frame_stack=None, image_size=None)  # a new run's values of the flags a resumed run takes from config.json
 DEFAULT_FRAMES = 100_000
@@ -129,7 +140,12 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--seed", type=int, default=None, help="default 0")
     parser.add_argument("--out", type=Path, default=None, help="run folder (default runs/<algo>-<task>-s<seed>)")
     parser.add_argument("--resume", type=Path, default=None, help="a run folder to continue up to --frames")
-    parser.add_argument("--workers", type=int, default=None, help=">1: a MultiSyncCollector with one env per process")
+    parser.add_argument("--workers", type=int, default=None,
+                        help="envs collecting in parallel, one per process (local collector: >1 is a MultiSyncCollector)")
+    parser.add_argument("--collector", choices=["local", "ray"], default=None,
+                        help="local (default): this machine's processes; ray: TorchRL's RayCollector, one Ray actor per worker")
+    parser.add_argument("--ray-address", default=None,
+                        help="with --collector ray: the cluster to join (default: start a local one on 127.0.0.1)")
     parser.add_argument("--eval-levels", nargs="+", default=None, help="levels evaluated at every checkpoint (train)")
     parser.add_argument("--logger", choices=["csv", "wandb"], default=None, help="csv (default) or wandb, offline")
     parser.add_argument("--episode-length", type=int, default=None,
@@ -158,7 +174,7 @@ def configure(args: argparse.Namespace) -> dict:
     if not (args.resume / "config.json").is_file():
         raise SystemExit(f"--resume {args.resume}: no config.json there; pass a run folder of examples/train.py.")
     saved = json.loads((args.resume / "config.json").read_text())
-    config = {**PRESETS[DEFAULTS["preset"]], **saved}  # a setting newer than the run: the run had its default
+    config = {**PRESETS[DEFAULTS["preset"]], "collector": DEFAULTS["collector"], **saved}  # a setting newer than the run: the run had its default
     conflicts = [f"--{name.replace('_', '-')} {value} (the run has {config.get(name)})"
                  for name, value in given.items() if config.get(name) != value]
     if conflicts:
@@ -213,6 +229,11 @@ def validate(config: dict, threads: int | None) -> None:
         raise SystemExit(f"--episode-length must be >= 1, got {config['episode_length']}.")
     if threads is not None and threads < 1:
         raise SystemExit(f"--threads must be >= 1, got {threads}.")
+    if config["collector"] == "ray":
+        try:
+            import_ray()
+        except ImportError as error:
+            raise SystemExit(f"--collector ray: {error}") from None
     if config["env"] not in available_envs(config["env"].split("/")[0] if "/" in config["env"] else None):
         make_env(config["env"])  # raises with the valid names and the closest matches
     try:
@@ -225,6 +246,8 @@ def main() -> None:
     args = parse_args()
     config = configure(args)
     validate(config, args.threads)
+    if args.ray_address is not None and config["collector"] != "ray":
+        raise SystemExit("--ray-address names the Ray cluster of --collector ray; add --collector ray or drop it.")
     if args.threads:
         torch.set_num_threads(args.threads)
     torch.manual_seed(config["seed"])
@@ -303,62 +326,65 @@ def main() -> None:
     seed_steps = config["seed_frames"] // action_repeat
     eval_every = config["eval_every"] // action_repeat
     steps_per_batch = 50 * config["update_every"]  # per worker
-    progress = tqdm(total=total_steps * action_repeat, initial=steps * action_repeat, unit="frame", dynamic_ncols=True)
-    while steps < total_steps:  # one segment per checkpoint
-        collector = make_collector(make, policy, config, env_seed=derive_seed(config["seed"], steps, below=ENV_SEED_LIMIT),
-                                   steps_per_batch=steps_per_batch,
-                                   batches=segment_batches(steps, total_steps, eval_every, steps_per_batch * config["workers"]),
-                                   random_steps=max(0, seed_steps - steps))
-        for batch in collector:
-            new = batch.numel()
-            steps += new
-            episode_ends = batch["next", "done"].squeeze(-1)
-            if episode_ends.any():
-                logger.log_scalar("train/episode_reward", batch["next", "episode_reward"][episode_ends].mean().item(), step=steps * action_repeat)
-            segment_ends = steps // eval_every > (steps - new) // eval_every or steps >= total_steps
-            if segment_ends:  # the episode in progress ends with the segment: its n-step targets bootstrap there
-                batch["next", "truncated"][..., -1, :] = True
-                batch["next", "done"][..., -1, :] = True
-            transitions = n_step.inv(batch)  # [time] or [workers, time], with n-step rewards and next pixels
-            if transitions is not None:
-                if config["reward_scale"] != 1:
-                    transitions.set(("next", "reward"), transitions["next", "reward"] * config["reward_scale"])
-                journal.protect(transitions.numel())
-                buffer.extend(transitions.reshape(-1))
-            if noise is not None:
-                noise.step(new)  # the exploration noise follows the std schedule (DrQ samples from its policy instead)
-            progress.update(new * action_repeat)
+    with contextlib.ExitStack() as session:
+        if config["collector"] == "ray":  # one cluster for the whole run; collectors come and go with segments
+            session.enter_context(ray_session(args.ray_address))
+        progress = tqdm(total=total_steps * action_repeat, initial=steps * action_repeat, unit="frame", dynamic_ncols=True)
+        while steps < total_steps:  # one segment per checkpoint
+            collector, sync_weights = make_collector(
+                make, policy, config, env_seed=derive_seed(config["seed"], steps, below=ENV_SEED_LIMIT), steps_per_batch=steps_per_batch,
+                batches=segment_batches(steps, total_steps, eval_every, steps_per_batch * config["workers"]),
+                random_steps=max(0, seed_steps - steps))
+            for batch in collector:
+                new = batch.numel()
+                steps += new
+                episode_ends = batch["next", "done"].squeeze(-1)
+                if episode_ends.any():
+                    logger.log_scalar("train/episode_reward", batch["next", "episode_reward"][episode_ends].mean().item(), step=steps * action_repeat)
+                segment_ends = steps // eval_every > (steps - new) // eval_every or steps >= total_steps
+                if segment_ends:  # the episode in progress ends with the segment: its n-step targets bootstrap there
+                    batch["next", "truncated"][..., -1, :] = True
+                    batch["next", "done"][..., -1, :] = True
+                transitions = n_step.inv(batch)  # [time] or [workers, time], with n-step rewards and next pixels
+                if transitions is not None:
+                    if config["reward_scale"] != 1:
+                        transitions.set(("next", "reward"), transitions["next", "reward"] * config["reward_scale"])
+                    journal.protect(transitions.numel())
+                    buffer.extend(transitions.reshape(-1))
+                if noise is not None:
+                    noise.step(new)  # the exploration noise follows the std schedule (DrQ samples from its policy instead)
+                progress.update(new * action_repeat)
 
-            due = (steps - seed_steps) // config["update_every"] - updates if steps >= seed_steps else 0
-            started = time.perf_counter()
-            for _ in range(max(0, due)):
-                loss.set_step(steps)
-                out = loss(buffer.sample())
-                optimizer.zero_grad(set_to_none=True)
-                sum(value for key, value in out.items() if key.startswith("loss_")).backward()
-                optimizer.step()
-                target_update.step()
-                updates += 1
-            if due > 0:
-                for key, value in out.items():
-                    logger.log_scalar(f"train/{key}", value.item(), step=steps * action_repeat)
-                logger.log_scalar("train/seconds_per_update", (time.perf_counter() - started) / due, step=steps * action_repeat)
-            collector.update_policy_weights_()
-        collector.shutdown()
+                due = (steps - seed_steps) // config["update_every"] - updates if steps >= seed_steps else 0
+                started = time.perf_counter()
+                for _ in range(max(0, due)):
+                    loss.set_step(steps)
+                    out = loss(buffer.sample())
+                    optimizer.zero_grad(set_to_none=True)
+                    sum(value for key, value in out.items() if key.startswith("loss_")).backward()
+                    optimizer.step()
+                    target_update.step()
+                    updates += 1
+                if due > 0:
+                    for key, value in out.items():
+                        logger.log_scalar(f"train/{key}", value.item(), step=steps * action_repeat)
+                    logger.log_scalar("train/seconds_per_update", (time.perf_counter() - started) / due, step=steps * action_repeat)
+                sync_weights()
+            collector.shutdown()
 
-        rows = evaluate(policy, config["env"], config["eval_levels"], episodes=config["eval_episodes"],
-                        seeds=[config["seed"] + 10_000], env_options={"render_settings": RenderSettings.fast(), **env_options(config)})
-        for level in config["eval_levels"]:
-            returns = [row["return"] for row in rows if row["level"] == level]
-            logger.log_scalar(f"eval/{level}_return", sum(returns) / len(returns), step=steps * action_repeat)
-        progress.set_postfix(eval=round(sum(r["return"] for r in rows if r["level"] == config["eval_levels"][0]) / config["eval_episodes"]))
-        state = {"loss": loss.state_dict(), "optimizer": optimizer.state_dict(), "policy": policy.state_dict(),
-                 "generators": generator_states(loss), "random": random_states(), "n_step": multistep_state(n_step),
-                 "replay": replay_state(buffer), "frames": steps * action_repeat, "steps": steps, "updates": updates}
-        (run_dir / "checkpoints").mkdir(exist_ok=True)
-        save_checkpoint(checkpoint_path(run_dir / "checkpoints", steps * action_repeat), state)
-        journal.commit(state["replay"])
-    progress.close()
+            rows = evaluate(policy, config["env"], config["eval_levels"], episodes=config["eval_episodes"],
+                            seeds=[config["seed"] + 10_000], env_options={"render_settings": RenderSettings.fast(), **env_options(config)})
+            for level in config["eval_levels"]:
+                returns = [row["return"] for row in rows if row["level"] == level]
+                logger.log_scalar(f"eval/{level}_return", sum(returns) / len(returns), step=steps * action_repeat)
+            progress.set_postfix(eval=round(sum(r["return"] for r in rows if r["level"] == config["eval_levels"][0]) / config["eval_episodes"]))
+            state = {"loss": loss.state_dict(), "optimizer": optimizer.state_dict(), "policy": policy.state_dict(),
+                     "generators": generator_states(loss), "random": random_states(), "n_step": multistep_state(n_step),
+                     "replay": replay_state(buffer), "frames": steps * action_repeat, "steps": steps, "updates": updates}
+            (run_dir / "checkpoints").mkdir(exist_ok=True)
+            save_checkpoint(checkpoint_path(run_dir / "checkpoints", steps * action_repeat), state)
+            journal.commit(state["replay"])
+        progress.close()
 
 
 def segment_batches(steps: int, total_steps: int, eval_every: int, batch_steps: int) -> int:
@@ -370,14 +396,41 @@ def segment_batches(steps: int, total_steps: int, eval_every: int, batch_steps: 
 
 
 def make_collector(make, policy, config: dict, *, env_seed: int, steps_per_batch: int, batches: int, random_steps: int):
-    """A collector for one segment, its env freshly reset with ``env_seed`` (worker ``w``: ``derive_seed(env_seed, w)``)."""
+    """A collector for one segment, its env freshly reset with ``env_seed`` (of several, worker ``w``: ``derive_seed(env_seed, w)``),
+    and the call that sends it the policy's current weights."""
     workers = config["workers"]
+    makers = ([partial(make, seed=env_seed)] if workers == 1 else
+              [partial(make, seed=derive_seed(env_seed, w, below=ENV_SEED_LIMIT)) for w in range(workers)])
     options = dict(frames_per_batch=steps_per_batch * workers, total_frames=steps_per_batch * workers * batches,
-                   init_random_frames=random_steps, auto_register_policy_transforms=False)
+                   init_random_frames=random_steps)
+    if config["collector"] == "ray":
+        from torchrl.collectors.distributed import RayCollector
+
+        # the actors' copy keeps its tensors contiguous (TorchRL's Ray weight transport refuses channels-last
+        # conv weights); it receives the trained weights, then sends them on
+        acting = contiguous_copy(policy)
+        collector = RayCollector(makers, acting, sync=True, collector_kwargs={"auto_register_policy_transforms": False},
+                                 remote_configs={"num_cpus": 1}, **options)
+
+        def sync_weights() -> None:
+            TensorDict.from_module(acting).data.update_(TensorDict.from_module(policy).data)
+            collector.update_policy_weights_()
+        sync_weights()  # the actors start from the weights the segment starts with
+        return collector, sync_weights
+    options["auto_register_policy_transforms"] = False
     if workers > 1:
-        return MultiSyncCollector([partial(make, seed=derive_seed(env_seed, w, below=ENV_SEED_LIMIT)) for w in range(workers)], policy,
-                                  cat_results="stack", **options)
-    return Collector(make(seed=env_seed), policy, **options)
+        collector = MultiSyncCollector(makers, policy, cat_results="stack", **options)
+    else:
+        collector = Collector(makers[0](), policy, **options)
+    return collector, collector.update_policy_weights_
+
+
+def contiguous_copy(module: torch.nn.Module) -> torch.nn.Module:
+    """A deep copy of ``module`` whose parameters and buffers are contiguous (channels-last conv weights become NCHW)."""
+    duplicate = copy.deepcopy(module)
+    for tensor in [*duplicate.parameters(), *duplicate.buffers()]:
+        tensor.data = tensor.data.contiguous()
+    return duplicate
 
 
 if __name__ == "__main__":
