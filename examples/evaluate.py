@@ -30,17 +30,25 @@ checkpoint's frames against the published budget) and stops naming every differe
 default to the protocol's test levels; the report gains a "Published" table and ``published.png``:
 
     python examples/evaluate.py runs/svea-walker-walk-s0 --compare dmcgb --episodes 100
+
+``--ray`` spreads the (level, seed) jobs over Ray workers (``pip install -e ".[ray]"``): a local
+cluster started for the evaluation (on 127.0.0.1 only), or the cluster at ``--ray ADDRESS``;
+``--workers N`` caps the jobs in flight (default: the cluster's CPUs). The rows are the serial ones:
+
+    python examples/evaluate.py runs/svea-walker-walk-s0 --levels train dmcgb --seeds 0 1 2 3 --ray --workers 2
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 from pathlib import Path
 
 from tensordict.nn import TensorDictModuleBase
 from torchrl.data import Bounded
+from tqdm import tqdm
 
 from vigen.checkpoint import CheckpointError, load_checkpoint, newest_checkpoint
 from vigen.envs import factors
@@ -52,6 +60,7 @@ from vigen.io import atomic_write, unused_path
 from vigen.losses import make_loss
 from vigen.policies import make_policy
 from vigen.protocols import PROTOCOLS
+from vigen.ray_cluster import ray_session
 from vigen.rendering import RenderSettings
 from vigen.results import SOURCES, ProtocolMismatch, compare, load, published
 from vigen.results.compare import VALUE_UNITS
@@ -80,8 +89,13 @@ def parse_args() -> argparse.Namespace:
                         help="put the runs beside the published numbers of a protocol (all its sources) or of one source")
     parser.add_argument("--allow-budget-mismatch", action="store_true",
                         help="with --compare: show runs trained for another length than the published numbers, marked")
+    parser.add_argument("--ray", nargs="?", const="local", default=None, metavar="ADDRESS",
+                        help="run the (level, seed) jobs on Ray: a local cluster, or the cluster at ADDRESS")
+    parser.add_argument("--workers", type=int, default=None, help="with --ray: jobs in flight at once (default: the cluster's CPUs)")
     parser.add_argument("--out", type=Path, default=Path("reports/evaluation"))
     args = parser.parse_args()
+    if args.workers is not None and (args.ray is None or args.workers < 1):
+        raise SystemExit(f"--workers {args.workers}: it sets the Ray jobs in flight (>= 1) and needs --ray.")
     args.sweep = [parse_sweep(items) for items in args.sweep]
     return args
 
@@ -175,17 +189,25 @@ def main() -> None:
             published_lines(probe, sources, protocol, args.allow_budget_mismatch)
         except ValueError as error:  # ProtocolMismatch included
             raise SystemExit(f"--compare {args.compare}: {error}") from None
-    rows = []
-    for (config, policy), env_options in zip(agents, options):
-        rows += evaluate(policy, config["env"], levels[config["env"]], episodes=args.episodes, seeds=args.seeds,
-                         env_options=env_options, tags=run_tags(config, env_options))
+    jobs = [(policy, config["env"], env_options, run_tags(config, env_options))
+            for (config, policy), env_options in zip(agents, options)]
     if args.random:  # in each env as its first run saw it
         first: dict[str, dict] = {}
         for (config, _), env_options in zip(agents, options):
             first.setdefault(config["env"], env_options)
-        for env, env_options in first.items():
-            rows += evaluate(None, env, levels[env], episodes=args.episodes, seeds=args.seeds,
-                             env_options=env_options, tags={"method": "random", "run": 0})
+        jobs += [(None, env, env_options, {"method": "random", "run": 0}) for env, env_options in first.items()]
+    backend = {} if args.ray is None else {"backend": "ray", "workers": args.workers}
+    rows = []
+    with contextlib.ExitStack() as stack:
+        if args.ray is not None:  # one cluster for every run's jobs
+            stack.enter_context(ray_session(None if args.ray == "local" else args.ray))
+        progress = stack.enter_context(tqdm(total=sum(len(levels[env]) for _, env, _, _ in jobs) * len(args.seeds),
+                                            unit="job", desc="(level, seed) jobs", dynamic_ncols=True))
+        for policy, env, env_options, tags in jobs:
+            start = progress.n
+            rows += evaluate(policy, env, levels[env], episodes=args.episodes, seeds=args.seeds, env_options=env_options,
+                             tags=tags, progress=lambda done, _, start=start: progress.update(start + done - progress.n),
+                             **backend)
 
     out = unused_path(args.out)
     out.mkdir(parents=True)
