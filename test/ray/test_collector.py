@@ -114,7 +114,7 @@ def run(*args) -> subprocess.CompletedProcess:
 @pytest.mark.slow
 @pytest.mark.render
 @pytest.mark.timeout(900)
-def test_train_with_ray_workers_writes_the_run_folder_and_resumes(tmp_path):
+def test_train_and_evaluate_on_ray_write_the_run_folder_resume_and_report(tmp_path):
     run_dir = tmp_path / "ray-run"
     tiny = ["--env", "dmc/cartpole-balance", "--seed-frames", "200", "--eval-every", "400", "--eval-episodes", "1",
             "--batch-size", "8", "--hidden-dim", "32", "--buffer-size", "2000", "--episode-length", "100"]
@@ -127,6 +127,15 @@ def test_train_with_ray_workers_writes_the_run_folder_and_resumes(tmp_path):
     assert checkpoint["steps"] == 400 and checkpoint["updates"] == 150
     with (run_dir / "logs" / "scalars" / "eval" / "color_hard_return.csv").open() as file:
         assert [row[0] for row in csv.reader(file)] == ["400", "800"]
+    report = tmp_path / "report"
+    evaluated = subprocess.run([sys.executable, str(ROOT / "examples" / "evaluate.py"), str(run_dir), "--levels", "train",
+                                "color_hard", "--seeds", "0", "1", "--episodes", "1", "--episode-length", "20", "--ray",
+                                "--workers", "2", "--out", str(report)], capture_output=True, text=True, cwd=ROOT, timeout=600)
+    assert evaluated.returncode == 0, evaluated.stderr[-3000:]
+    with (report / "episodes.csv").open(newline="") as file:
+        jobs = [(row["level"], row["seed"], row["length"]) for row in csv.DictReader(file)]
+    assert jobs == [("train", "0", "10"), ("train", "1", "10"), ("color_hard", "0", "10"), ("color_hard", "1", "10")]
+    assert "4/4" in evaluated.stderr, "the job progress bar reached the end"
     refused = subprocess.run([sys.executable, str(ROOT / "examples" / "train.py"), "--resume", str(run_dir), "--frames", "1200",
                               "--collector", "local"], capture_output=True, text=True, cwd=ROOT, timeout=300)
     assert refused.returncode != 0 and "--collector local (the run has ray)" in refused.stderr
