@@ -43,7 +43,7 @@ What a run guarantees (``vigen.checkpoint`` does the work):
   (``replay_buffer/journal``) and restored on resume; CSV rows logged after it are dropped.
 * Each checkpoint ends a *segment*, in a resumed run and in one never killed alike: the episode in
   progress is cut there (marked truncated, so its n-step targets bootstrap), the collector is
-  rebuilt and its env reset with seed ``derive_seed(seed, agent steps)`` (workers: one more index each). With dm_control's defaults
+  rebuilt and its env reset with seed ``derive_seed(seed, agent steps)`` (workers: one more index each, which also seeds their torch generators). With dm_control's defaults
   (1000-frame episodes, an evaluation every 10k frames) checkpoints fall on episode ends anyway.
   Not covered: wandb logs are not rewound, and falling back past a checkpoint that does not load
   keeps the transitions written after it in the overwritten slots (resume says so).
@@ -399,8 +399,11 @@ def make_collector(make, policy, config: dict, *, env_seed: int, steps_per_batch
     """A collector for one segment, its env freshly reset with ``env_seed`` (of several, worker ``w``: ``derive_seed(env_seed, w)``),
     and the call that sends it the policy's current weights."""
     workers = config["workers"]
-    makers = ([partial(make, seed=env_seed)] if workers == 1 else
-              [partial(make, seed=derive_seed(env_seed, w, below=ENV_SEED_LIMIT)) for w in range(workers)])
+    if workers == 1 and config["collector"] == "local":  # in this process, whose torch generator the run seeds and saves
+        makers = [partial(make, seed=env_seed)]
+    else:
+        makers = [partial(worker_env, make, seed=derive_seed(env_seed, w, below=ENV_SEED_LIMIT) if workers > 1 else env_seed,
+                          torch_seed=derive_seed(env_seed, w, 1)) for w in range(workers)]
     options = dict(frames_per_batch=steps_per_batch * workers, total_frames=steps_per_batch * workers * batches,
                    init_random_frames=random_steps)
     if config["collector"] == "ray":
@@ -423,6 +426,17 @@ def make_collector(make, policy, config: dict, *, env_seed: int, steps_per_batch
     else:
         collector = Collector(makers[0](), policy, **options)
     return collector, collector.update_policy_weights_
+
+
+def worker_env(make, *, seed: int, torch_seed: int):
+    """``make(seed=seed)`` in a worker process, after seeding that process's torch generator with ``torch_seed``.
+
+    A worker's exploration noise and seed-phase random actions come from its own torch generator,
+    which neither TorchRL's collectors nor Ray seed: unseeded, every worker (and every segment's new
+    worker) would draw the same sequence.
+    """
+    torch.manual_seed(torch_seed)
+    return make(seed=seed)
 
 
 def contiguous_copy(module: torch.nn.Module) -> torch.nn.Module:

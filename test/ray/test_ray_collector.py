@@ -46,9 +46,9 @@ def agent():
     return loss, loss.make_policy(perturbed_env(0).action_spec)
 
 
-def collector(kind: str, workers: int, policy, batches: int = 1):
+def collector(kind: str, workers: int, policy, batches: int = 1, env_seed: int = 3):
     config = {"workers": workers, "collector": kind}
-    return train.make_collector(perturbed_env, policy, config, env_seed=3, steps_per_batch=STEPS, batches=batches,
+    return train.make_collector(perturbed_env, policy, config, env_seed=env_seed, steps_per_batch=STEPS, batches=batches,
                                 random_steps=0)
 
 
@@ -102,6 +102,26 @@ def test_the_actors_act_with_the_weights_sent_after_each_batch(ray_cluster):
     second = next(batches)
     remote.shutdown()
     torch.testing.assert_close(second["action"], torch.full_like(second["action"], 0.3))
+
+
+@pytest.mark.render
+@pytest.mark.timeout(300)
+def test_each_actor_explores_with_its_own_seeded_noise(ray_cluster):
+    _, policy = agent()
+    with torch.no_grad():  # a constant mean action of 0: what the actors act is their exploration noise (σ = 1)
+        policy[0].module.head.policy[-1].weight.zero_()
+        policy[0].module.head.policy[-1].bias.zero_()
+
+    def noise(env_seed: int) -> torch.Tensor:
+        remote, _ = collector("ray", 2, policy, env_seed=env_seed)
+        batch = next(iter(remote))
+        remote.shutdown()
+        return batch["action"]
+
+    first, again, other = noise(3), noise(3), noise(4)
+    assert not torch.equal(first[0], first[1]), "two actors draw different noise"
+    torch.testing.assert_close(first, again, rtol=0, atol=0, msg="a segment's seed fixes its actors' noise")
+    assert not torch.equal(first, other), "the next segment's actors draw new noise"
 
 
 def run(*args) -> subprocess.CompletedProcess:
