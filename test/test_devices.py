@@ -57,3 +57,6 @@ def test_evaluation_builds_its_envs_on_the_device(device):
                     env_options={"image_size": 16, "render_settings": RenderSettings.fast()})
     assert [row["length"] for row in rows] == [5]
     assert seen and set(seen) == {torch.device(device).type}
+    random = evaluate(None, "dmc/cartpole-balance", "train", episodes=1, max_steps=5, device=device,
+                      env_options={"image_size": 16, "render_settings": RenderSettings.fast()})
+    assert [row["length"] for row in random] == [5], "the random baseline's draws go to the env's device"

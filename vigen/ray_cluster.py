@@ -81,8 +81,8 @@ def ray_session(address: str | None = None, *, num_cpus: int | None = None) -> I
         raise ValueError(f"num_cpus={num_cpus}: it sizes a new local cluster (>= 1) and cannot be given with an address.")
     options: dict[str, Any] = dict(include_dashboard=False, log_to_driver=False, configure_logging=False)
     if address is None:
-        with _on_loopback(ray):
-            ray.init(num_cpus=num_cpus, **options)
+        with _on_loopback(ray):  # address="local": a new cluster, never one found through RAY_ADDRESS or `ray start`
+            ray.init(address="local", num_cpus=num_cpus, **options)
     else:
         ray.init(address=address, **options)
     try:

@@ -105,6 +105,7 @@ def test_killing_a_worker_mid_evaluation_names_the_job_within_a_bounded_time(ray
     (dict(backend="dask"), "backend 'dask' is unknown"),
     (dict(workers=2), "needs backend='ray'"),
     (dict(backend="ray", workers=0), r"workers=0"),
+    (dict(backend="ray", device="cuda"), "reserve one CPU and no accelerator"),
 ])
 def test_bad_backend_options_are_refused_before_any_work(options, message):
     with pytest.raises(ValueError, match=message):

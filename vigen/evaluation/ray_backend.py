@@ -59,7 +59,7 @@ def run_jobs_on_ray(jobs: Sequence[Job], run: Callable[[Job], Rows], *, workers:
                     pending[task.remote(runner, job)] = index
                 (ready, *_), _ = ray.wait(list(pending), num_returns=1)
                 index = pending.pop(ready)
-                results[index] = _rows_or_raise(ray, ready, jobs[index], results, log)
+                results[index] = _rows_or_raise(ray, ready, index, jobs, results, log)
                 if log is not None:
                     for row in results[index]:
                         log.append(row)
@@ -72,26 +72,35 @@ def run_jobs_on_ray(jobs: Sequence[Job], run: Callable[[Job], Rows], *, workers:
 
 
 def _run_in_worker(run: Callable[[Job], Rows], job: Job) -> Rows:
-    """A Ray task: one job on one thread (Ray gives each task one CPU)."""
+    """A Ray task: one job on one thread (Ray gives each task one CPU); the worker's thread count is put back after."""
+    threads = torch.get_num_threads()
     torch.set_num_threads(1)
-    return run(job)
+    try:
+        return run(job)
+    finally:
+        torch.set_num_threads(threads)
 
 
-def _rows_or_raise(ray: Any, ref: Any, job: Job, results: dict[int, Rows], log: Any) -> Rows:
-    """The finished job's rows, or the EvaluationError that names it (with the rows finished so far, in job order)."""
+def _rows_or_raise(ray: Any, ref: Any, index: int, jobs: Sequence[Job], results: dict[int, Rows], log: Any) -> Rows:
+    """Job ``index``'s rows, or the EvaluationError that names it, with every finished row in job order (and in ``log``)."""
     try:
         return ray.get(ref)
     except Exception as error:
-        finished = [row for index in sorted(results) for row in results[index]]
-        where = functools.partial(EvaluationError, level=job.label, seed=job.seed,
-                                  rows_path=None if log is None else getattr(log, "path", None))
+        job = jobs[index]
         failure = _job_error(ray, error)
+        partial = [] if failure is None else failure.rows
+        if log is not None:
+            for row in partial:
+                log.append(row)
+        finished = [row for i in sorted([*results, index]) for row in (partial if i == index else results[i])]
+        where = functools.partial(EvaluationError, finished, level=job.label, seed=job.seed,
+                                  rows_path=None if log is None else getattr(log, "path", None))
         if failure is not None:
-            raise where(finished + failure.rows, episode=failure.episode) from failure.error
+            raise where(episode=failure.episode) from failure.error
         died = isinstance(error, (ray.exceptions.WorkerCrashedError, ray.exceptions.NodeDiedError, ray.exceptions.ActorDiedError))
         root = error.cause if isinstance(error, ray.exceptions.RayTaskError) and error.cause is not None else error
         reason = f"its Ray worker died: {type(root).__name__}" if died else f"Ray failed to run it: {type(root).__name__}"
-        raise where(finished, episode=None, reason=reason) from error
+        raise where(episode=None, reason=reason) from error
 
 
 def _job_error(ray: Any, error: Exception) -> JobError | None:

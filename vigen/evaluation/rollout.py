@@ -39,6 +39,8 @@ class EvaluationError(RuntimeError):
         rows: one row per finished episode, as :func:`evaluate` returns them.
         level, seed: where the error happened (the job: one env, its episodes).
         episode: the episode that was running, or ``None`` if building or closing the env failed.
+        rows_path: the CSV file that holds the same rows, if :func:`evaluate` was given one.
+        reason: what stopped the job when it was not an exception of its own (a Ray worker that died).
 
     The original exception is chained (``__cause__``); ``reason`` says what stopped the job when it is
     not an exception of the job itself (a Ray worker that died).
@@ -52,6 +54,7 @@ class EvaluationError(RuntimeError):
     def __init__(self, rows: list[dict[str, Any]], *, level: str, seed: int, episode: int | None,
                  rows_path: Path | None = None, reason: str | None = None) -> None:
         self.rows, self.level, self.seed, self.episode, self.rows_path = rows, level, seed, episode, rows_path
+        self.reason = reason
         where = f"level {level!r}, seed {seed}" + ("" if episode is None else f", episode {episode}")
         where += "" if reason is None else f" ({reason})"
         kept = f"they are in .rows{'' if rows_path is None else f' and {rows_path}'}"
@@ -156,6 +159,9 @@ def evaluate(
         raise ValueError(f"backend {backend!r} is unknown; use one of {', '.join(map(repr, BACKENDS))}.")
     if workers is not None and (backend != "ray" or workers < 1):
         raise ValueError(f"workers={workers}: it sets how many Ray jobs run at once (>= 1) and needs backend='ray'.")
+    if backend == "ray" and device is not None and torch.device(device).type != "cpu":
+        raise ValueError(f"device={device!r} with backend='ray': Ray tasks here reserve one CPU and no accelerator; "
+                         "evaluate on the CPU with Ray, or on the device with backend='serial'.")
     name = env if isinstance(env, str) else getattr(env, "__name__", "env")
     jobs = [Job(label, level, seed) for label, level in _check_levels(levels, env).items() for seed in seeds]
     run = functools.partial(run_job, policy=policy, env=env, name=name, episodes=episodes, max_steps=max_steps,
@@ -294,7 +300,7 @@ def _random_policy(env: EnvBase, seed: int) -> Policy | None:
     low, high = space.low, space.high
 
     def act(tensordict: TensorDictBase) -> TensorDictBase:
-        draw = torch.rand(spec.shape, generator=generator, dtype=low.dtype)
+        draw = torch.rand(spec.shape, generator=generator, dtype=low.dtype).to(low.device)  # the CPU generator's draw, moved
         return tensordict.set("action", (low + (high - low) * draw).to(spec.dtype))
 
     return act
