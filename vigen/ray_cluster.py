@@ -46,6 +46,12 @@ def _on_loopback(ray: Any) -> Iterator[None]:
             os.environ[LOOPBACK_SWITCH] = saved_env
 
 
+def _is_loopback(address: str) -> bool:
+    """Whether a cluster address (``host:port``, ``ray://host:port``) names this machine's loopback interface."""
+    host = address.split("://")[-1].rsplit(":", 1)[0].strip("[]")
+    return host in ("localhost", "::1") or host.startswith("127.")
+
+
 @contextlib.contextmanager
 def ray_session(address: str | None = None, *, num_cpus: int | None = None) -> Iterator[Any]:
     """Ray for the duration of the block: the running session, the cluster at ``address``, or a new local one.
@@ -64,11 +70,9 @@ def ray_session(address: str | None = None, *, num_cpus: int | None = None) -> I
 
     Examples:
         >>> from vigen.ray_cluster import ray_session
-        >>> with ray_session(num_cpus=1) as ray:
+        >>> with ray_session() as ray:  # a local cluster for the block (or the session already running)
         ...     ray.get(ray.remote(lambda: 1 + 1).remote())
         2
-        >>> ray.is_initialized()
-        False
     """
     ray = import_ray()
     if ray.is_initialized():
@@ -83,6 +87,9 @@ def ray_session(address: str | None = None, *, num_cpus: int | None = None) -> I
     if address is None:
         with _on_loopback(ray):  # address="local": a new cluster, never one found through RAY_ADDRESS or `ray start`
             ray.init(address="local", num_cpus=num_cpus, **options)
+    elif _is_loopback(address):  # a cluster of this machine on 127.0.0.1: this driver must take that address too
+        with _on_loopback(ray):
+            ray.init(address=address, **options)
     else:
         ray.init(address=address, **options)
     try:
