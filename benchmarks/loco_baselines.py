@@ -60,11 +60,8 @@ def main() -> None:
     if args.curve is not None:
         return curve(args, config, returns)
     zero = TensorDictModule(lambda pixels: torch.zeros(*pixels.shape[:-3], dims), in_keys=["pixels"], out_keys=["action"])
-    torch.manual_seed(config["seed"])  # network weights come from torch's global generator, seeded as train.py seeds it
-    loss = make_loss(config["algo"], tuple(config["observation_shape"]), dims, feature_dim=config["feature_dim"],
-                     hidden_dim=config["hidden_dim"], seed=config["seed"])
     rows = {"random": returns(None, args.episodes), "zero action": returns(zero, 1),
-            "untrained": returns(make_policy(loss, Bounded(-1.0, 1.0, shape=(dims,))), 1)}
+            "untrained": returns(make_policy(initial_loss(config), Bounded(-1.0, 1.0, shape=(dims,))), 1)}
     print(f"{env}, train level, seed {args.seed}")
     print("| policy | mean return | episodes |")
     print("|---|---|---|")
@@ -72,14 +69,18 @@ def main() -> None:
         print(f"| {name} | {statistics.mean(values):.1f} | {len(values)} |")
 
 
+def initial_loss(config: dict):
+    """The run's loss at its initial weights, drawn as ``examples/train.py`` draws them (torch's global generator seeded)."""
+    torch.manual_seed(config["seed"])
+    loss = make_loss(config["algo"], tuple(config["observation_shape"]), config["action_dim"], feature_dim=config["feature_dim"],
+                     hidden_dim=config["hidden_dim"], seed=config["seed"])
+    return loss.make_value_estimator(gamma=config["gamma"])  # its gamma is part of a checkpoint's state
+
+
 def curve(args: argparse.Namespace, config: dict, returns) -> None:
     """Deterministic and fixed-σ noisy returns of the untrained network and of every checkpoint of the run."""
-    dims = config["action_dim"]
-    torch.manual_seed(config["seed"])
-    loss = make_loss(config["algo"], tuple(config["observation_shape"]), dims, feature_dim=config["feature_dim"],
-                     hidden_dim=config["hidden_dim"], seed=config["seed"])
-    loss.make_value_estimator(gamma=config["gamma"])
-    policy = make_policy(loss, Bounded(-1.0, 1.0, shape=(dims,)))
+    loss = initial_loss(config)
+    policy = make_policy(loss, Bounded(-1.0, 1.0, shape=(config["action_dim"],)))
     generator = torch.Generator()
 
     def noisy(tensordict):

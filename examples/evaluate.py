@@ -189,25 +189,23 @@ def main() -> None:
             published_lines(probe, sources, protocol, args.allow_budget_mismatch)
         except ValueError as error:  # ProtocolMismatch included
             raise SystemExit(f"--compare {args.compare}: {error}") from None
-    jobs = [(policy, config["env"], env_options, run_tags(config, env_options))
-            for (config, policy), env_options in zip(agents, options)]
+    evaluations = [(policy, config["env"], env_options, run_tags(config, env_options))
+                   for (config, policy), env_options in zip(agents, options)]
     if args.random:  # in each env as its first run saw it
         first: dict[str, dict] = {}
         for (config, _), env_options in zip(agents, options):
             first.setdefault(config["env"], env_options)
-        jobs += [(None, env, env_options, {"method": "random", "run": 0}) for env, env_options in first.items()]
+        evaluations += [(None, env, env_options, {"method": "random", "run": 0}) for env, env_options in first.items()]
     backend = {} if args.ray is None else {"backend": "ray", "workers": args.workers}
     rows = []
     with contextlib.ExitStack() as stack:
         if args.ray is not None:  # one cluster for every run's jobs
             stack.enter_context(ray_session(None if args.ray == "local" else args.ray))
-        progress = stack.enter_context(tqdm(total=sum(len(levels[env]) for _, env, _, _ in jobs) * len(args.seeds),
+        progress = stack.enter_context(tqdm(total=sum(len(levels[env]) for _, env, _, _ in evaluations) * len(args.seeds),
                                             unit="job", desc="(level, seed) jobs", dynamic_ncols=True))
-        for policy, env, env_options, tags in jobs:
-            start = progress.n
+        for policy, env, env_options, tags in evaluations:
             rows += evaluate(policy, env, levels[env], episodes=args.episodes, seeds=args.seeds, env_options=env_options,
-                             tags=tags, progress=lambda done, _, start=start: progress.update(start + done - progress.n),
-                             **backend)
+                             tags=tags, progress=lambda done, total: progress.update(1), **backend)
 
     out = unused_path(args.out)
     out.mkdir(parents=True)

@@ -84,14 +84,11 @@ def ray_session(address: str | None = None, *, num_cpus: int | None = None) -> I
     if num_cpus is not None and (address is not None or num_cpus < 1):
         raise ValueError(f"num_cpus={num_cpus}: it sizes a new local cluster (>= 1) and cannot be given with an address.")
     options: dict[str, Any] = dict(include_dashboard=False, log_to_driver=False, configure_logging=False)
-    if address is None:
-        with _on_loopback(ray):  # address="local": a new cluster, never one found through RAY_ADDRESS or `ray start`
-            ray.init(address="local", num_cpus=num_cpus, **options)
-    elif _is_loopback(address):  # a cluster of this machine on 127.0.0.1: this driver must take that address too
-        with _on_loopback(ray):
-            ray.init(address=address, **options)
-    else:
-        ray.init(address=address, **options)
+    # a new cluster ("local": never one found through RAY_ADDRESS or `ray start`) or one of this machine on
+    # 127.0.0.1 takes the loopback address for this driver too
+    loopback = address is None or _is_loopback(address)
+    with _on_loopback(ray) if loopback else contextlib.nullcontext():
+        ray.init(address="local" if address is None else address, num_cpus=num_cpus, **options)
     try:
         yield ray
     finally:
