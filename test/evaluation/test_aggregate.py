@@ -107,6 +107,17 @@ def test_markdown_table_and_csv(tmp_path):
         write_csv(_rows(), path)
 
 
+def test_write_csv_leaves_no_partial_file(tmp_path):
+    class Unprintable:
+        def __str__(self) -> str:
+            raise RuntimeError("cannot be written")
+
+    path = tmp_path / "episodes.csv"
+    with pytest.raises(RuntimeError, match="cannot be written"):
+        write_csv([{"level": "train", "return": 1.0}, {"level": "easy", "return": Unprintable()}], path)
+    assert list(tmp_path.iterdir()) == []  # neither the first row nor a temporary file
+
+
 def test_plot_levels_writes_a_png(tmp_path):
     pytest.importorskip("matplotlib")
     path = plot_levels(summarize(_rows(), reps=100), tmp_path / "levels.png")

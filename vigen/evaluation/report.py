@@ -7,6 +7,7 @@ e.g. with :func:`vigen.io.unused_path`).
 from __future__ import annotations
 
 import csv
+import io
 import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
@@ -46,7 +47,7 @@ def _figure(path: Path, size: tuple[float, float]) -> Iterator[Any]:
 
 
 def write_csv(rows: Sequence[Mapping[str, Any]], path: str | Path) -> Path:
-    """Write rows (dicts) as CSV with the union of their keys as columns, in first-seen order.
+    """Write rows (dicts) as CSV with the union of their keys as columns, in first-seen order, atomically (all rows or no file).
 
     Examples:
         >>> import tempfile, pathlib
@@ -57,11 +58,11 @@ def write_csv(rows: Sequence[Mapping[str, Any]], path: str | Path) -> Path:
     """
     path = _new_file(path)
     columns = list(dict.fromkeys(key for row in rows for key in row))
-    with path.open("w", newline="") as file:
-        writer = csv.DictWriter(file, fieldnames=columns)
-        writer.writeheader()
-        writer.writerows(rows)
-    return path
+    text = io.StringIO()
+    writer = csv.DictWriter(text, fieldnames=columns)
+    writer.writeheader()
+    writer.writerows(rows)
+    return atomic_write(path, text.getvalue())
 
 
 IQM_LEGEND = "Cells: IQM [95 % stratified-bootstrap CI] · RL-ViGen mean ± std over runs."
