@@ -17,7 +17,13 @@ LOOPBACK_SWITCH = "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"
 
 
 def import_ray() -> Any:
-    """``import ray``, with an error that names the extra when it is not installed."""
+    """``import ray``, with an error that names the extra when it is not installed.
+
+    Examples:
+        >>> from vigen.ray_cluster import import_ray
+        >>> import_ray().__name__
+        'ray'
+    """
     try:
         import ray
     except ImportError as error:

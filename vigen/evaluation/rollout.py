@@ -186,7 +186,13 @@ def evaluate(
 
 @dataclasses.dataclass(frozen=True)
 class Job:
-    """One (level, seed) of an evaluation: an env built once and ``episodes`` episodes played in it."""
+    """One (level, seed) of an evaluation: an env built once and ``episodes`` episodes played in it.
+
+    Examples:
+        >>> from vigen.evaluation.rollout import Job
+        >>> Job(label="color_hard", level="color_hard", seed=0)
+        Job(label='color_hard', level='color_hard', seed=0)
+    """
 
     label: str
     level: Level
@@ -194,7 +200,19 @@ class Job:
 
 
 class JobError(Exception):
-    """A job stopped: the rows it finished, the episode that was running (``None``: building or closing the env) and why."""
+    """A job stopped: the rows it finished, the episode that was running (``None``: building or closing the env) and why.
+
+    Examples:
+        >>> from vigen.evaluation.rollout import Job, JobError, run_job
+        >>> def no_env(level, seed):
+        ...     raise OSError("no display")
+        >>> try:
+        ...     run_job(Job("train", "train", 0), policy=None, env=no_env, name="broken", episodes=1, max_steps=5,
+        ...             env_options={}, tags={}, device=None)
+        ... except JobError as failure:
+        ...     print(failure.rows, failure.episode, repr(failure.error))
+        [] None OSError('no display')
+    """
 
     def __init__(self, rows: list[dict[str, Any]], episode: int | None, error: BaseException) -> None:
         super().__init__(rows, episode, error)
@@ -204,7 +222,18 @@ class JobError(Exception):
 def run_job(job: Job, *, policy: Policy | None, env: str | EnvFactory, name: str, episodes: int, max_steps: int,
             env_options: dict[str, Any], tags: dict[str, Any], device: torch.device | str | None,
             on_row: Callable[[dict[str, Any]], None] | None = None) -> list[dict[str, Any]]:
-    """Play one job's episodes and return their rows; raises :class:`JobError` with the finished ones."""
+    """Play one job's episodes and return their rows; raises :class:`JobError` with the finished ones.
+
+    ``policy=None`` plays uniform random actions drawn from ``job.seed``; ``tags`` are added to every
+    row; ``on_row`` is called with each row as its episode ends.
+
+    Examples:
+        >>> from vigen.evaluation.rollout import Job, run_job
+        >>> rows = run_job(Job("train", "train", 3), policy=None, env="dmc/cartpole-balance", name="cartpole", episodes=2,
+        ...                max_steps=5, env_options={}, tags={"method": "random"}, device=None)
+        >>> [(row["method"], row["level"], row["seed"], row["episode"], row["length"]) for row in rows]
+        [('random', 'train', 3, 0, 5), ('random', 'train', 3, 1, 5)]
+    """
     rows: list[dict[str, Any]] = []
     episode: int | None = None
     try:
