@@ -67,6 +67,27 @@ def test_a_job_that_raises_is_named_and_the_other_rows_kept(ray_cluster):
     assert isinstance(caught.value.__cause__, OSError) and "corrupt video" in str(caught.value.__cause__)
 
 
+@pytest.mark.timeout(120)
+def test_a_failing_rows_path_write_is_an_evaluation_error_with_the_finished_rows(ray_cluster, tmp_path, monkeypatch):
+    from vigen.evaluation import rollout
+
+    written = []
+
+    def append(log, row):  # the file system fills up after the first job's row
+        if written:
+            raise OSError(28, "No space left on device")
+        written.append(row)
+
+    monkeypatch.setattr(rollout._RowLog, "append", append)
+    path = tmp_path / "rows.csv"
+    with pytest.raises(EvaluationError, match=rf"level 'color_hard', seed 0 \(writing its rows to {path} failed") as caught:
+        evaluate(None, ENV, ["train", "color_hard"], episodes=1, max_steps=3, env_options=TINY, backend="ray", workers=1,
+                 rows_path=path)
+    assert [row["level"] for row in caught.value.rows] == ["train", "color_hard"]
+    assert caught.value.rows_path is None, "the file does not hold the rows"
+    assert isinstance(caught.value.__cause__, OSError)
+
+
 class SlowPolicy:
     """Zero actions, slowly; writes its worker's pid on its first call so the test can kill that worker."""
 

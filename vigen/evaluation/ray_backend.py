@@ -61,8 +61,7 @@ def run_jobs_on_ray(jobs: Sequence[Job], run: Callable[[Job], Rows], *, workers:
                 index = pending.pop(ready)
                 results[index] = _rows_or_raise(ray, ready, index, jobs, results, log)
                 if log is not None:
-                    for row in results[index]:
-                        log.append(row)
+                    _log_rows(log, index, jobs, results)
                 if progress is not None:
                     progress(len(results), len(jobs))
         finally:
@@ -101,6 +100,18 @@ def _rows_or_raise(ray: Any, ref: Any, index: int, jobs: Sequence[Job], results:
         root = error.cause if isinstance(error, ray.exceptions.RayTaskError) and error.cause is not None else error
         reason = f"its Ray worker died: {type(root).__name__}" if died else f"Ray failed to run it: {type(root).__name__}"
         raise where(episode=None, reason=reason) from error
+
+
+def _log_rows(log: Any, index: int, jobs: Sequence[Job], results: dict[int, Rows]) -> None:
+    """Append job ``index``'s rows to the ``rows_path`` file; a failed write stops the evaluation with every finished row."""
+    try:
+        for row in results[index]:
+            log.append(row)
+    except OSError as error:
+        job = jobs[index]
+        finished = [row for i in sorted(results) for row in results[i]]
+        raise EvaluationError(finished, level=job.label, seed=job.seed, episode=None,
+                              reason=f"writing its rows to {log.path} failed: {error}") from error
 
 
 def _job_error(ray: Any, error: Exception) -> JobError | None:
