@@ -15,7 +15,9 @@ each checkpoint, the deterministic return and the mean return over ``--episodes`
 Gaussian noise of std SIGMA added to the actions (clamped to [-1, 1]), the same noise for every
 checkpoint. Training returns are logged under the exploration σ of the moment, which falls as
 training goes on and alone raises the return of a task that penalises actions; at one fixed σ
-the checkpoints differ only by their weights (about 1 minute per checkpoint and 5 episodes):
+the checkpoints differ only by their weights. The deterministic episode's share of saturated
+action components (beyond ±0.95: servos commanded to the ends of their ranges) is printed beside
+its return (about 1 minute per checkpoint and 5 episodes):
 
     python benchmarks/loco_baselines.py runs/drqv2-unitree-stand-s0 --curve 0.3
 """
@@ -36,6 +38,10 @@ from vigen.evaluation import evaluate
 from vigen.losses import make_loss
 from vigen.policies import make_policy
 from vigen.rendering import RenderSettings
+
+
+SATURATED = 0.95
+"""An action component beyond this magnitude (of 1) counts as saturated: the servo is commanded to the end of its range."""
 
 
 def main() -> None:
@@ -88,6 +94,13 @@ def curve(args: argparse.Namespace, config: dict, returns) -> None:
         noise = args.curve * torch.randn(action.shape, generator=generator)
         return tensordict.set("action", (action + noise).clamp(-1.0, 1.0))
 
+    magnitudes: list[torch.Tensor] = []
+
+    def recorded(tensordict):
+        out = policy(tensordict)
+        magnitudes.append(out["action"].detach().abs().reshape(-1))
+        return out
+
     checkpoints = [(0, None)] + [(int(path.stem.split("_")[1]), path)
                                  for path in sorted((args.run / "checkpoints").glob("frames_*.pt"))]
     if args.frames is not None:
@@ -97,16 +110,18 @@ def curve(args: argparse.Namespace, config: dict, returns) -> None:
                              f"{', '.join(str(frames) for frames, _ in checkpoints)}.")
         checkpoints = [(frames, path) for frames, path in checkpoints if frames in args.frames]
     print(f"{config['env']}, train level, seed {args.seed}; noise σ = {args.curve} over {args.episodes} episodes")
-    print(f"| frames | deterministic return | return with σ = {args.curve} (mean ± std) |")
-    print("|---|---|---|")
+    print(f"| frames | deterministic return | saturated actions | return with σ = {args.curve} (mean ± std) |")
+    print("|---|---|---|---|")
     for frames, path in checkpoints:
         if path is not None:
             loss.load_state_dict(load_checkpoint(path)["loss"])
         generator.manual_seed(args.seed)  # the same noise for every checkpoint
-        deterministic = returns(policy, 1)[0]
+        magnitudes.clear()
+        deterministic = returns(recorded, 1)[0]
+        saturated = (torch.cat(magnitudes) > SATURATED).float().mean().item()
         with_noise = returns(noisy, args.episodes)
         spread = statistics.stdev(with_noise) if len(with_noise) > 1 else 0.0
-        print(f"| {frames} | {deterministic:.1f} | {statistics.mean(with_noise):.1f} ± {spread:.1f} |", flush=True)
+        print(f"| {frames} | {deterministic:.1f} | {saturated:.0%} | {statistics.mean(with_noise):.1f} ± {spread:.1f} |", flush=True)
 
 
 if __name__ == "__main__":
