@@ -124,17 +124,24 @@ def check_pixels(
     name: str,
     max_value: float | None = None,
     rgb: bool = False,
+    scan: bool | None = None,
 ) -> None:
     """Raise a ``TypeError``/``ValueError`` naming the fix if ``images`` breaks the pixel contract.
 
     Checks what :func:`check_pixel_layout` checks, then, for float pixels only, that no value is
     above ``max_value`` (one ``amax``). Values below 0 are not looked for.
 
+    The value scan reads a number back from the tensor's device: on an accelerator that is a host
+    synchronization, and ``torch.compile`` cannot trace it. So it never runs while compiling, and
+    by default (``scan=None``) only on CPU tensors; ``scan=True`` scans on any device (a loss
+    scans its batch so), ``scan=False`` checks the layout only.
+
     Args:
         images: ``[..., C, H, W]`` pixels.
         name: who checks (a class name), put at the start of the message.
         max_value: the declared white of float pixels (``None``: 1.0); uint8 is always 0–255.
         rgb: the caller needs RGB frame stacks, ``C = 3·k``.
+        scan: look at the float values (``None``: on CPU tensors only; never while compiling).
 
     Examples:
         >>> import torch
@@ -147,7 +154,9 @@ def check_pixels(
     if not isinstance(images, Tensor):
         raise TypeError(f"{name} takes pixels as a torch.Tensor, got {type(images).__name__}.")
     check_pixel_layout(images.shape, images.dtype, name=name, max_value=max_value, rgb=rgb)
-    if images.dtype.is_floating_point and images.numel():
+    if scan is None:
+        scan = images.device.type == "cpu"
+    if scan and images.dtype.is_floating_point and images.numel() and not torch.compiler.is_compiling():
         white = white_value(images, max_value)
         peak = float(images.detach().amax())
         if not math.isfinite(peak):

@@ -204,3 +204,20 @@ def test_diverged_parameters_are_named():
         loss.critic_params["q1", "0", "weight"].fill_(float("nan"))
     with pytest.raises(FloatingPointError, match=r"batch is finite.*critic_params\.q1\.0\.weight"):
         loss(make_batch())
+
+
+@pytest.mark.parametrize("name", ["drqv2", "sada"])
+def test_an_action_of_the_wrong_size_is_named_before_any_work(name):
+    loss = make_loss(name)
+    batch = make_batch()
+    batch["action"] = torch.zeros(len(batch), 3)
+    with pytest.raises(ValueError, match=r"'action' has shape \(6, 3\), but the critic was built for actions of size 2"):
+        loss(batch)
+
+
+@pytest.mark.parametrize("flag", ["done", "terminated"])
+def test_float_done_flags_are_refused_with_the_fix(flag):
+    batch = make_batch()
+    batch["next", flag] = batch["next", flag].float()
+    with pytest.raises(TypeError, match=rf"\('next', '{flag}'\) is torch.float32.*\.bool\(\)"):
+        make_loss("drqv2")(batch)

@@ -45,7 +45,7 @@ class ImageBank:
             raise ValueError(f"ImageBank takes a non-empty uint8 [M, 3, H, W] tensor, got {images.dtype} {tuple(images.shape)}.")
         self.images = images
         self.name = name
-        self._resized: dict[tuple[int, int], Tensor] = {}
+        self._resized: dict[tuple[int, int, torch.device], Tensor] = {}
 
     @classmethod
     def builtin(cls, size: int = 128, procedural: int = 128, seed: int = 0) -> ImageBank:
@@ -111,14 +111,18 @@ class ImageBank:
     def __len__(self) -> int:
         return len(self.images)
 
-    def resized(self, height: int, width: int) -> Tensor:
-        """The images as uint8 ``[M, 3, height, width]``, computed once per size."""
-        key = (height, width)
+    def resized(self, height: int, width: int, device: torch.device | str | None = None) -> Tensor:
+        """The images as uint8 ``[M, 3, height, width]`` on ``device`` (default: the CPU), computed once per size and device."""
+        device = torch.device("cpu") if device is None else torch.device(device)
+        key = (height, width, device)
         if key not in self._resized:
-            if self.images.shape[-2:] == key:
+            if device.type != "cpu":
+                self._resized[key] = self.resized(height, width).to(device)
+            elif self.images.shape[-2:] == (height, width):
                 self._resized[key] = self.images
             else:
-                resized = F.interpolate(self.images.float(), size=key, mode="bilinear", antialias=True, align_corners=False)
+                resized = F.interpolate(self.images.float(), size=(height, width), mode="bilinear", antialias=True,
+                                        align_corners=False)
                 self._resized[key] = resized.round_().clamp_(0, 255).to(torch.uint8)
         return self._resized[key]
 

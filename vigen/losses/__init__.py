@@ -60,6 +60,7 @@ from vigen.losses.simgrl import SimGRLLoss
 from vigen.losses.srm import SRMLoss
 from vigen.losses.svea import SVEALoss
 from vigen.losses.svea_sac import SACSVEALoss
+from vigen.losses.update import UpdateStep, update_metrics
 from vigen.losses.vrl3 import VRL3Loss
 
 __all__ = [
@@ -86,10 +87,12 @@ __all__ = [
     "SoftActorCritic",
     "SRMLoss",
     "SVEALoss",
+    "UpdateStep",
     "VRL3Loss",
     "attribution_mask",
     "clipped_normal_sample",
     "diagonal_gaussian_kl",
     "make_loss",
     "squashed_normal_sample",
+    "update_metrics",
 ]

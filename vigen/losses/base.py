@@ -244,6 +244,8 @@ class ActorCriticLoss(LossModule):
     default_value_estimator = ValueEstimators.TD0
     SUPPORTED_VALUE_ESTIMATORS = (ValueEstimators.TD0,)
     out_keys = ["loss_critic", "loss_actor", "q_mean", "target_mean", "target_std"]
+    compiles_whole = True
+    """Whether ``torch.compile(fullgraph=True)`` traces the whole update (:class:`~vigen.losses.UpdateStep`)."""
 
     encoder: nn.Module
     encoder_params: TensorDictParams
@@ -388,7 +390,7 @@ class ActorCriticLoss(LossModule):
             pixels = self.input_mask(pixels)
         if self.channels_last and pixels.ndim == 4:
             pixels = pixels.contiguous(memory_format=torch.channels_last)
-        with (self.encoder_params if params is None else params).to_module(self.encoder):
+        with (self.encoder_params if params is None else params).to_module(self.encoder, preserve_module_state=False):
             return self.encoder(pixels)
 
     def encode_views(self, views: Sequence[Tensor]) -> list[Tensor]:
@@ -401,18 +403,18 @@ class ActorCriticLoss(LossModule):
 
     def policy(self, features: Tensor) -> Tensor | tuple[Tensor, ...]:
         """The actor's output at ``features``."""
-        with self.actor_params.to_module(self.actor):
+        with self.actor_params.to_module(self.actor, preserve_module_state=False):
             return self.actor(features)
 
     def q_values(self, features: Tensor, action: Tensor, *, frozen: bool = False) -> tuple[Tensor, Tensor]:
         """(Q1, Q2) of the online critic; ``frozen`` detaches its parameters (the actor step)."""
         params = self.critic_params.detach() if frozen else self.critic_params
-        with params.to_module(self.critic):
+        with params.to_module(self.critic, preserve_module_state=False):
             return self.critic(features, action)
 
     def target_q_values(self, features: Tensor, action: Tensor) -> tuple[Tensor, Tensor]:
         """(Q1', Q2') of the target critic."""
-        with self.target_critic_params.to_module(self.critic):
+        with self.target_critic_params.to_module(self.critic, preserve_module_state=False):
             return self.critic(features, action)
 
     def metrics(self) -> dict[str, Tensor]:
@@ -456,10 +458,11 @@ class ActorCriticLoss(LossModule):
         self._in_keys = value
 
     def make_value_estimator(self, value_type: ValueEstimators | None = None, **hyperparams: Any) -> ActorCriticLoss:
-        """Build the TD(0) estimator (``gamma`` here: ``loss.make_value_estimator(gamma=0.99)``)."""
+        """Build the TD(0) estimator (``gamma`` here: ``loss.make_value_estimator(gamma=0.99)``), on the loss's device."""
         value_type, hyperparams = self._prepare_value_estimator_kwargs(value_type, **hyperparams)
         if value_type is None:
             return self
+        hyperparams.setdefault("device", self.device)  # its gamma buffer lives with the networks
         dispatch_value_estimator(
             self,
             value_type,
@@ -515,7 +518,7 @@ class ActorCriticLoss(LossModule):
         out.update(q_mean=critic.q1.detach().mean(), target_mean=target.mean(), target_std=target.std(), **self.metrics())
         for metrics in (critic.metrics, actor.metrics, auxiliary.metrics):
             out.update({name: value.detach() for name, value in metrics.items()})
-        if self.check_finite:
+        if self.check_finite and not torch.compiler.is_compiling():  # a compiled update guards with tensor ops (UpdateStep)
             self._check_finite(out, tensordict)
         return TensorDict(out, batch_size=[])
 
@@ -551,9 +554,21 @@ class ActorCriticLoss(LossModule):
             present = ", ".join(sorted(map(repr, tensordict.keys(True, True))))
             raise KeyError(f"{message} The batch has: {present}.")
         keys = self.tensor_keys
+        action = tensordict.get(keys.action)
+        action_dim = getattr(self.critic, "action_dim", None)
+        if action_dim is not None and action.shape[-1:] != (action_dim,):
+            raise ValueError(f"{name}: the batch's {unravel_key(keys.action)!r} has shape {tuple(action.shape)}, but the critic "
+                             f"was built for actions of size {action_dim}; build the loss with the env's action size "
+                             f"(make_loss(..., action_dim={action.shape[-1] if action.ndim else 1})) or store the full action.")
+        for flag in (("next", keys.terminated), ("next", keys.done)):
+            value = tensordict.get(flag, None)
+            if value is not None and value.dtype != torch.bool:
+                raise TypeError(f"{name}: the batch's {unravel_key(flag)!r} is {value.dtype}, but done and terminated flags "
+                                "are booleans (TorchRL envs write torch.bool); convert them with .bool() before storing.")
         for key in (keys.pixels, ("next", keys.pixels)):
             try:
-                check_pixels(tensordict.get(key), name=f"{name} (batch entry {unravel_key(key)!r})", max_value=self.max_value)
+                check_pixels(tensordict.get(key), name=f"{name} (batch entry {unravel_key(key)!r})", max_value=self.max_value,
+                             scan=True)
             except ValueError as error:
                 if "max_value" not in str(error):
                     raise

@@ -134,14 +134,20 @@ class DrQv2Loss(ActorCriticLoss):
 
     @property
     def stddev(self) -> float:
-        """The current noise std, at the step given to :meth:`set_step`."""
-        if callable(self.std_schedule):
-            return float(self.std_schedule(int(self.schedule_step)))
-        return float(self.std_schedule)
+        """The current noise std, at the step given to :meth:`set_step` (a Python float: reading it synchronizes)."""
+        if isinstance(self.std_schedule, LinearSchedule):
+            return float(self.std_schedule.at(self.schedule_step))
+        return float(self.std_schedule(int(self.schedule_step)) if callable(self.std_schedule) else self.std_schedule)
+
+    def std(self) -> Tensor:
+        """The current noise std, a 0-d float32 tensor on the loss's device: the update reads it without a host synchronization."""
+        if isinstance(self.std_schedule, LinearSchedule):
+            return self.std_schedule.at(self.schedule_step).float()
+        return self.schedule_step.new_full((), self.stddev, dtype=torch.float32)
 
     def sample_action(self, features: Tensor) -> tuple[Tensor, None]:
         """``μ(h)`` plus Gaussian noise of the scheduled std, clipped (DrQ-v2's ``TruncatedNormal``)."""
-        return clipped_normal_sample(self.policy(features), self.stddev, self.std_clip), None
+        return clipped_normal_sample(self.policy(features), self.std(), self.std_clip), None
 
     def next_value(self, next_features: Tensor) -> Tensor:
         """``min(Q1', Q2')(h', a')`` with ``a'`` sampled as in :meth:`sample_action`."""
@@ -149,7 +155,7 @@ class DrQv2Loss(ActorCriticLoss):
         return torch.min(*self.target_q_values(next_features, action))
 
     def metrics(self) -> dict[str, Tensor]:
-        return {"std": torch.tensor(self.stddev, device=self.device)}
+        return {"std": self.std()}
 
     def make_policy(self, action_spec: TensorSpec, *, pixels_key: NestedKey = "pixels") -> TensorDictModuleBase:
         """``actor(encoder(pixels))`` plus exploration noise, on this loss's live parameters.

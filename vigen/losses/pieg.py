@@ -158,7 +158,7 @@ class PIEGLoss(SVEALoss):
                 self.encoder_params.get(key).copy_(value)
             reset = getattr(self.encoder, "reset_parameters", None)
             if callable(reset):
-                with self.encoder_params.to_module(self.encoder):
+                with self.encoder_params.to_module(self.encoder, preserve_module_state=False):
                     reset()
 
 

@@ -155,6 +155,7 @@ class SalientQ:
     consistency: Tensor
 
 
+@torch.compiler.disable(reason="guided backprop switches its ReLUs' backward from Python between two backward passes")
 def salient_q_consistency(loss: ActorCriticLoss, pixels: Tensor, action: Tensor, quantile: float) -> SalientQ:
     """SGQN's and SCPL's Q consistency with the salient pixels, from one recorded critic pass.
 

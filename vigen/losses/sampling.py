@@ -14,7 +14,7 @@ import torch.nn.functional as F
 from torch import Tensor
 
 
-def clipped_normal_sample(mean: Tensor, std: float, clip: float | None, eps: float = 1e-6) -> Tensor:
+def clipped_normal_sample(mean: Tensor, std: float | Tensor, clip: float | None, eps: float = 1e-6) -> Tensor:
     """DrQ-v2's ``TruncatedNormal(mean, std).sample(clip)``, with its straight-through clamp.
 
     The noise ``ε·std`` is clamped to ``[-clip, clip]``, the action to ``[-1 + eps, 1 - eps]``; the

@@ -4,6 +4,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import torch
+from torch import Tensor
+
 
 @dataclass(frozen=True)
 class LinearSchedule:
@@ -30,4 +33,17 @@ class LinearSchedule:
 
     def __call__(self, step: int | float) -> float:
         mix = min(max(float(step) / self.duration, 0.0), 1.0)
+        return (1.0 - mix) * self.init + mix * self.final
+
+    def at(self, step: Tensor) -> Tensor:
+        """The schedule at a step held in a tensor, as a float64 tensor on its device: no host synchronization.
+
+        Computed in float64 with the same operations as :meth:`__call__`, so it holds the same value.
+
+        Examples:
+            >>> import torch
+            >>> LinearSchedule(1.0, 0.1, 100_000).at(torch.tensor(50_000)).item() == LinearSchedule(1.0, 0.1, 100_000)(50_000)
+            True
+        """
+        mix = (step.to(torch.float64) / self.duration).clamp(0.0, 1.0)
         return (1.0 - mix) * self.init + mix * self.final

@@ -146,6 +146,8 @@ class SCPLLoss(SACSVEALoss):
         "mask_fraction", "consistency", "policy_kl", "loss_dynamics", "transition_error", "reward_error",
     ]
 
+    compiles_whole = False  # guided backprop (salient_q_consistency) runs eagerly between compiled parts
+
     def __init__(
         self,
         encoder: nn.Module,
@@ -259,7 +261,7 @@ class SCPLLoss(SACSVEALoss):
     # -- building blocks ------------------------------------------------------------------------
     def embed(self, features: Tensor) -> Tensor:
         """The online critic's embedding of encoder features (its trunk), with gradient."""
-        with self.critic_params.to_module(self.critic):
+        with self.critic_params.to_module(self.critic, preserve_module_state=False):
             return self.critic.embed(features)
 
     def optimizer_groups(self, lr: float) -> list[dict[str, Any]]:

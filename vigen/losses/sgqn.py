@@ -74,6 +74,8 @@ class SGQNLoss(DrQv2Loss):
 
     out_keys = DrQv2Loss.out_keys + ["loss_attribution", "mask_fraction", "consistency"]
 
+    compiles_whole = False  # guided backprop (salient_q_consistency) runs eagerly between compiled parts
+
     def __init__(
         self,
         encoder: nn.Module,

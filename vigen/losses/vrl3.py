@@ -198,7 +198,7 @@ class VRL3Loss(DrQv2Loss):
             mean = torch.tanh(pre_tanh)
         else:
             pre_tanh, mean = None, self.policy(policy_features)
-        action = clipped_normal_sample(mean, self.stddev, self.std_clip)
+        action = clipped_normal_sample(mean, self.std(), self.std_clip)
         q1, q2 = self.q_values(critic_features, action, frozen=True)
         loss = -torch.min(q1, q2).squeeze(-1)
         if pre_tanh is None:
@@ -213,7 +213,7 @@ class VRL3Loss(DrQv2Loss):
 
         Override it for an actor of another shape (its forward must be ``tanh`` of this).
         """
-        with self.actor_params.to_module(self.actor):
+        with self.actor_params.to_module(self.actor, preserve_module_state=False):
             return self.actor.policy(self.actor.trunk(features))
 
     def optimizer_groups(self, lr: float) -> list[dict[str, Any]]:

@@ -157,6 +157,13 @@ class ImageAugmentation(Transform):
         """
         return self._apply_transform(images)
 
+    def prepare(self, shape: torch.Size, device: torch.device) -> None:
+        """Load what the transform builds on first use (image banks, resized and on ``device``) for pixels of ``shape``.
+
+        A compiled update calls it before tracing, so that no file is read inside the graph; the
+        default loads nothing.
+        """
+
     def extra_repr(self) -> str:
         """Hyper-parameters shown in ``repr`` (besides the keys)."""
         return ""
@@ -180,6 +187,10 @@ class ImageAugmentation(Transform):
         if device not in self._generators:
             self._generators[device] = torch.Generator(device=device).manual_seed(self.seed)
         return self._generators[device]
+
+    def generator_devices(self) -> list[torch.device]:
+        """The devices on which the transform has drawn from its own generator so far."""
+        return list(self._generators)
 
     def rand(self, *shape: int, like: Tensor) -> Tensor:
         """Uniform [0, 1) floats on ``like``'s device from the transform's generator."""

@@ -6,6 +6,7 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
+import torch
 from tensordict.utils import NestedKey
 from torch import Tensor
 
@@ -59,6 +60,9 @@ class RandomOverlay(ImageAugmentation):
         if images is not None and not isinstance(images, (ImageBank, str, os.PathLike)):
             raise TypeError(f"{name}: images must be an ImageBank, a folder path or None, got {type(images).__name__}.")
         if isinstance(images, (str, os.PathLike)) and not Path(images).expanduser().is_dir():
+            if Path(images).expanduser().exists():
+                raise NotADirectoryError(f"{name}: {images} is a file, not a folder; give the folder that holds the overlay "
+                                         "images (PNG or JPEG files, e.g. a Places365 copy).")
             raise FileNotFoundError(f"{name}: overlay image folder {images} does not exist.")
         super().__init__(in_keys, out_keys, max_value=max_value, seed=seed)
         self.alpha = alpha
@@ -72,12 +76,15 @@ class RandomOverlay(ImageAugmentation):
         self._images = ImageBank.load(self._images)
         return self._images
 
+    def prepare(self, shape: torch.Size, device: torch.device) -> None:
+        self.bank.resized(*shape[-2:], device=device)
+
     def make_params(self, images: Tensor) -> Params:
         return {"index": self.randint(len(self.bank), images.shape[0], like=images)}
 
     def apply(self, images: Tensor, params: Params) -> Tensor:
         white = self.white(images)
-        backgrounds = self.bank.resized(*images.shape[-2:]).to(images.device)[params["index"]]
+        backgrounds = self.bank.resized(*images.shape[-2:], device=images.device)[params["index"]]
         if backgrounds.dtype != images.dtype or white != 255:
             backgrounds = backgrounds.float() * (white / 255)
         return functional.overlay(images, backgrounds, self.alpha, white)

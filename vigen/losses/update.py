@@ -1,0 +1,259 @@
+"""One gradient update of a vigen loss (loss, backward, optimizer step, target update), eager or compiled.
+
+The update of every vigen algorithm is the same four steps on a replay-buffer batch:
+``out = loss(batch)``, one ``backward()`` of the summed ``loss_*`` entries, one optimizer step,
+``SoftUpdate.step()``. :class:`UpdateStep` runs them as one call that never synchronizes with
+the host, so that it can be compiled whole (``torch.compile(..., fullgraph=True)``) and, on CUDA,
+captured as a CUDA graph (tensordict's ``CudaGraphModule``, as LeanRL does).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import torch
+from torch.optim.adam import adam as functional_adam
+from tensordict import TensorDictBase
+from torch import Tensor
+from torchrl.objectives import SoftUpdate
+
+from vigen.losses.base import ActorCriticLoss
+from vigen.transforms import ImageAugmentation
+
+
+class UpdateStep:
+    """One update of ``loss``: forward, backward of the summed ``loss_*``, ``optimizer.step()``, target update.
+
+    ``step(batch)`` returns the loss's output (losses and metrics), detached, as tensors on the
+    loss's device; nothing in it reads a value back to the host, so metrics cost nothing until a
+    script logs them.
+
+    Finite-loss guard, as tensor ops: where the summed loss of an update is NaN or inf, that
+    update's gradients are zeroed before the optimizer step (the parameters stay finite) and a
+    counter on the device goes up. :meth:`raise_if_diverged`, called at a script's logging
+    interval, reads it (one synchronization) and raises. An eager update on the CPU, where reading
+    a value costs nothing, keeps the loss's own check instead (``check_finite``), which raises
+    inside the call and names the batch entries or parameters to blame.
+
+    ``compile=True`` compiles the whole update with ``torch.compile(fullgraph=True, dynamic=False)`` (a
+    new batch size compiles anew: shapes stay static, as a replay batch's do); a loss
+    whose update cannot be traced whole (``compiles_whole = False``: SGQN's and SCPL's guided
+    backprop switches its ReLUs' backward from Python) gets its forward compiled around that part,
+    with backward and the optimizer step run eagerly. Random
+    draws then follow torch's global RNG in the same order as the eager update (``fallback_random``),
+    so the compiled update equals the eager one within float tolerance. ``torch.compile`` cannot
+    trace a ``torch.Generator``: build the loss without ``seed`` (``make_loss(..., seed=None)``) and
+    seed torch instead (``torch.manual_seed``); a loss with seeded augmentations is refused.
+    On CUDA the compiled update is also captured as a CUDA graph (``cudagraph=None`` picks that);
+    the optimizer must then be ``capturable`` (``torch.optim.Adam(..., capturable=True)``).
+    ``compile_seconds`` holds the time the first call(s) took to compile (and capture).
+
+    Paper: DrQ-v2's update (https://arxiv.org/abs/2107.09645); compiled RL updates as in LeanRL
+    (https://github.com/pytorch-labs/LeanRL).
+
+    Args:
+        loss: a vigen loss with its value estimator made.
+        optimizer: over the loss's parameters (``torch.optim.Adam(loss.optimizer_groups(lr))``).
+        target_update: TorchRL's ``SoftUpdate(loss, tau=...)``; ``None`` for none.
+        compile: compile the update.
+        cudagraph: capture the (compiled) update as a CUDA graph; ``None``: on CUDA when compiling.
+        backend: ``torch.compile``'s backend (``"inductor"``; ``"aot_eager"`` traces without code
+            generation, e.g. to check in seconds that the update compiles whole).
+        mode: ``torch.compile``'s mode (``None``, ``"max-autotune-no-cudagraphs"``, ...).
+
+    Examples:
+        >>> import torch
+        >>> from tensordict import TensorDict
+        >>> from torchrl.objectives import SoftUpdate
+        >>> from vigen.losses import UpdateStep, make_loss
+        >>> loss = make_loss("drqv2", (9, 32, 32), 2, hidden_dim=16, feature_dim=8).make_value_estimator(gamma=0.99)
+        >>> update = UpdateStep(loss, torch.optim.Adam(loss.parameters(), lr=1e-4), SoftUpdate(loss, tau=0.01))
+        >>> pixels = torch.randint(0, 256, (4, 9, 32, 32), dtype=torch.uint8)
+        >>> batch = TensorDict({"pixels": pixels, "action": torch.zeros(4, 2), "next": {
+        ...     "pixels": pixels, "reward": torch.ones(4, 1), "done": torch.zeros(4, 1, dtype=torch.bool),
+        ...     "terminated": torch.zeros(4, 1, dtype=torch.bool)}}, batch_size=[4])
+        >>> out = update(batch)
+        >>> sorted(key for key in out.keys() if key.startswith("loss_"))
+        ['loss_actor', 'loss_critic']
+        >>> update.raise_if_diverged()  # reads the guard's counter: no NaN so far
+    """
+
+    def __init__(
+        self,
+        loss: ActorCriticLoss,
+        optimizer: torch.optim.Optimizer,
+        target_update: SoftUpdate | None = None,
+        *,
+        compile: bool = False,
+        cudagraph: bool | None = None,
+        backend: str = "inductor",
+        mode: str | None = None,
+    ) -> None:
+        if not isinstance(loss, ActorCriticLoss):
+            raise TypeError(f"UpdateStep takes a vigen ActorCriticLoss, got {type(loss).__name__}.")
+        if loss._value_estimator is None:
+            raise ValueError(f"UpdateStep: {type(loss).__name__} has no value estimator; call "
+                             "loss.make_value_estimator(gamma=...) first.")
+        device = loss.device
+        cudagraph = compile and loss.compiles_whole and device.type == "cuda" if cudagraph is None else cudagraph
+        if cudagraph and device.type != "cuda":
+            raise ValueError(f"UpdateStep: cudagraph=True needs a loss on CUDA; this one is on {device}.")
+        if compile:
+            seeded = [type(module).__name__ for module in loss.modules() if getattr(module, "seed", None) is not None
+                      and hasattr(module, "generator")]
+            if seeded:
+                raise ValueError(
+                    f"UpdateStep(compile=True): the loss's augmentations {', '.join(seeded)} draw from their own "
+                    "torch.Generator, which torch.compile cannot trace. Build the loss without seed "
+                    "(make_loss(..., seed=None)) and seed torch's global RNG (torch.manual_seed(seed)) instead."
+                )
+        if compile and not isinstance(optimizer, torch.optim.Adam):
+            raise TypeError(f"UpdateStep(compile=True) steps torch.optim.Adam or AdamW through their functional form "
+                            f"(Optimizer.step breaks the graph on purpose); got {type(optimizer).__name__}.")
+        if compile and loss.compiles_whole and any(group.get("fused") for group in optimizer.param_groups):
+            raise ValueError("UpdateStep(compile=True): torch.compile does not trace a fused Adam (torch.optim.Adam(..., fused=True)); "
+                             "build it with fused=False: the compiled update fuses the step itself.")
+        if cudagraph and not all(group.get("capturable", False) for group in optimizer.param_groups):
+            raise ValueError("UpdateStep(cudagraph=True): the optimizer must be capturable, e.g. "
+                             "torch.optim.Adam(loss.optimizer_groups(lr), capturable=True).")
+        self.loss = loss
+        self.optimizer = optimizer
+        self.target_update = target_update
+        self.device = device
+        self.compiled = compile
+        self.cudagraph = cudagraph
+        self.compile_seconds: float | None = None
+        # the loss's own finite check raises inside the call: free on the CPU, a synchronization elsewhere
+        self.guard_in_loss = device.type == "cpu" and not compile
+        self._diverged = torch.zeros((), dtype=torch.long, device=device)
+        self._parameters = [parameter for group in optimizer.param_groups for parameter in group["params"]]
+        options = {"options": {"fallback_random": True}} if backend == "inductor" else {}
+        self.whole = compile and loss.compiles_whole  # the whole update in one graph; else the loss's forward alone
+        self._forward = loss
+        step = self._update
+        if self.whole:
+            step = torch.compile(step, fullgraph=True, dynamic=False, backend=backend, mode=mode, **options)
+        elif compile:
+            self._forward = torch.compile(loss, dynamic=False, backend=backend, mode=mode, **options)
+        if cudagraph:
+            from tensordict.nn import CudaGraphModule
+
+            step = CudaGraphModule(step, in_keys=[], out_keys=[], device=device)
+        self._step = step
+        self._calls = 0
+
+    def __call__(self, batch: TensorDictBase) -> TensorDictBase:
+        """One update on ``batch`` (on the loss's device); its losses and metrics, detached."""
+        pixels = batch.get(self.loss.tensor_keys.pixels, None)
+        if pixels is not None and pixels.device != self.device:
+            raise ValueError(f"UpdateStep: the batch is on {pixels.device} but the loss on {self.device}; move it with "
+                             f"batch.to({str(self.device)!r}) (or give the replay buffer's storage device={str(self.device)!r}).")
+        check = self.loss.check_finite
+        self.loss.check_finite = check and self.guard_in_loss
+        started = time.perf_counter() if self._calls < 3 and self.compiled else None
+        if self.compiled and self._calls == 0:
+            if self.whole:
+                self._init_adam_state()
+            for module in self.loss.modules():  # image banks load and move to the device outside the graph
+                if isinstance(module, ImageAugmentation):
+                    module.prepare(pixels.shape, self.device)
+        try:
+            self.optimizer.zero_grad(set_to_none=not self.cudagraph)  # dynamo does not trace zero_grad
+            if self.whole:
+                with torch._dynamo.config.patch(trace_autograd_ops=True):  # backward() inside the graph
+                    out = self._step(batch)
+            else:
+                out = self._step(batch)
+        finally:
+            self.loss.check_finite = check
+        if started is not None:  # compilation (and CUDA-graph warm-up and capture) happens in the first calls
+            self.compile_seconds = (self.compile_seconds or 0.0) + time.perf_counter() - started
+        self._calls += 1
+        return out
+
+    def _update(self, batch: TensorDictBase) -> TensorDictBase:
+        out = self._forward(batch)
+        total = sum(value for key, value in out.items() if key.startswith("loss_"))
+        total.backward()
+        if not self.guard_in_loss:
+            finite = torch.isfinite(total.detach())
+            self._diverged.add_((~finite).long())
+            for parameter in self._parameters:
+                if parameter.grad is not None:
+                    parameter.grad.copy_(torch.where(finite, parameter.grad, torch.zeros_like(parameter.grad)))
+        if self.whole:
+            with torch.no_grad():
+                self._adam_step()
+        else:
+            self.optimizer.step()
+        if self.target_update is not None:
+            self.target_update.step()
+        return out.detach()
+
+    def _adam_step(self) -> None:
+        """``optimizer.step()`` through Adam's functional form, which dynamo traces (the method graph-breaks on purpose)."""
+        for group in self.optimizer.param_groups:
+            params = [parameter for parameter in group["params"] if parameter.grad is not None]
+            states = [self.optimizer.state[parameter] for parameter in params]
+            beta1, beta2 = group["betas"]
+            functional_adam(
+                params, [parameter.grad for parameter in params], [state["exp_avg"] for state in states],
+                [state["exp_avg_sq"] for state in states], [state["max_exp_avg_sq"] for state in states] if group["amsgrad"] else [],
+                [state["step"] for state in states], foreach=group["foreach"], capturable=group["capturable"],
+                differentiable=False, fused=group["fused"], amsgrad=group["amsgrad"], beta1=beta1, beta2=beta2,
+                lr=group["lr"], weight_decay=group["weight_decay"], eps=group["eps"], maximize=group["maximize"],
+                decoupled_weight_decay=group.get("decoupled_weight_decay", False),
+            )
+
+    def _init_adam_state(self) -> None:
+        """Adam's per-parameter state as its first ``step()`` would make it (a compiled update must not create it)."""
+        for group in self.optimizer.param_groups:
+            on_device = group["capturable"] or group["fused"]
+            for parameter in group["params"]:
+                state = self.optimizer.state[parameter]
+                if not parameter.requires_grad or state:
+                    continue
+                state["step"] = (torch.zeros((), dtype=torch.float32, device=parameter.device) if on_device
+                                 else torch.tensor(0.0, dtype=torch.float32))
+                state["exp_avg"] = torch.zeros_like(parameter, memory_format=torch.preserve_format)
+                state["exp_avg_sq"] = torch.zeros_like(parameter, memory_format=torch.preserve_format)
+                if group["amsgrad"]:
+                    state["max_exp_avg_sq"] = torch.zeros_like(parameter, memory_format=torch.preserve_format)
+
+    @property
+    def diverged_updates(self) -> Tensor:
+        """The number of updates whose loss was NaN or inf (a 0-d tensor on the device)."""
+        return self._diverged
+
+    def raise_if_diverged(self) -> None:
+        """Raise ``FloatingPointError`` if an update since the start had a NaN or inf loss (reads one number)."""
+        count = int(self._diverged)
+        if count:
+            raise FloatingPointError(
+                f"{type(self.loss).__name__}: {count} update(s) had a NaN or inf loss; their gradients were zeroed, so the "
+                "parameters are finite, but training has diverged: lower the learning rate, clip gradients or scale the "
+                "rewards, and check the replay buffer for NaN or inf entries.")
+
+    def state_dict(self) -> dict[str, Any]:
+        """The guard's counter (the loss, optimizer and target update keep their own state)."""
+        return {"diverged_updates": self._diverged.detach().cpu()}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self._diverged.copy_(state["diverged_updates"])
+
+
+def update_metrics(out: TensorDictBase) -> dict[str, float]:
+    """The scalar entries of an update's output as Python floats (one synchronization), for a logger.
+
+    Examples:
+        >>> import torch
+        >>> from tensordict import TensorDict
+        >>> update_metrics(TensorDict({"loss_actor": torch.tensor(1.5)}, batch_size=[]))
+        {'loss_actor': 1.5}
+    """
+    values = {key: value for key, value in out.items() if isinstance(value, Tensor) and value.numel() == 1}
+    if not values:
+        return {}
+    numbers = torch.stack([value.detach().reshape(()).float() for value in values.values()]).cpu().tolist()
+    return dict(zip(values, numbers))
