@@ -7,7 +7,7 @@ import numbers
 import torch
 from torch import Tensor, nn
 
-from vigen.models.networks import weight_init
+from vigen.models.networks import chunks_pay, weight_init
 from vigen.pixel_format import check_pixels, white_value
 
 
@@ -107,7 +107,7 @@ class PerFrameEncoder(nn.Module):
         white = white_value(pixels, self.max_value)
         batch, image = pixels.shape[:-3], pixels.shape[-3:]
         x = pixels.reshape(-1, *image)
-        parts = x.split(self.chunk_size) if self.chunk_size and x.shape[0] > self.chunk_size else (x,)
+        parts = x.split(self.chunk_size) if chunks_pay(x, self.chunk_size) else (x,)
         features = [self.stack_frames(part if part.is_floating_point() else part.float(), white) for part in parts]
         features = features[0] if len(features) == 1 else torch.cat(features)
         return features.reshape(*batch, -1)
