@@ -1,6 +1,7 @@
 """Add vigen to a TorchRL training script you already have: a vigen loss, then a zero-shot test.
 
     python examples/compose_torchrl.py --frames 2000
+    python examples/compose_torchrl.py --frames 2000 --device cuda   # networks, replay storage and updates on the GPU
 
 Everything here is plain TorchRL (its ``DMControlWrapper``, collector, replay buffer and
 ``SoftUpdate``) except the lines marked ``# vigen``: the SVEA loss and its acting policy replace a
@@ -21,6 +22,7 @@ from torchrl.envs import CatFrames, Compose, DMControlWrapper, DoubleToFloat, To
 from torchrl.envs.transforms import MultiStepTransform
 from torchrl.objectives import SoftUpdate
 
+from vigen.devices import resolve_device  # vigen
 from vigen.evaluation import evaluate, markdown_table, summarize  # vigen
 from vigen.losses import make_loss  # vigen
 from vigen.policies import make_policy  # vigen
@@ -44,19 +46,26 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=2000, help="agent steps to collect")
     parser.add_argument("--batch-size", type=int, default=32)
     parser.add_argument("--eval-steps", type=int, default=500, help="agent steps per test episode (a full one is 500)")
+    parser.add_argument("--device", default="auto", help="auto (CUDA when present), cpu, cuda or cuda:N; envs step on the CPU")
     args = parser.parse_args()
+    try:
+        device = resolve_device(args.device)  # vigen: checked before anything is built
+    except ValueError as error:
+        raise SystemExit(f"--device: {error}") from None
     torch.manual_seed(0)
 
     env = make_env()
-    loss = make_loss("svea", env.observation_spec["pixels"].shape, env.action_spec.shape[-1], hidden_dim=256)  # vigen
+    loss = make_loss("svea", env.observation_spec["pixels"].shape, env.action_spec.shape[-1], hidden_dim=256,
+                     device=device)  # vigen
     loss.make_value_estimator(gamma=0.99)
     policy = make_policy(loss, env.action_spec)  # vigen: actor(encoder(pixels)) + scheduled Gaussian noise
     optimizer = torch.optim.Adam(loss.parameters(), lr=1e-4, fused=True)
     target_update = SoftUpdate(loss, tau=0.01)
 
-    collector = Collector(env, policy, frames_per_batch=100, total_frames=args.frames,
-                          init_random_frames=min(500, args.frames // 2), auto_register_policy_transforms=False)
-    buffer = TensorDictReplayBuffer(storage=LazyTensorStorage(100_000), batch_size=args.batch_size,
+    collector = Collector(env, policy, frames_per_batch=100, total_frames=args.frames, env_device="cpu", policy_device=device,
+                          storing_device=device, init_random_frames=min(500, args.frames // 2),
+                          auto_register_policy_transforms=False)
+    buffer = TensorDictReplayBuffer(storage=LazyTensorStorage(100_000, device=device), batch_size=args.batch_size,  # uint8 frames
                                     transform=MultiStepTransform(3, 0.99))
     steps = 0
     for batch in collector:
@@ -78,7 +87,8 @@ def main() -> None:
 
     # vigen: zero-shot test on clean and corrupted frames, 1 episode each
     rows = evaluate(policy, lambda level, seed: make_env(None if level == "clean" else level, seed),
-                    ["clean", "gaussian_noise", "contrast"], episodes=1, max_steps=args.eval_steps, tags={"method": "svea"})
+                    ["clean", "gaussian_noise", "contrast"], episodes=1, max_steps=args.eval_steps, tags={"method": "svea"},
+                    device=device)
     print(markdown_table(summarize(rows, reps=200)))
 
 

@@ -46,11 +46,13 @@ import json
 import sys
 from pathlib import Path
 
+import torch
 from tensordict.nn import TensorDictModuleBase
 from torchrl.data import Bounded
 from tqdm import tqdm
 
 from vigen.checkpoint import CheckpointError, load_checkpoint, newest_checkpoint
+from vigen.devices import resolve_device
 from vigen.envs import factors
 from vigen.envs.levels import resolve_levels
 from vigen.envs.registry import get_suite
@@ -92,8 +94,17 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--ray", nargs="?", const="local", default=None, metavar="ADDRESS",
                         help="run the (level, seed) jobs on Ray: a local cluster, or the cluster at ADDRESS")
     parser.add_argument("--workers", type=int, default=None, help="with --ray: jobs in flight at once (default: the cluster's CPUs)")
+    parser.add_argument("--device", default="auto",
+                        help="where the policies act: auto (CUDA when present), cpu, cuda, cuda:N; envs step on the CPU. "
+                             "A checkpoint made on a GPU evaluates on a CPU-only machine (with --ray: cpu)")
     parser.add_argument("--out", type=Path, default=Path("reports/evaluation"))
     args = parser.parse_args()
+    try:
+        args.device = resolve_device(args.device)
+    except ValueError as error:
+        raise SystemExit(f"--device: {error}") from None
+    if args.ray is not None and args.device.type != "cpu":
+        args.device = torch.device("cpu")  # Ray's evaluation tasks act on their own CPU
     if args.workers is not None and (args.ray is None or args.workers < 1):
         raise SystemExit(f"--workers {args.workers}: it sets the Ray jobs in flight (>= 1) and needs --ray.")
     args.sweep = [parse_sweep(items) for items in args.sweep]
@@ -111,10 +122,11 @@ def parse_sweep(items: list[str]) -> list[dict[str, float]]:
         raise SystemExit(f"--sweep {' '.join(items)}: {error}") from None
 
 
-def load_agent(path: Path) -> tuple[dict, TensorDictModuleBase]:
-    """The run's config and its acting policy, with the weights of ``path`` (or the run's newest checkpoint that loads).
+def load_agent(path: Path, device: torch.device = torch.device("cpu")) -> tuple[dict, TensorDictModuleBase]:
+    """The run's config and its acting policy on ``device``, with the weights of ``path`` (or the run's newest checkpoint that loads).
 
-    Checkpoints load with ``weights_only=True``: one holding anything but tensors and plain data is refused.
+    Checkpoints load with ``weights_only=True`` onto the CPU (a GPU run's checkpoint loads on any machine), then move to ``device``.
+    One holding anything but tensors and plain data is refused.
     """
     try:
         if path.is_file():
@@ -125,9 +137,14 @@ def load_agent(path: Path) -> tuple[dict, TensorDictModuleBase]:
                 print(f"skipped checkpoint {bad}: {why}", file=sys.stderr)
     except CheckpointError as error:
         raise SystemExit(f"{path}: {error} Is it a run folder of examples/train.py?") from None
-    config = json.loads((checkpoint_path.parent.parent / "config.json").read_text())
+    config_path = checkpoint_path.parent.parent / "config.json"
+    if not config_path.is_file():
+        raise SystemExit(f"{path}: no config.json at {config_path}; a checkpoint is read with its run's config.json "
+                         "(the network sizes and env settings): keep the checkpoint in its run folder's checkpoints/ "
+                         "and pass the run folder or that file.")
+    config = json.loads(config_path.read_text())
     loss = make_loss(config["algo"], tuple(config["observation_shape"]), config["action_dim"],
-                     feature_dim=config["feature_dim"], hidden_dim=config["hidden_dim"])
+                     feature_dim=config["feature_dim"], hidden_dim=config["hidden_dim"], device=device)
     loss.make_value_estimator(gamma=config["gamma"])  # its gamma is part of the saved state
     loss.load_state_dict(checkpoint["loss"])
     policy = make_policy(loss, Bounded(-1.0, 1.0, shape=(config["action_dim"],)))  # dm_control's action bounds
@@ -166,7 +183,7 @@ def compare_sources(name: str) -> tuple[str, list[str]]:
 def main() -> None:
     args = parse_args()
     level_options = {"videos": args.videos} if args.videos else None
-    agents = [load_agent(path) for path in args.runs]
+    agents = [load_agent(path, args.device) for path in args.runs]
     protocol, sources = compare_sources(args.compare) if args.compare else (None, [])
     levels = {}  # env name -> its levels
     for config, _ in agents:
@@ -205,7 +222,7 @@ def main() -> None:
                                             unit="job", desc="(level, seed) jobs", dynamic_ncols=True))
         for policy, env, env_options, tags in evaluations:
             rows += evaluate(policy, env, levels[env], episodes=args.episodes, seeds=args.seeds, env_options=env_options,
-                             tags=tags, progress=lambda done, total: progress.update(1), **backend)
+                             tags=tags, device=args.device, progress=lambda done, total: progress.update(1), **backend)
 
     out = unused_path(args.out)
     out.mkdir(parents=True)

@@ -33,7 +33,7 @@ What a run guarantees (``vigen.checkpoint`` does the work):
 
 * Every argument is checked before the first frame, and a failed start leaves no run folder.
   ``--resume`` refuses flags that contradict the run's ``config.json`` (only ``--frames``,
-  ``--threads`` and ``--ray-address`` may change).
+  ``--threads``, ``--device`` and ``--ray-address`` may change).
 * Killed at any moment, even while a checkpoint is written, a run resumes exactly: counters,
   networks, optimizer, every random state, the replay buffer and the CSV logs end as in a run that
   was never killed. Checkpoints are written atomically and hold only tensors and plain data (loaded
@@ -79,7 +79,8 @@ from vigen.envs import available_envs, make_env
 from vigen.envs.levels import resolve_levels
 from vigen.evaluation import evaluate
 from vigen.io import atomic_write, unused_path
-from vigen.losses import ALGOS, LinearSchedule, SoftActorCritic, make_loss
+from vigen.devices import resolve_device
+from vigen.losses import ALGOS, LinearSchedule, SoftActorCritic, UpdateStep, make_loss, update_metrics
 from vigen.losses.vrl3 import ADROIT_REWARD_SCALES
 from vigen.protocols import PROTOCOLS
 from vigen.ray_cluster import import_ray, ray_session
@@ -96,7 +97,7 @@ PRESETS = {
 }
 DEFAULTS = dict(algo="drqv2", env="dmc/cartpole-balance", preset="cpu", seed=0, workers=1, collector="local", eval_levels=["train"],
                 logger="csv", episode_length=None, encoder_weights=None, protocol=None, action_repeat=None,
-                frame_stack=None, image_size=None)  # a new run's values of the flags a resumed run takes from config.json
+                frame_stack=None, image_size=None, compile=False)  # a new run's values of the flags a resumed run takes from config.json
 DEFAULT_FRAMES = 100_000
 PROTOCOL_KEYS = ("frames", "action_repeat", "frame_stack", "image_size", "episode_length", "eval_every", "eval_episodes",
                  "eval_levels")
@@ -151,6 +152,12 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--episode-length", type=int, default=None,
                         help="simulator steps per episode (default: the suite's, dm_control 1000, robosuite 500, Adroit 200, pen 100)")
     parser.add_argument("--threads", type=int, default=None, help="torch threads (default: torch's choice)")
+    parser.add_argument("--device", default="auto",
+                        help="where the networks, optimizer, updates and policies run: auto (CUDA when present), cpu, cuda, cuda:N; "
+                             "envs step on the CPU. A resumed run may change it.")
+    parser.add_argument("--compile", action="store_const", const=True, default=None,
+                        help="compile the whole update (torch.compile; on CUDA also a CUDA graph). The augmentations then "
+                             "draw from torch's RNG seeded by --seed (torch.compile cannot trace their own generators)")
     parser.add_argument("--encoder-weights", default=None,
                         help="pretrained encoder weights: PIE-G's ImageNet ResNet-18 (a torchvision state dict), VRL3's stage-1 checkpoint")
     for name, value in PRESETS["paper"].items():  # every preset value can be overridden
@@ -246,6 +253,10 @@ def main() -> None:
     args = parse_args()
     config = configure(args)
     validate(config, args.threads)
+    try:
+        device = resolve_device(args.device)
+    except ValueError as error:
+        raise SystemExit(f"--device: {error}") from None
     if args.ray_address is not None and config["collector"] != "ray":
         raise SystemExit("--ray-address names the Ray cluster of --collector ray; add --collector ray or drop it.")
     if args.threads:
@@ -281,13 +292,16 @@ def main() -> None:
     options = {} if issubclass(ALGOS[config["algo"]], SoftActorCritic) else {"std": std}
     if config.get("encoder_weights") is not None:
         options[WEIGHTS_OPTION[config["algo"]]] = str(Path(config["encoder_weights"]).expanduser())
+    compiled = config.get("compile", False)
     loss = make_loss(config["algo"], observation_shape, config["action_dim"], feature_dim=config["feature_dim"],
-                     hidden_dim=config["hidden_dim"], seed=config["seed"], **options)
+                     hidden_dim=config["hidden_dim"], seed=None if compiled else config["seed"], device=device, **options)
     loss.make_value_estimator(gamma=config["gamma"])
     policy = loss.make_policy(action_spec)
     noise = next((module for module in policy.modules() if isinstance(module, AdditiveGaussianModule)), None)
-    optimizer = torch.optim.Adam(loss.optimizer_groups(config["lr"]), fused=True)  # fused: the same step, ~10x faster on CPU
+    # eager: fused (the same step, ~10x faster on CPU); compiled: torch.compile fuses it, capturable for a CUDA graph
+    optimizer = torch.optim.Adam(loss.optimizer_groups(config["lr"]), fused=not compiled, capturable=compiled and device.type == "cuda")
     target_update = SoftUpdate(loss, tau=config["tau"])
+    update = UpdateStep(loss, optimizer, target_update, compile=compiled)
 
     # replay: uint8 transitions memory-mapped in the run folder, n-step returns computed as trajectories
     # come in; the journal keeps what the last checkpoint counts valid until the next checkpoint
@@ -297,6 +311,7 @@ def main() -> None:
     journal = ReplayJournal(run_dir / "replay_buffer" / "journal", buffer)
     n_step = MultiStepTransform(config["n_step"], config["gamma"])  # holds back the last n steps of each batch
     steps, updates = 0, 0  # agent steps collected, gradient updates made
+    compile_logged = False
     logger = get_logger(config["logger"], logger_name=str(run_dir), experiment_name="logs",
                         **({"offline": True} if config["logger"] == "wandb" else {}))
     if args.resume is not None:
@@ -357,23 +372,24 @@ def main() -> None:
 
                 due = (steps - seed_steps) // config["update_every"] - updates if steps >= seed_steps else 0
                 started = time.perf_counter()
+                loss.set_step(steps)
                 for _ in range(max(0, due)):
-                    loss.set_step(steps)
-                    out = loss(buffer.sample())
-                    optimizer.zero_grad(set_to_none=True)
-                    sum(value for key, value in out.items() if key.startswith("loss_")).backward()
-                    optimizer.step()
-                    target_update.step()
+                    out = update(buffer.sample().to(device, non_blocking=True))
                     updates += 1
-                if due > 0:
-                    for key, value in out.items():
-                        logger.log_scalar(f"train/{key}", value.item(), step=steps * action_repeat)
+                if due > 0:  # the update's metrics stay on the device until here: one read per batch of updates
+                    update.raise_if_diverged()
+                    for key, value in update_metrics(out).items():
+                        logger.log_scalar(f"train/{key}", value, step=steps * action_repeat)
                     logger.log_scalar("train/seconds_per_update", (time.perf_counter() - started) / due, step=steps * action_repeat)
+                    if update.compile_seconds is not None and not compile_logged:
+                        logger.log_scalar("train/compile_seconds", update.compile_seconds, step=steps * action_repeat)
+                        print(f"compiled the update in {update.compile_seconds:.1f} s", flush=True)
+                        compile_logged = True
                 sync_weights()
             collector.shutdown()
 
             rows = evaluate(policy, config["env"], config["eval_levels"], episodes=config["eval_episodes"],
-                            seeds=[config["seed"] + 10_000], env_options={"render_settings": RenderSettings.fast(), **env_options(config)})
+                            seeds=[config["seed"] + 10_000], device=device, env_options={"render_settings": RenderSettings.fast(), **env_options(config)})
             for level in config["eval_levels"]:
                 returns = [row["return"] for row in rows if row["level"] == level]
                 logger.log_scalar(f"eval/{level}_return", sum(returns) / len(returns), step=steps * action_repeat)
@@ -411,7 +427,7 @@ def make_collector(make, policy, config: dict, *, env_seed: int, steps_per_batch
 
         # the actors' copy keeps its tensors contiguous (TorchRL's Ray weight transport refuses channels-last
         # conv weights); it receives the trained weights, then sends them on
-        acting = contiguous_copy(policy)
+        acting = contiguous_copy(policy).to("cpu")  # Ray actors act on their CPU
         collector = RayCollector(makers, acting, sync=True, collector_kwargs={"auto_register_policy_transforms": False},
                                  remote_configs={"num_cpus": 1}, **options)
 
@@ -421,6 +437,9 @@ def make_collector(make, policy, config: dict, *, env_seed: int, steps_per_batch
         sync_weights()  # the actors start from the weights the segment starts with
         return collector, sync_weights
     options["auto_register_policy_transforms"] = False
+    device = next(policy.parameters()).device
+    if device.type != "cpu":  # envs step on the CPU; the policy acts on the device; frames are stored on the CPU
+        options.update(policy_device=device, env_device="cpu", storing_device="cpu")
     if workers > 1:
         collector = MultiSyncCollector(makers, policy, cat_results="stack", **options)
     else:

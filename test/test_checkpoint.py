@@ -106,3 +106,36 @@ def test_truncate_csv_logs_keeps_rows_up_to_the_step(tmp_path):
     assert (tmp_path / "train" / "loss.csv").read_text() == "100,1.0\n200,0.5\n"
     assert (tmp_path / "eval.csv").read_text() == "200,10\n"
     assert notes == ["train/loss.csv: dropped 2 rows logged after step 200"]
+
+
+def test_random_states_carry_every_cuda_generator_once_cuda_is_in_use():
+    from vigen.checkpoint import random_states, set_random_states
+
+    states = random_states()
+    if torch.cuda.is_available() and torch.cuda.is_initialized():
+        assert len(states["cuda"]) == torch.cuda.device_count()
+        first = torch.rand(3, device="cuda")
+        set_random_states(states)
+        assert torch.equal(torch.rand(3, device="cuda"), first), "a GPU run resumes its CUDA draws exactly"
+    else:
+        assert "cuda" not in states
+    gpu_made = dict(states, cuda=[torch.zeros(16, dtype=torch.uint8)])  # a checkpoint written on a GPU machine
+    if not torch.cuda.is_available():
+        set_random_states(gpu_made)  # restores the rest on a CPU-only machine
+
+
+def test_generator_states_of_a_gpu_run_load_on_a_cpu_only_machine():
+    from torch import nn
+
+    from vigen.checkpoint import generator_states, set_generator_states
+    from vigen.transforms import RandomShift
+
+    model = nn.Sequential(RandomShift(seed=0))
+    states = generator_states(model)
+    assert set(states) == {"0"}
+    states["0@cuda:0"] = torch.zeros(16, dtype=torch.uint8)  # what a GPU run adds beside the CPU state
+    if not torch.cuda.is_available():
+        set_generator_states(model, states)
+        assert model[0].generator_devices() == [torch.device("cpu")]
+    with pytest.raises(KeyError, match="not a seeded augmentation"):
+        set_generator_states(model, {"1@cuda:0": torch.zeros(16, dtype=torch.uint8)})

@@ -224,7 +224,7 @@ def remove_temporary_files(folder: str | Path) -> list[Path]:
 
 
 def random_states() -> dict[str, Any]:
-    """torch's, NumPy's and Python's global random states as tensors and lists (see :func:`set_random_states`).
+    """torch's (CPU and, once CUDA is in use, every CUDA device's), NumPy's and Python's global random states (see :func:`set_random_states`).
 
     Examples:
         >>> import torch
@@ -237,7 +237,9 @@ def random_states() -> dict[str, Any]:
     """
     name, keys, position, has_gauss, cached = np.random.get_state()
     version, internal, gauss = random.getstate()
+    cuda = {"cuda": torch.cuda.get_rng_state_all()} if torch.cuda.is_available() and torch.cuda.is_initialized() else {}
     return {
+        **cuda,
         "torch": torch.get_rng_state(),
         "numpy": {"name": name, "keys": torch.from_numpy(keys.astype(np.int64)), "position": int(position),
                   "has_gauss": int(has_gauss), "cached_gaussian": float(cached)},
@@ -251,6 +253,10 @@ def set_random_states(states: dict[str, Any]) -> None:
     if missing:
         raise KeyError(f"set_random_states: the states lack {sorted(missing)}; pass what random_states() returned.")
     torch.set_rng_state(states["torch"])
+    if "cuda" in states and torch.cuda.is_available():  # a GPU run resumes exactly; elsewhere the CUDA states are not needed
+        cuda = [state for state in states["cuda"]][: torch.cuda.device_count()]
+        for index, state in enumerate(cuda):
+            torch.cuda.set_rng_state(state, index)
     numpy = states["numpy"]
     np.random.set_state((numpy["name"], numpy["keys"].numpy().astype(np.uint32), numpy["position"],
                          numpy["has_gauss"], numpy["cached_gaussian"]))
@@ -259,7 +265,10 @@ def set_random_states(states: dict[str, Any]) -> None:
 
 
 def generator_states(module: nn.Module) -> dict[str, Tensor]:
-    """The CPU generator state of every seeded vigen augmentation in ``module`` (a loss), by module name.
+    """The generator states of every seeded vigen augmentation in ``module`` (a loss), by module name.
+
+    The CPU generator's state is under the module's name; a generator on another device (a GPU
+    run's) is under ``"<name>@<device>"``, e.g. ``"augmentation.0@cuda:0"``.
 
     Augmentations without a seed draw from torch's global RNG, which :func:`random_states` covers.
 
@@ -275,20 +284,29 @@ def generator_states(module: nn.Module) -> dict[str, Tensor]:
         >>> torch.equal(model[0].augment(torch.zeros(2, 3, 8, 8, dtype=torch.uint8) + torch.arange(8, dtype=torch.uint8)), first)
         True
     """
-    return {name: augmentation.generator(torch.device("cpu")).get_state()
-            for name, augmentation in module.named_modules()
-            if isinstance(augmentation, ImageAugmentation) and augmentation.seed is not None}
+    states = {}
+    for name, augmentation in module.named_modules():
+        if isinstance(augmentation, ImageAugmentation) and augmentation.seed is not None:
+            states[name] = augmentation.generator(torch.device("cpu")).get_state()
+            for device in augmentation.generator_devices():
+                if device.type != "cpu":  # a GPU run's augmentations draw on the GPU
+                    states[f"{name}@{device}"] = augmentation.generator(device).get_state()
+    return states
 
 
 def set_generator_states(module: nn.Module, states: dict[str, Tensor]) -> None:
     """Restore what :func:`generator_states` returned for the same module."""
     augmentations = dict(module.named_modules())
-    for name, state in states.items():
+    for key, state in states.items():
+        name, _, device = key.partition("@")
         augmentation = augmentations.get(name)
         if not isinstance(augmentation, ImageAugmentation) or augmentation.seed is None:
             raise KeyError(f"set_generator_states: {name!r} is not a seeded augmentation of this module; "
                            "was the checkpoint written for another algorithm?")
-        augmentation.generator(torch.device("cpu")).set_state(state)
+        if not device:
+            augmentation.generator(torch.device("cpu")).set_state(state)
+        elif torch.device(device).type == "cuda" and torch.cuda.is_available() and torch.device(device).index < torch.cuda.device_count():
+            augmentation.generator(torch.device(device)).set_state(state)
 
 
 # -- tensordicts as plain data ---------------------------------------------------------------------

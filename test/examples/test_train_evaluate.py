@@ -92,6 +92,14 @@ def test_evaluate_names_a_missing_checkpoint(tmp_path):
     assert result.returncode != 0 and "has no checkpoints" in result.stderr
 
 
+@pytest.mark.render
+def test_evaluate_names_a_checkpoint_moved_out_of_its_run_folder(trained, tmp_path):
+    moved = tmp_path / "frames_00000400.pt"
+    moved.write_bytes((trained / "checkpoints" / "frames_00000400.pt").read_bytes())
+    result = subprocess.run([sys.executable, str(ROOT / "examples/evaluate.py"), str(moved)], capture_output=True, text=True)
+    assert result.returncode != 0 and "no config.json at" in result.stderr and "keep the checkpoint in its run folder" in result.stderr
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("algo", ["svea", "sgqn", *(pytest.param(algo, marks=pytest.mark.matrix)
                                                     for algo in ("srm", "curl", "drq", "sada", "pieg", "madi", "simgrl", "vrl3", "scpl"))])
@@ -155,6 +163,8 @@ def _fails(*args: str | Path) -> subprocess.CompletedProcess:
     (["--env", "dmc/cartpole-balanse"], "Unknown env"),
     (["--encoder-weights", "resnet18.pth"], "drqv2 has no pretrained encoder"),
     (["--algo", "pieg", "--encoder-weights", "no-such-file.pth"], "no such file"),
+    (["--device", "cuda:7"], "--device: device 'cuda:7': this machine has"),
+    (["--device", "gpu"], "'gpu' is not a device name"),
 ])
 def test_bad_arguments_stop_the_run_before_it_starts(flags, message, tmp_path):
     """Each setting is checked before the first frame; the failed start leaves no run folder."""
