@@ -121,6 +121,7 @@ def test_a_failing_env_builder_and_a_failing_policy_keep_the_rows():
     assert [row["level"] for row in caught.value.rows] == ["a", "b"]
     assert caught.value.episode is None and caught.value.level == "missing-videos" and caught.value.seed == 4
     assert isinstance(caught.value.__cause__, FileNotFoundError)
+    assert str(caught.value).endswith("The error: FileNotFoundError: no videos under /data/video_hard"), "the cause's advice is kept"
 
     calls = []
 
@@ -134,3 +135,11 @@ def test_a_failing_env_builder_and_a_failing_policy_keep_the_rows():
         rollout.evaluate(policy, factory, ["a"], episodes=3, seeds=[0], max_steps=2)
     assert [row["episode"] for row in caught.value.rows] == [0]
     assert caught.value.episode == 1 and str(caught.value.__cause__) == "NaN in the actor"
+
+
+def test_max_steps_below_one_is_refused_before_any_env_is_built():
+    def factory(level, seed):
+        raise AssertionError("no env may be built")
+
+    with pytest.raises(ValueError, match="max_steps must be at least 1"):
+        rollout.evaluate(None, factory, ["train"], episodes=1, max_steps=0)

@@ -74,6 +74,16 @@ def test_missing_or_empty_folders(tmp_path):
         RandomOverlay(images=tmp_path / "nowhere")
 
 
+def test_a_file_given_as_the_overlay_folder_is_named_as_a_file(tmp_path):
+    from vigen.transforms import RandomShiftedOverlay
+
+    picture = tmp_path / "picture.png"
+    picture.write_bytes(b"not a folder")
+    for overlay in (RandomOverlay, RandomShiftedOverlay):
+        with pytest.raises(NotADirectoryError, match="picture.png is a file, not a folder; give the folder"):
+            overlay(images=picture)
+
+
 def test_bad_tensor():
     with pytest.raises(ValueError, match="uint8"):
         ImageBank(torch.zeros(2, 3, 8, 8))

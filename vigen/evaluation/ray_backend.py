@@ -95,7 +95,7 @@ def _rows_or_raise(ray: Any, ref: Any, index: int, jobs: Sequence[Job], results:
         where = functools.partial(EvaluationError, finished, level=job.label, seed=job.seed,
                                   rows_path=None if log is None else getattr(log, "path", None))
         if failure is not None:
-            raise where(episode=failure.episode) from failure.error
+            raise where(episode=failure.episode, cause=failure.error) from failure.error
         died = isinstance(error, (ray.exceptions.WorkerCrashedError, ray.exceptions.NodeDiedError, ray.exceptions.ActorDiedError))
         root = error.cause if isinstance(error, ray.exceptions.RayTaskError) and error.cause is not None else error
         reason = f"its Ray worker died: {type(root).__name__}" if died else f"Ray failed to run it: {type(root).__name__}"

@@ -42,6 +42,9 @@ class EvaluationError(RuntimeError):
         rows_path: the CSV file that holds the same rows, if :func:`evaluate` was given one.
         reason: what stopped the job when it was not an exception of its own (a Ray worker that died).
 
+    The message ends with the original error's own message (``cause``), so that its advice is read
+    where the evaluation stopped.
+
     The original exception is chained (``__cause__``); ``reason`` says what stopped the job when it is
     not an exception of the job itself (a Ray worker that died).
 
@@ -52,13 +55,14 @@ class EvaluationError(RuntimeError):
     """
 
     def __init__(self, rows: list[dict[str, Any]], *, level: str, seed: int, episode: int | None,
-                 rows_path: Path | None = None, reason: str | None = None) -> None:
+                 rows_path: Path | None = None, reason: str | None = None, cause: BaseException | None = None) -> None:
         self.rows, self.level, self.seed, self.episode, self.rows_path = rows, level, seed, episode, rows_path
         self.reason = reason
         where = f"level {level!r}, seed {seed}" + ("" if episode is None else f", episode {episode}")
         where += "" if reason is None else f" ({reason})"
         kept = f"they are in .rows{'' if rows_path is None else f' and {rows_path}'}"
-        super().__init__(f"evaluation failed at {where} after {len(rows)} finished episode(s); {kept}.")
+        told = "" if cause is None else f" The error: {type(cause).__name__}: {cause}"  # its hint ("Did you mean ...") too
+        super().__init__(f"evaluation failed at {where} after {len(rows)} finished episode(s); {kept}.{told}")
 
 
 def evaluate(
@@ -149,10 +153,12 @@ def evaluate(
         ...     evaluate(None, factory, ["train", "broken"], episodes=1, max_steps=2)
         ... except EvaluationError as error:
         ...     print(error, [row["level"] for row in error.rows], repr(error.__cause__))
-        evaluation failed at level 'broken', seed 0 after 1 finished episode(s); they are in .rows. ['train'] OSError('corrupt video')
+        evaluation failed at level 'broken', seed 0 after 1 finished episode(s); they are in .rows. The error: OSError: corrupt video ['train'] OSError('corrupt video')
     """
     if episodes < 1:
         raise ValueError(f"episodes must be at least 1, got {episodes}.")
+    if max_steps < 1:
+        raise ValueError(f"max_steps must be at least 1 (agent steps per episode), got {max_steps}.")
     if not seeds:
         raise ValueError("seeds is empty: give at least one seed, e.g. seeds=[0].")
     if backend not in BACKENDS:
@@ -177,7 +183,7 @@ def evaluate(
             job_rows = run(job, on_row=None if log is None else log.append)
         except JobError as failure:
             raise EvaluationError(rows + failure.rows, level=job.label, seed=job.seed, episode=failure.episode,
-                                  rows_path=None if log is None else log.path) from failure.error
+                                  rows_path=None if log is None else log.path, cause=failure.error) from failure.error
         rows += job_rows
         if progress is not None:
             progress(done, len(jobs))
