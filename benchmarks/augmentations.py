@@ -82,14 +82,14 @@ def rlvigen_random_mask_freq_v2(x: torch.Tensor) -> torch.Tensor:
     low = round(float(np.random.uniform(0, 0.5)), 2)
     high = low + round(float(np.random.uniform(0, 0.05)), 2)
     spectrum = torch.fft.fftn(x, dim=(2, 3, 4))
-    fy = torch.fft.fftfreq(h).abs()[:, None].expand(h, w)
-    fx = torch.fft.fftfreq(w).abs()[None, :].expand(h, w)
+    fy = torch.fft.fftfreq(h, device=x.device).abs()[:, None].expand(h, w)
+    fx = torch.fft.fftfreq(w, device=x.device).abs()[None, :].expand(h, w)
     ring = ((fy < high) & (fx < high)) & ~((fy < low) & (fx < low))
     return torch.fft.ifftn(spectrum * ~ring, dim=(2, 3, 4)).real.reshape(n, c, h, w)
 
 
 def float_overlay(x: torch.Tensor, images: torch.Tensor, alpha: float = 0.5) -> torch.Tensor:
-    index = torch.randint(0, len(images), (x.shape[0],))
+    index = torch.randint(0, len(images), (x.shape[0],), device=images.device)
     overlay = images[index].float().div(255).repeat(1, x.shape[1] // 3, 1, 1)
     return ((1 - alpha) * (x.float() / 255) + alpha * overlay) * 255
 

@@ -39,11 +39,21 @@ time from ``torch.profiler``, grouped: convolutions forward and backward, matmul
 Only the convolution and matmul groups can run near the CPU's peak; the rest bounds the
 fraction of the peak an update can reach.
 
+``--device cuda`` runs both sides on the GPU: every timed update ends with
+``torch.cuda.synchronize()``, and the last column becomes the GPU's busy share (summed CUDA kernel
+time of ``--repeats`` updates over their wall time, from ``torch.profiler``). ``--compile`` also
+times vigen's update compiled whole (``vigen.losses.UpdateStep(compile=True)``: inductor, and a
+CUDA graph on CUDA) beside the eager one, after three warm-up calls, and prints its compile time;
+"speed-up" is then the reference over the compiled update. Every run prints the command that
+reproduces it.
+
 Reproduce (about 15 minutes on 2 CPU cores at both batch sizes; run nothing else meanwhile):
 
     python benchmarks/losses.py                      # batch 64 and 256
     python benchmarks/losses.py --batch 64 --algos drqv2 sgqn --repeats 5
     python benchmarks/losses.py --batch 256 --algos svea --profile   # where the time goes
+    python benchmarks/losses.py --batch 64 256 --algos drqv2 svea sada curl --compile   # compiled vs eager
+    python benchmarks/losses.py --device cuda --batch 256 --compile --repeats 10        # on a GPU
 """
 
 from __future__ import annotations
@@ -52,6 +62,7 @@ import argparse
 import copy
 import random
 import statistics
+import sys
 import time
 import warnings
 from collections.abc import Callable
@@ -64,8 +75,9 @@ from torch.utils.flop_counter import FlopCounterMode
 from torchrl.objectives import SoftUpdate
 
 from augmentations import drqv2_shift, float_overlay, rlvigen_random_mask_freq_v2, seconds
+from vigen.devices import resolve_device
 from vigen.losses import (
-    ActorCriticLoss, CURLLoss, DrQLoss, DrQv2Loss, MaDiLoss, PIEGLoss, SADALoss, SCPLLoss, SGQNLoss, SimGRLLoss, SRMLoss,
+    ActorCriticLoss, UpdateStep, CURLLoss, DrQLoss, DrQv2Loss, MaDiLoss, PIEGLoss, SADALoss, SCPLLoss, SGQNLoss, SimGRLLoss, SRMLoss,
     SVEALoss, VRL3Loss, attribution_mask,
 )
 from vigen.models import (
@@ -150,11 +162,11 @@ def float_shifted_overlay(x: Tensor, images: Tensor, max_shift: int = 6) -> Tens
     """SimGRL's overlay written plainly: per sample an image at (H + 2p)² and a shift; frame f blends the window at p + f·shift."""
     n, c, h, w = x.shape
     frames, pad = c // 3, (c // 3) * max_shift
-    big = F.interpolate(images[torch.randint(len(images), (n,))].float(), size=(h + 2 * pad, w + 2 * pad), mode="bilinear")
-    shift = torch.randint(-max_shift, max_shift + 1, (n, 2))
+    big = F.interpolate(images[torch.randint(len(images), (n,), device=images.device)].float(), size=(h + 2 * pad, w + 2 * pad), mode="bilinear")
+    shift = torch.randint(-max_shift, max_shift + 1, (n, 2)).tolist()  # Python ints index the windows
     out = []
     for f in range(frames):
-        windows = torch.stack([big[i, :, pad + f * shift[i, 0] : pad + f * shift[i, 0] + h, pad + f * shift[i, 1] : pad + f * shift[i, 1] + w]
+        windows = torch.stack([big[i, :, pad + f * shift[i][0] : pad + f * shift[i][0] + h, pad + f * shift[i][1] : pad + f * shift[i][1] + w]
                                for i in range(n)])
         out.append(0.5 * x[:, 3 * f : 3 * f + 3].float() + 0.5 * windows)
     return torch.cat(out, 1)
@@ -214,7 +226,7 @@ class Reference:
         self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=LR)
         self.critic_opt = torch.optim.Adam(self.critic.parameters(), lr=LR)
         if algo in ("drq", "sada", "scpl", "madi", "simgrl"):
-            self.log_alpha = torch.tensor(0.1).log().requires_grad_()
+            self.log_alpha = torch.tensor(0.1, device=overlay_images.device).log().requires_grad_()
             self.alpha_opt = torch.optim.Adam([self.log_alpha], lr=LR)
         if algo == "sgqn":
             self.decoder = nets["decoder"]
@@ -295,7 +307,7 @@ class Reference:
                 z_positive = self.encoder(positive)
             logits = z_anchor @ self.W @ z_positive.T
             logits = logits - logits.max(1, keepdim=True).values
-            curl_loss = F.cross_entropy(logits, torch.arange(len(logits)))
+            curl_loss = F.cross_entropy(logits, torch.arange(len(logits), device=logits.device))
             self.encoder_opt.zero_grad(set_to_none=True)
             self.curl_opt.zero_grad(set_to_none=True)
             curl_loss.backward()
@@ -458,7 +470,8 @@ class Reference:
 class Vigen:
     """The same algorithm from vigen.losses: one loss call, one backward, one optimizer, SoftUpdate."""
 
-    def __init__(self, algo: str, nets: dict[str, nn.Module], bank: ImageBank) -> None:
+    def __init__(self, algo: str, nets: dict[str, nn.Module], bank: ImageBank, *, device: torch.device = torch.device("cpu"),
+                 compile: bool = False) -> None:
         common = {"std": STD}
         encoder, actor, critic = nets["encoder"], nets["actor"], nets["critic"]
         if algo == "drqv2":
@@ -488,16 +501,16 @@ class Vigen:
             self.loss = SCPLLoss(encoder, actor, critic, nets["dynamics"], strong_augmentation=RandomOverlay(images=bank))
         else:
             self.loss = DrQLoss(encoder, actor, critic)
+        self.loss.to(device)
         self.loss.make_value_estimator(gamma=GAMMA)
-        self.optimizer = torch.optim.Adam(self.loss.optimizer_groups(LR), fused=True)
+        # as examples/train.py: eager steps a fused Adam, a compiled update fuses the step itself (capturable for a CUDA graph)
+        self.optimizer = torch.optim.Adam(self.loss.optimizer_groups(LR), fused=not compile,
+                                          capturable=compile and device.type == "cuda")
         self.updater = SoftUpdate(self.loss, tau=TAU)
+        self.step = UpdateStep(self.loss, self.optimizer, self.updater, compile=compile)
 
     def update(self, batch: TensorDict) -> None:
-        out = self.loss(batch)
-        self.optimizer.zero_grad(set_to_none=True)
-        sum(value for key, value in out.items() if key.startswith("loss_")).backward()
-        self.optimizer.step()
-        self.updater.step()
+        self.step(batch)
 
     def phases(self, batch: TensorDict) -> dict[str, float]:
         """Seconds of each phase of one update."""
@@ -515,7 +528,7 @@ class Vigen:
 
 
 # -- measuring -----------------------------------------------------------------------------------
-def make_batch(batch: int) -> TensorDict:
+def make_batch(batch: int, device: torch.device = torch.device("cpu")) -> TensorDict:
     pixels = lambda: torch.randint(0, 256, (batch, 9, 84, 84), dtype=torch.uint8)  # noqa: E731
     return TensorDict(
         {
@@ -529,7 +542,32 @@ def make_batch(batch: int) -> TensorDict:
             },
         },
         batch_size=[batch],
-    )
+    ).to(device)
+
+
+def synchronized(fn: Callable[[], object], device: torch.device) -> Callable[[], object]:
+    """``fn`` followed by a wait for the device's queued work, so that a timer measures it (no-op on the CPU)."""
+    if device.type != "cuda":
+        return fn
+
+    def run() -> object:
+        out = fn()
+        torch.cuda.synchronize(device)
+        return out
+    return run
+
+
+def gpu_busy(update: Callable[[], object], repeats: int) -> float:
+    """The share of ``repeats`` updates' wall time during which CUDA kernels ran (torch.profiler's device time)."""
+    torch.cuda.synchronize()
+    with torch.profiler.profile(activities=[torch.profiler.ProfilerActivity.CPU, torch.profiler.ProfilerActivity.CUDA]) as prof:
+        start = time.perf_counter()
+        for _ in range(repeats):
+            update()
+        torch.cuda.synchronize()
+        wall = time.perf_counter() - start
+    kernels = sum(event.self_device_time_total for event in prof.key_averages()) / 1e6
+    return kernels / wall
 
 
 class _NoModuleTracking:
@@ -609,37 +647,64 @@ def main() -> None:
     parser.add_argument("--algos", nargs="+", default=ALGOS, choices=ALGOS)
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--profile", action="store_true", help="also print where vigen's update spends its time, per algorithm")
+    parser.add_argument("--device", default="cpu", help="cpu (default), cuda or cuda:N: where both updates run")
+    parser.add_argument("--compile", action="store_true",
+                        help="vigen's update compiled whole (vigen.losses.UpdateStep(compile=True); on CUDA also a CUDA graph); "
+                             "the eager update is timed beside it")
     args = parser.parse_args()
+    device = resolve_device(args.device)
+    print("reproduce: python benchmarks/losses.py " + " ".join(sys.argv[1:]), flush=True)
     torch.manual_seed(0)
     random.seed(0)
     bank = ImageBank.builtin()
-    images = bank.resized(84, 84)
-    matmul_peak, conv_peak = peak_flops()
-    peak = max(matmul_peak, conv_peak)
-    print(f"torch {torch.__version__}, {torch.get_num_threads()} threads; peak {peak / 1e9:.0f} GFLOP/s (fp32): "
-          f"2048² matmul {matmul_peak / 1e9:.0f}, 32→32 3×3 convolution {conv_peak / 1e9:.0f}")
-    header = ("| algo | batch | reference ms | vigen ms | speed-up | ref GFLOP | vigen GFLOP | vigen % of peak | RL-ViGen ms @64 |\n"
-              "|---|---|---|---|---|---|---|---|---|")
-    print(header)
+    images = bank.resized(84, 84, device=device)
+    if device.type == "cpu":
+        matmul_peak, conv_peak = peak_flops()
+        peak = max(matmul_peak, conv_peak)
+        print(f"torch {torch.__version__}, {torch.get_num_threads()} threads; peak {peak / 1e9:.0f} GFLOP/s (fp32): "
+              f"2048² matmul {matmul_peak / 1e9:.0f}, 32→32 3×3 convolution {conv_peak / 1e9:.0f}")
+        last = "vigen % of peak"
+    else:
+        peak = float("nan")
+        print(f"torch {torch.__version__} on {torch.cuda.get_device_name(device)}; timers synchronize after each update")
+        last = "GPU busy (vigen)"
+    compiled_columns = " compiled ms | compiled / eager | compile s |" if args.compile else ""
+    print(f"| algo | batch | reference ms | vigen ms | speed-up |{compiled_columns} ref GFLOP | vigen GFLOP | {last} | RL-ViGen ms @64 |\n"
+          f"|---|---|---|---|---|{'---|---|---|' if args.compile else ''}---|---|---|---|")
     profiles = []
     for batch_size in args.batch:
-        batch = make_batch(batch_size)
+        batch = make_batch(batch_size, device)
         for algo in args.algos:
             torch.manual_seed(0)
             vigen_nets = networks(algo)
             reference_nets = copy.deepcopy(vigen_nets)
             reference_nets["encoder"].chunk_size = None
-            reference, vigen = Reference(algo, reference_nets, images), Vigen(algo, vigen_nets, bank)
-            ref_update, vigen_update = (lambda: reference.update(batch.clone())), (lambda: vigen.update(batch.clone()))
+            for net in reference_nets.values():
+                net.to(device)
+            reference, vigen = Reference(algo, reference_nets, images), Vigen(algo, vigen_nets, bank, device=device)
+            ref_update = synchronized(lambda: reference.update(batch.clone()), device)
+            vigen_update = synchronized(lambda: vigen.update(batch.clone()), device)
             ref_flops, vigen_flops = flops(ref_update), flops(vigen_update)
-            ref_s, vigen_s = seconds(ref_update, vigen_update, repeats=args.repeats)
+            timed = [ref_update, vigen_update]
+            if args.compile:
+                compiled = Vigen(algo, copy.deepcopy(networks(algo)), bank, device=device, compile=True)
+                compiled_update = synchronized(lambda: compiled.update(batch.clone()), device)
+                for _ in range(3):  # compile, then (CUDA graphs) warm up and capture
+                    compiled_update()
+                timed.append(compiled_update)
+            ref_s, vigen_s, *compiled_s = seconds(*timed, repeats=args.repeats)
             anchor = RLVIGEN_MS_AT_64.get(algo, "—") if batch_size == 64 else "—"
+            fast = vigen_s if not compiled_s else compiled_s[0]
+            share = (f"{100 * vigen_flops / vigen_s / peak:.0f} %" if device.type == "cpu"
+                     else f"{100 * gpu_busy(compiled_update if compiled_s else vigen_update, args.repeats):.0f} %")
+            columns = (f" {compiled_s[0] * 1e3:.1f} | {vigen_s / compiled_s[0]:.2f}× | {compiled.step.compile_seconds:.0f} |"
+                       if compiled_s else "")
             print(
-                f"| {algo} | {batch_size} | {ref_s * 1e3:.0f} | {vigen_s * 1e3:.0f} | {ref_s / vigen_s:.2f}× "
-                f"| {ref_flops / 1e9:.1f} | {vigen_flops / 1e9:.1f} | {100 * vigen_flops / vigen_s / peak:.0f} % | {anchor} |",
+                f"| {algo} | {batch_size} | {ref_s * 1e3:.1f} | {vigen_s * 1e3:.1f} | {ref_s / fast:.2f}× |{columns} "
+                f"{ref_flops / 1e9:.1f} | {vigen_flops / 1e9:.1f} | {share} | {anchor} |",
                 flush=True,
             )
-            if args.profile:
+            if args.profile and device.type == "cpu":
                 profiles.append(f"\n### {algo}, batch {batch_size}: {vigen_s * 1e3:.0f} ms per update, "
                                 f"{100 * vigen_flops / vigen_s / peak:.0f} % of peak\n\n{profile(vigen, batch, args.repeats, vigen_flops, peak)}")
     for table in profiles:

@@ -109,6 +109,28 @@ def test_train_every_algorithm(algo, tmp_path):
 
 
 @pytest.mark.render
+@pytest.mark.slow
+@pytest.mark.matrix  # inductor compiles the update for about a minute on 2 cores
+def test_train_with_a_compiled_update_logs_its_compile_time(tmp_path):
+    result = run("train.py", "--compile", "--device", "cpu", "--frames", "400", "--out", tmp_path / "run", *TINY)
+    assert "compiled the update in" in result.stdout
+    assert json.loads((tmp_path / "run" / "config.json").read_text())["compile"] is True
+    assert (tmp_path / "run" / "logs" / "scalars" / "train" / "compile_seconds.csv").exists()
+
+
+@pytest.mark.render
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs CUDA")
+def test_a_gpu_run_resumes_on_the_gpu_and_evaluates_on_the_cpu(tmp_path):
+    run_dir = tmp_path / "gpu"
+    run("train.py", "--device", "cuda", "--frames", "400", "--out", run_dir, *TINY)
+    checkpoint = torch.load(run_dir / "checkpoints" / "frames_00000400.pt", weights_only=True, map_location="cpu")
+    assert len(checkpoint["random"]["cuda"]) == torch.cuda.device_count()
+    run("train.py", "--resume", run_dir, "--frames", "800", "--device", "cuda")
+    run("evaluate.py", run_dir, "--device", "cpu", "--levels", "train", "--episodes", "1", "--episode-length", "10",
+        "--out", tmp_path / "report")
+
+
+@pytest.mark.render
 def test_compose_example_trains_and_tests(tmp_path):
     result = run("compose_torchrl.py", "--frames", "300", "--batch-size", "8", "--eval-steps", "30")
     assert "loss_critic" in result.stdout
