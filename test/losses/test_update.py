@@ -76,6 +76,24 @@ def test_the_compiled_update_equals_the_eager_one(name):
 
 
 @pytest.mark.slow
+@pytest.mark.matrix
+def test_a_loss_that_cannot_be_traced_whole_gets_its_forward_compiled():
+    """``compiles_whole = False`` (a user's loss with an untraceable part): forward compiled, backward and Adam eager."""
+    from vigen.losses import DrQv2Loss
+
+    batches = [make_batch(seed=seed) for seed in range(2)]
+    eager_loss, *rest = build("drqv2")
+    eager = run_updates(UpdateStep(eager_loss, *rest), batches)
+    loss, optimizer, target = build("drqv2")
+    loss.__class__ = type("PartlyTraceable", (DrQv2Loss,), {"compiles_whole": False})
+    update = UpdateStep(loss, optimizer, target, compile=True, backend="aot_eager")
+    assert not update.whole
+    for expected, got in zip(eager, run_updates(update, batches)):
+        for key in expected:
+            torch.testing.assert_close(got[key], expected[key], rtol=1e-4, atol=1e-5)
+
+
+@pytest.mark.slow
 def test_a_nan_loss_in_a_compiled_update_leaves_the_parameters_finite_and_is_reported():
     loss, optimizer, target = build("drqv2")
     update = UpdateStep(loss, optimizer, target, compile=True, backend="aot_eager")

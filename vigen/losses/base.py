@@ -421,6 +421,9 @@ class ActorCriticLoss(LossModule):
         """Loss-wide values logged with every update (e.g. the noise std)."""
         return {}
 
+    def prepare_compile(self) -> None:
+        """Set up what a compiled update needs before it is traced (:class:`~vigen.losses.UpdateStep` calls it; nothing here)."""
+
     def optimizer_groups(self, lr: float) -> list[dict[str, Any]]:
         """Parameter groups for one optimizer over the whole loss: ``torch.optim.Adam(loss.optimizer_groups(lr))``.
 

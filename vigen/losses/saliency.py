@@ -128,13 +128,23 @@ def last_dim_quantile(values: Tensor, quantile: float) -> Tensor:
         True
     """
     size = values.shape[-1]
-    rank = torch.tensor(quantile, dtype=values.dtype) * (size - 1)  # torch.quantile's rank, in the values' dtype
-    below = int(rank)
+    below, fraction = _quantile_rank(quantile, size, values.dtype)
     lower = values.kthvalue(below + 1, dim=-1, keepdim=True).values
-    if below + 1 >= size or rank == below:
+    if below + 1 >= size or fraction == 0:
         return lower
     upper = values.kthvalue(below + 2, dim=-1, keepdim=True).values
-    return torch.lerp(lower, upper, rank - below)
+    return torch.lerp(lower, upper, fraction)
+
+
+@torch.compiler.assume_constant_result
+def _quantile_rank(quantile: float, size: int, dtype: torch.dtype) -> tuple[int, float]:
+    """torch.quantile's rank ``quantile·(size − 1)`` in ``dtype``: its integer part and its (exact) fraction.
+
+    A compiled update takes the result as a constant (it depends on Python numbers only).
+    """
+    rank = torch.tensor(quantile, dtype=dtype) * (size - 1)
+    below = int(rank)
+    return below, float(rank - below)
 
 
 @dataclass
@@ -155,7 +165,61 @@ class SalientQ:
     consistency: Tensor
 
 
-@torch.compiler.disable(reason="guided backprop switches its ReLUs' backward from Python between two backward passes")
+class GuidedForward:
+    """Guided backprop for a compiled update: ReLU hooks installed once, guiding the forward passes run while :attr:`active`.
+
+    :class:`GuidedBackprop` records one forward pass and switches its ReLUs' backward between two
+    backward passes, which ``torch.compile`` cannot trace. This one guides a second, separate
+    forward pass instead: its hooks are registered once (outside any compiled code) and do nothing
+    unless :attr:`active` is set, so the loss's own passes are untouched. Same saliency, one more
+    forward pass.
+
+    Paper: SGQN, https://arxiv.org/abs/2209.09203.
+
+    Examples:
+        >>> import torch
+        >>> from torch import nn
+        >>> net = nn.Sequential(nn.Linear(4, 8), nn.ReLU(), nn.Linear(8, 1))
+        >>> guided = GuidedForward(net)
+        >>> x = torch.randn(5, 4)
+        >>> recorded, probe = GuidedBackprop(net), x.clone().requires_grad_(True)
+        >>> with recorded.recording():
+        ...     y = net(probe)
+        >>> torch.equal(guided.saliency(net, x), recorded.saliency(y, probe))  # the same saliency
+        True
+    """
+
+    def __init__(self, *modules: nn.Module) -> None:
+        self.relus = GuidedBackprop(*modules).relus
+        self.active = False
+        for relu in self.relus:
+            relu.register_forward_hook(self._hook)
+
+    def saliency(self, forward: Callable[[Tensor], Tensor], inputs: Tensor) -> Tensor:
+        """Guided gradient of ``forward(inputs).sum()`` with respect to ``inputs``, from a pass of its own."""
+        probe = inputs.detach().requires_grad_(True)
+        self.active = True
+        output = forward(probe)
+        self.active = False
+        (grad,) = torch.autograd.grad(output.sum(), probe)
+        return grad
+
+    def _hook(self, module: nn.Module, args: tuple[Tensor, ...], output: Tensor) -> Tensor | None:
+        return _Guided.apply(output) if self.active else None
+
+
+class _Guided(torch.autograd.Function):
+    """Identity on a ReLU's output whose backward drops negative gradients (always)."""
+
+    @staticmethod
+    def forward(ctx: FunctionCtx, relu_output: Tensor) -> Tensor:
+        return relu_output.view_as(relu_output)
+
+    @staticmethod
+    def backward(ctx: FunctionCtx, grad: Tensor) -> Tensor:
+        return grad.clamp(min=0)
+
+
 def salient_q_consistency(loss: ActorCriticLoss, pixels: Tensor, action: Tensor, quantile: float) -> SalientQ:
     """SGQN's and SCPL's Q consistency with the salient pixels, from one recorded critic pass.
 
@@ -178,12 +242,19 @@ def salient_q_consistency(loss: ActorCriticLoss, pixels: Tensor, action: Tensor,
     x = loss._to_float(pixels)  # the saliency is a gradient with respect to these
     if loss.channels_last:
         x = x.contiguous(memory_format=torch.channels_last)
-    x.requires_grad_(True)
-    guided = GuidedBackprop(loss.encoder, loss.critic)
-    with guided.recording():
+    compiled = getattr(loss, "guided_forward", None)
+    if torch.compiler.is_compiling() and isinstance(compiled, GuidedForward):  # a guided pass of its own (traceable)
         features = loss.encode(x)
         q1, q2 = loss.q_values(features, action)
-    mask = attribution_mask(guided.saliency(q1, x, retain_graph=True), quantile)
+        saliency = compiled.saliency(lambda probe: loss.q_values(loss.encode(probe), action)[0], x)
+    else:  # one recorded pass serves the saliency and the loss
+        x.requires_grad_(True)
+        guided = GuidedBackprop(loss.encoder, loss.critic)
+        with guided.recording():
+            features = loss.encode(x)
+            q1, q2 = loss.q_values(features, action)
+        saliency = guided.saliency(q1, x, retain_graph=True)
+    mask = attribution_mask(saliency, quantile)
     low, high = x.detach().min(), x.detach().max()
     fill = low + (high - low) * torch.rand((), device=x.device, dtype=x.dtype)
     masked_q1, masked_q2 = loss.q_values(loss.encode(torch.where(mask, x.detach(), fill)), action)

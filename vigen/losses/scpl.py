@@ -11,7 +11,7 @@ from tensordict import TensorDictBase
 from torch import Tensor, nn
 
 from vigen.losses.base import ActorResult, Augmentations, AuxiliaryResult, CriticResult, Observations, td_error
-from vigen.losses.saliency import GuidedBackprop, salient_q_consistency
+from vigen.losses.saliency import GuidedBackprop, GuidedForward, salient_q_consistency
 from vigen.losses.sampling import squashed_normal_sample
 from vigen.losses.svea_sac import SACSVEALoss
 from vigen.transforms import RandomOverlay
@@ -146,8 +146,6 @@ class SCPLLoss(SACSVEALoss):
         "mask_fraction", "consistency", "policy_kl", "loss_dynamics", "transition_error", "reward_error",
     ]
 
-    compiles_whole = False  # guided backprop (salient_q_consistency) runs eagerly between compiled parts
-
     def __init__(
         self,
         encoder: nn.Module,
@@ -194,6 +192,15 @@ class SCPLLoss(SACSVEALoss):
             self.register_coeff_buffer(coefficient, value)
 
     _schedulable_buffers = frozenset({"consistency_weight", "kl_weight", "dynamics_weight"})
+
+    def prepare_compile(self) -> None:
+        """Install the guided-backprop hooks a compiled update uses (:class:`~vigen.losses.saliency.GuidedForward`).
+
+        They do nothing until a compiled update's guided pass sets them active; the eager update
+        keeps recording its one pass (:class:`~vigen.losses.GuidedBackprop`).
+        """
+        if getattr(self, "guided_forward", None) is None:
+            self.guided_forward = GuidedForward(self.encoder, self.critic)
 
     @staticmethod
     def _default_strong_augmentation() -> Augmentations:

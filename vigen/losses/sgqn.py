@@ -11,7 +11,7 @@ from torch import Tensor, nn
 
 from vigen.losses.base import ActorResult, Augmentations, AuxiliaryResult, CriticResult, Observations, td_error
 from vigen.losses.drqv2 import DrQv2Loss
-from vigen.losses.saliency import GuidedBackprop, salient_q_consistency
+from vigen.losses.saliency import GuidedBackprop, GuidedForward, salient_q_consistency
 from vigen.transforms import RandomOverlay
 
 
@@ -74,8 +74,6 @@ class SGQNLoss(DrQv2Loss):
 
     out_keys = DrQv2Loss.out_keys + ["loss_attribution", "mask_fraction", "consistency"]
 
-    compiles_whole = False  # guided backprop (salient_q_consistency) runs eagerly between compiled parts
-
     def __init__(
         self,
         encoder: nn.Module,
@@ -102,6 +100,15 @@ class SGQNLoss(DrQv2Loss):
         self.attribution_augmentation = self._augmentations(attribution_augmentation)
 
     _schedulable_buffers = frozenset({"consistency_weight"})
+
+    def prepare_compile(self) -> None:
+        """Install the guided-backprop hooks a compiled update uses (:class:`~vigen.losses.saliency.GuidedForward`).
+
+        They do nothing until a compiled update's guided pass sets them active; the eager update
+        keeps recording its one pass (:class:`~vigen.losses.GuidedBackprop`).
+        """
+        if getattr(self, "guided_forward", None) is None:
+            self.guided_forward = GuidedForward(self.encoder, self.critic)
 
     def critic_loss(self, batch: Observations, target: Tensor) -> SaliencyCriticResult:
         """TD loss of ``s`` plus ``λ·`` the consistency of Q on ``s`` and on its salient pixels ``s_M``."""

@@ -37,10 +37,10 @@ class UpdateStep:
     inside the call and names the batch entries or parameters to blame.
 
     ``compile=True`` compiles the whole update with ``torch.compile(fullgraph=True, dynamic=False)`` (a
-    new batch size compiles anew: shapes stay static, as a replay batch's do); a loss
-    whose update cannot be traced whole (``compiles_whole = False``: SGQN's and SCPL's guided
-    backprop switches its ReLUs' backward from Python) gets its forward compiled around that part,
-    with backward and the optimizer step run eagerly. Random
+    new batch size compiles anew: shapes stay static, as a replay batch's do); it first calls
+    ``loss.prepare_compile()`` (SGQN and SCPL install the hooks of their traceable guided pass). A
+    loss whose update cannot be traced whole (``compiles_whole = False``; none of vigen's) gets its
+    forward compiled instead, with backward and the optimizer step run eagerly. Random
     draws then follow torch's global RNG in the same order as the eager update (``fallback_random``),
     so the compiled update equals the eager one within float tolerance. ``torch.compile`` cannot
     trace a ``torch.Generator``: build the loss without ``seed`` (``make_loss(..., seed=None)``) and
@@ -111,6 +111,8 @@ class UpdateStep:
         if compile and not isinstance(optimizer, torch.optim.Adam):
             raise TypeError(f"UpdateStep(compile=True) steps torch.optim.Adam or AdamW through their functional form "
                             f"(Optimizer.step breaks the graph on purpose); got {type(optimizer).__name__}.")
+        if compile:
+            loss.prepare_compile()
         if compile and loss.compiles_whole and any(group.get("fused") for group in optimizer.param_groups):
             raise ValueError("UpdateStep(compile=True): torch.compile does not trace a fused Adam (torch.optim.Adam(..., fused=True)); "
                              "build it with fused=False: the compiled update fuses the step itself.")
