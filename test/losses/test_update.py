@@ -94,6 +94,15 @@ def test_a_loss_that_cannot_be_traced_whole_gets_its_forward_compiled():
 
 
 @pytest.mark.slow
+def test_each_update_step_compiles_on_its_own_cache():
+    """Two UpdateSteps in one process do not share dynamo's per-code-object cache and recompile limit."""
+    with torch._dynamo.config.patch(recompile_limit=1):
+        for _ in range(2):
+            loss, optimizer, target = build("drqv2")
+            UpdateStep(loss, optimizer, target, compile=True, backend="aot_eager")(make_batch())
+
+
+@pytest.mark.slow
 def test_a_nan_loss_in_a_compiled_update_leaves_the_parameters_finite_and_is_reported():
     loss, optimizer, target = build("drqv2")
     update = UpdateStep(loss, optimizer, target, compile=True, backend="aot_eager")

@@ -9,7 +9,10 @@ captured as a CUDA graph (tensordict's ``CudaGraphModule``, as LeanRL does).
 
 from __future__ import annotations
 
+import functools
 import time
+import types
+from collections.abc import Callable
 from typing import Any
 
 import torch
@@ -133,11 +136,11 @@ class UpdateStep:
         options = {"options": {"fallback_random": True}} if backend == "inductor" else {}
         self.whole = compile and loss.compiles_whole  # the whole update in one graph; else the loss's forward alone
         self._forward = loss
-        step = self._update
+        step = _own_code(self._update)
         if self.whole:
             step = torch.compile(step, fullgraph=True, dynamic=False, backend=backend, mode=mode, **options)
         elif compile:
-            self._forward = torch.compile(loss, dynamic=False, backend=backend, mode=mode, **options)
+            self._forward = torch.compile(_own_code(loss.forward), dynamic=False, backend=backend, mode=mode, **options)
         if cudagraph:
             from tensordict.nn import CudaGraphModule
 
@@ -243,6 +246,15 @@ class UpdateStep:
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
         self._diverged.copy_(state["diverged_updates"])
+
+
+def _own_code(method: Callable[..., Any]) -> Callable[..., Any]:
+    """``method`` on a copy of its code object: dynamo keeps one cache (and one recompile limit) per code object,
+    so every UpdateStep, and every loss it compiles, gets its own instead of sharing the class's."""
+    function = method.__func__
+    copy = types.FunctionType(function.__code__.replace(), function.__globals__, function.__name__, function.__defaults__,
+                              function.__closure__)
+    return types.MethodType(functools.wraps(function)(copy), method.__self__)
 
 
 def update_metrics(out: TensorDictBase) -> dict[str, float]:
