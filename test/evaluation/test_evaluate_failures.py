@@ -6,6 +6,7 @@ import csv
 from pathlib import Path
 
 import pytest
+import torch
 from torchrl.envs import Transform
 
 import vigen.evaluation.rollout as rollout
@@ -143,3 +144,13 @@ def test_max_steps_below_one_is_refused_before_any_env_is_built():
 
     with pytest.raises(ValueError, match="max_steps must be at least 1"):
         rollout.evaluate(None, factory, ["train"], episodes=1, max_steps=0)
+
+
+def test_a_policy_with_the_wrong_action_shape_is_named_before_the_env_steps():
+    from vigen.evaluation import EvaluationError
+
+    def policy(tensordict):
+        return tensordict.set("action", torch.zeros(3))  # cartpole takes one action
+
+    with pytest.raises(EvaluationError, match=r"action has shape \(3,\), but the env's action spec has \(1,\)"):
+        rollout.evaluate(policy, "dmc/cartpole-balance", ["train"], episodes=1, max_steps=2, env_options=TINY)

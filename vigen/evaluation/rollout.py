@@ -341,9 +341,25 @@ def _random_policy(env: EnvBase, seed: int) -> Policy | None:
     return act
 
 
+def _shape_checked(policy: Policy, spec: Any) -> Policy:
+    """``policy``, refusing (before the env steps) an action whose shape is not the env's action spec's."""
+    def act(tensordict: TensorDictBase) -> TensorDictBase:
+        out = policy(tensordict)
+        action = out.get("action", None)
+        if action is None:
+            raise KeyError("the policy wrote no 'action' entry; a policy takes the env's tensordict and sets 'action'.")
+        if action.shape != spec.shape:
+            raise ValueError(f"the policy's action has shape {tuple(action.shape)}, but the env's action spec has "
+                             f"{tuple(spec.shape)}; build the policy for this env's action size "
+                             f"(make_loss(..., action_dim={spec.shape[-1] if len(spec.shape) else 1})).")
+        return out
+    return act
+
+
 def _play(policy: Policy | None, env: EnvBase, max_steps: int) -> dict[str, Any]:
     with set_exploration_type(ExplorationType.DETERMINISTIC), torch.no_grad():
-        trajectory = env.rollout(max_steps, policy, break_when_any_done=True)
+        trajectory = env.rollout(max_steps, policy if policy is None else _shape_checked(policy, env.action_spec),
+                                 break_when_any_done=True)
     episode = trajectory["next"]
     result: dict[str, Any] = {
         "return": float(episode["reward"].sum()),
