@@ -148,3 +148,10 @@ def test_worker_failure_from_a_bad_level_option_shows_its_cause(tmp_path):
             env.reset()
         finally:
             env.close(raise_if_closed=False)
+
+
+def test_a_folder_given_as_the_video_index_is_refused_at_build_with_the_fix():
+    from vigen.envs import make_env
+
+    with pytest.raises(TypeError, match=r"video is the index of the one video to play.*level_options=\{'videos': 'x'\}"):
+        make_env("dmc/walker-walk", generalization="video_hard", level_options={"video": "x"})

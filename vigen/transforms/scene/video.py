@@ -99,6 +99,10 @@ class VideoBackground(SceneTransform):
             raise ValueError(f"VideoBackground: playback must be one of {PLAYBACKS}, got {playback!r}.")
         if isinstance(alpha, bool) or not isinstance(alpha, (int, float)) or not 0.0 <= alpha <= 1.0:
             raise ValueError(f"VideoBackground: alpha is the video's weight on background pixels, in [0, 1]; got {alpha!r}.")
+        if video is not None and (isinstance(video, bool) or not isinstance(video, (int, np.integer))):
+            raise TypeError(f"VideoBackground: video is the index of the one video to play (an int, wrapped), or None to "
+                            f"take them in turn; got {video!r}. A folder of videos goes to videos=..., e.g. "
+                            f"level_options={{'videos': {video!r}}}.")
         if num_videos is not None and (isinstance(num_videos, bool) or not isinstance(num_videos, int) or num_videos < 1):
             raise ValueError(f"VideoBackground: num_videos is a count >= 1 or None (all videos), got {num_videos!r}.")
         if ground_plane_alpha is not None:
