@@ -133,6 +133,24 @@ class ImageBank:
         return f"ImageBank({self.name}, {len(self)} images of {tuple(self.images.shape[-2:])})"
 
 
+def check_image_folder(images: str | os.PathLike, *, owner: str) -> None:
+    """Raise, naming ``owner``, if ``images`` is not a folder: a ``NotADirectoryError`` for a file, else ``FileNotFoundError``.
+
+    Examples:
+        >>> check_image_folder("/no/such/folder", owner="RandomOverlay")
+        Traceback (most recent call last):
+        ...
+        FileNotFoundError: RandomOverlay: overlay image folder /no/such/folder does not exist.
+    """
+    path = Path(images).expanduser()
+    if path.is_dir():
+        return
+    if path.exists():
+        raise NotADirectoryError(f"{owner}: {images} is a file, not a folder; give the folder that holds the overlay "
+                                 "images (PNG or JPEG files, e.g. a Places365 copy).")
+    raise FileNotFoundError(f"{owner}: overlay image folder {images} does not exist.")
+
+
 def _labmaze_textures() -> list[Path]:
     try:
         import labmaze

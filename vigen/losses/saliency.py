@@ -220,6 +220,16 @@ class _Guided(torch.autograd.Function):
         return grad.clamp(min=0)
 
 
+def install_guided_forward(loss: ActorCriticLoss) -> None:
+    """Give ``loss`` the :class:`GuidedForward` (on its encoder and critic) that :func:`salient_q_consistency` uses when compiled.
+
+    SGQN's and SCPL's ``prepare_compile``: the hooks do nothing until a compiled update's guided
+    pass sets them active; the eager update keeps recording its one pass (:class:`GuidedBackprop`).
+    """
+    if getattr(loss, "guided_forward", None) is None:
+        loss.guided_forward = GuidedForward(loss.encoder, loss.critic)
+
+
 def salient_q_consistency(loss: ActorCriticLoss, pixels: Tensor, action: Tensor, quantile: float) -> SalientQ:
     """SGQN's and SCPL's Q consistency with the salient pixels, from one recorded critic pass.
 

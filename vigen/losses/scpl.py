@@ -11,7 +11,7 @@ from tensordict import TensorDictBase
 from torch import Tensor, nn
 
 from vigen.losses.base import ActorResult, Augmentations, AuxiliaryResult, CriticResult, Observations, td_error
-from vigen.losses.saliency import GuidedBackprop, GuidedForward, salient_q_consistency
+from vigen.losses.saliency import GuidedBackprop, install_guided_forward, salient_q_consistency
 from vigen.losses.sampling import squashed_normal_sample
 from vigen.losses.svea_sac import SACSVEALoss
 from vigen.transforms import RandomOverlay
@@ -193,14 +193,7 @@ class SCPLLoss(SACSVEALoss):
 
     _schedulable_buffers = frozenset({"consistency_weight", "kl_weight", "dynamics_weight"})
 
-    def prepare_compile(self) -> None:
-        """Install the guided-backprop hooks a compiled update uses (:class:`~vigen.losses.saliency.GuidedForward`).
-
-        They do nothing until a compiled update's guided pass sets them active; the eager update
-        keeps recording its one pass (:class:`~vigen.losses.GuidedBackprop`).
-        """
-        if getattr(self, "guided_forward", None) is None:
-            self.guided_forward = GuidedForward(self.encoder, self.critic)
+    prepare_compile = install_guided_forward  # a compiled update's guided pass
 
     @staticmethod
     def _default_strong_augmentation() -> Augmentations:

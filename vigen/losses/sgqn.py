@@ -11,7 +11,7 @@ from torch import Tensor, nn
 
 from vigen.losses.base import ActorResult, Augmentations, AuxiliaryResult, CriticResult, Observations, td_error
 from vigen.losses.drqv2 import DrQv2Loss
-from vigen.losses.saliency import GuidedBackprop, GuidedForward, salient_q_consistency
+from vigen.losses.saliency import GuidedBackprop, install_guided_forward, salient_q_consistency
 from vigen.transforms import RandomOverlay
 
 
@@ -101,14 +101,7 @@ class SGQNLoss(DrQv2Loss):
 
     _schedulable_buffers = frozenset({"consistency_weight"})
 
-    def prepare_compile(self) -> None:
-        """Install the guided-backprop hooks a compiled update uses (:class:`~vigen.losses.saliency.GuidedForward`).
-
-        They do nothing until a compiled update's guided pass sets them active; the eager update
-        keeps recording its one pass (:class:`~vigen.losses.GuidedBackprop`).
-        """
-        if getattr(self, "guided_forward", None) is None:
-            self.guided_forward = GuidedForward(self.encoder, self.critic)
+    prepare_compile = install_guided_forward  # a compiled update's guided pass
 
     def critic_loss(self, batch: Observations, target: Tensor) -> SaliencyCriticResult:
         """TD loss of ``s`` plus ``λ·`` the consistency of Q on ``s`` and on its salient pixels ``s_M``."""

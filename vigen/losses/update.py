@@ -103,22 +103,21 @@ class UpdateStep:
         if cudagraph and device.type != "cuda":
             raise ValueError(f"UpdateStep: cudagraph=True needs a loss on CUDA; this one is on {device}.")
         if compile:
-            seeded = [type(module).__name__ for module in loss.modules() if getattr(module, "seed", None) is not None
-                      and hasattr(module, "generator")]
+            seeded = [type(module).__name__ for module in loss.modules()
+                      if isinstance(module, ImageAugmentation) and module.seed is not None]
             if seeded:
                 raise ValueError(
                     f"UpdateStep(compile=True): the loss's augmentations {', '.join(seeded)} draw from their own "
                     "torch.Generator, which torch.compile cannot trace. Build the loss without seed "
                     "(make_loss(..., seed=None)) and seed torch's global RNG (torch.manual_seed(seed)) instead."
                 )
-        if compile and not isinstance(optimizer, torch.optim.Adam):
-            raise TypeError(f"UpdateStep(compile=True) steps torch.optim.Adam or AdamW through their functional form "
-                            f"(Optimizer.step breaks the graph on purpose); got {type(optimizer).__name__}.")
-        if compile:
+            if not isinstance(optimizer, torch.optim.Adam):
+                raise TypeError(f"UpdateStep(compile=True) steps torch.optim.Adam or AdamW through their functional form "
+                                f"(Optimizer.step breaks the graph on purpose); got {type(optimizer).__name__}.")
+            if loss.compiles_whole and any(group.get("fused") for group in optimizer.param_groups):
+                raise ValueError("UpdateStep(compile=True): torch.compile does not trace a fused Adam (torch.optim.Adam(..., "
+                                 "fused=True)); build it with fused=False: the compiled update fuses the step itself.")
             loss.prepare_compile()
-        if compile and loss.compiles_whole and any(group.get("fused") for group in optimizer.param_groups):
-            raise ValueError("UpdateStep(compile=True): torch.compile does not trace a fused Adam (torch.optim.Adam(..., fused=True)); "
-                             "build it with fused=False: the compiled update fuses the step itself.")
         if cudagraph and not all(group.get("capturable", False) for group in optimizer.param_groups):
             raise ValueError("UpdateStep(cudagraph=True): the optimizer must be capturable, e.g. "
                              "torch.optim.Adam(loss.optimizer_groups(lr), capturable=True).")
@@ -136,9 +135,9 @@ class UpdateStep:
         options = {"options": {"fallback_random": True}} if backend == "inductor" else {}
         self.whole = compile and loss.compiles_whole  # the whole update in one graph; else the loss's forward alone
         self._forward = loss
-        step = _own_code(self._update)
+        step = self._update
         if self.whole:
-            step = torch.compile(step, fullgraph=True, dynamic=False, backend=backend, mode=mode, **options)
+            step = torch.compile(_own_code(step), fullgraph=True, dynamic=False, backend=backend, mode=mode, **options)
         elif compile:
             self._forward = torch.compile(_own_code(loss.forward), dynamic=False, backend=backend, mode=mode, **options)
         if cudagraph:
@@ -161,7 +160,7 @@ class UpdateStep:
             if self.whole:
                 self._init_adam_state()
             for module in self.loss.modules():  # image banks load and move to the device outside the graph
-                if isinstance(module, ImageAugmentation):
+                if isinstance(module, ImageAugmentation) and pixels is not None:
                     module.prepare(pixels.shape, self.device)
         try:
             self.optimizer.zero_grad(set_to_none=not self.cudagraph)  # dynamo does not trace zero_grad
@@ -239,13 +238,6 @@ class UpdateStep:
                 f"{type(self.loss).__name__}: {count} update(s) had a NaN or inf loss; their gradients were zeroed, so the "
                 "parameters are finite, but training has diverged: lower the learning rate, clip gradients or scale the "
                 "rewards, and check the replay buffer for NaN or inf entries.")
-
-    def state_dict(self) -> dict[str, Any]:
-        """The guard's counter (the loss, optimizer and target update keep their own state)."""
-        return {"diverged_updates": self._diverged.detach().cpu()}
-
-    def load_state_dict(self, state: dict[str, Any]) -> None:
-        self._diverged.copy_(state["diverged_updates"])
 
 
 def _own_code(method: Callable[..., Any]) -> Callable[..., Any]:

@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from pathlib import Path
 
 import torch
 from tensordict.utils import NestedKey
 from torch import Tensor
 
-from vigen.assets.image_bank import ImageBank
+from vigen.assets.image_bank import ImageBank, check_image_folder
 from vigen.transforms.augmentations import functional
 from vigen.transforms.augmentations.base import ImageAugmentation, Params, check_parameter
 
@@ -80,11 +79,8 @@ class RandomShiftedOverlay(ImageAugmentation):
         check_parameter(name, "max_shift", max_shift, low=0, integer=True)
         if images is not None and not isinstance(images, (ImageBank, str, os.PathLike)):
             raise TypeError(f"{name}: images must be an ImageBank, a folder path or None, got {type(images).__name__}.")
-        if isinstance(images, (str, os.PathLike)) and not Path(images).expanduser().is_dir():
-            if Path(images).expanduser().exists():
-                raise NotADirectoryError(f"{name}: {images} is a file, not a folder; give the folder that holds the overlay "
-                                         "images (PNG or JPEG files, e.g. a Places365 copy).")
-            raise FileNotFoundError(f"{name}: overlay image folder {images} does not exist.")
+        if isinstance(images, (str, os.PathLike)):
+            check_image_folder(images, owner=name)
         super().__init__(in_keys, out_keys, max_value=max_value, seed=seed)
         self.alpha = alpha
         self.max_shift = int(max_shift)
