@@ -19,7 +19,7 @@ class Source:
         license: the repository's license.
         read_from: the file(s) in that repository (or the paper's table) the numbers were read from, and how.
         reproduced_by: published method -> the vigen algorithm (``vigen.losses.ALGOS``) that runs the same update as
-            the code behind these numbers (checked by ``benchmarks/parity.py``); a method not listed was published
+            the code behind these numbers (checked by ``python -m benchmarks.parity``); a method not listed was published
             from another implementation than vigen's algorithm of that name (e.g. DMC-GB's SAC-based SVEA, where
             vigen's ``svea`` is RL-ViGen's DrQ-v2-based one).
 
