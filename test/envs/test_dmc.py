@@ -15,7 +15,6 @@ from torchrl.envs import CatFrames, ParallelEnv, SerialEnv
 from torchrl.envs.utils import check_env_specs
 
 from vigen.envs import make_env
-from vigen.envs.dmc import make_dmc_env
 from vigen.envs.dmc_env import ActionRepeat, DMCPixelEnv
 from vigen.rendering import RenderSettings
 
@@ -128,7 +127,7 @@ class TestMakeDMCEnv:
         check_env_specs(make_env(name, seed=0, render_settings=FAST))
 
     def test_action_repeat_renders_once_per_agent_step(self, monkeypatch):
-        env = make_dmc_env("walker", "walk", seed=0, render_settings=FAST)
+        env = make_env("dmc/walker-walk", seed=0, render_settings=FAST)
         physics = env.base_env.physics
         renders = []
         render = physics.render

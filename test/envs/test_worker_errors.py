@@ -17,7 +17,8 @@ from torchrl.envs import TransformedEnv
 from torchrl.envs.transforms import StepCounter
 
 from vigen.envs import ParallelEnv, WorkerError, make_env
-from vigen.envs.parallel import build_reporting_env, record_failure
+from vigen.envs.failure_report import record_failure
+from vigen.envs.parallel import build_reporting_env
 from vigen.rendering import RenderSettings
 from vigen.transforms.scene import ScenePerturbation
 

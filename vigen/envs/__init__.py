@@ -7,7 +7,7 @@ Examples:
     torch.Size([100, 9, 84, 84])
 """
 
-from vigen.envs.levels import level_label
+from vigen.envs.level_types import level_label
 from vigen.envs.parallel import ParallelEnv, WorkerError
 from vigen.envs.registry import SUITES, available_envs, factors, get_suite, make_env
 from vigen.envs.suite import Suite

@@ -15,16 +15,10 @@ have no ``top`` camera (RL-ViGen's door and hammer view) and no skybox, so every
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
 
-import mujoco
-import numpy as np
-from torchrl.envs import Transform
-
+from vigen.envs.adroit_env import TASKS, AdroitPixelEnv
 from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
-from vigen.envs.levels import Factor, Level, ProceduralImages, Scaled, Step
-from vigen.envs.pixels import PixelEnv
+from vigen.envs.level_types import Factor, Level, ProceduralImages, Scaled, Step
 from vigen.envs.suite import Suite
 from vigen.transforms import (
     DistractingCamera,
@@ -35,20 +29,8 @@ from vigen.transforms import (
     VideoBackground,
 )
 
-if TYPE_CHECKING:
-    from vigen.envs.adroit_env import AdroitPixelEnv
-
-TASKS = {"door": "AdroitHandDoorEnv", "hammer": "AdroitHandHammerEnv", "pen": "AdroitHandPenEnv"}
-"""vigen name -> gymnasium-robotics env class (module ``adroit_<name>``)."""
-
 HAND_PARTS = ("C_", "V_", "MatColl", "MatViz", "forearm", "Adroit", "ARM", "arm")
 """Name prefixes of the hand's and arm's geoms and materials, which the colour levels leave alone."""
-
-EPISODE_LENGTHS = {"door": 200, "hammer": 200, "pen": 100}
-"""Simulator steps per episode (DAPG / mj_envs ``max_episode_steps``, as in RL-ViGen)."""
-
-SUCCESS_STEPS = {"door": 25, "hammer": 25, "pen": 20}
-"""An episode succeeds once the goal holds on more than this many simulator steps (DAPG's ``evaluate_success``)."""
 
 TABLE_TEXTURES = ("marble2d", "marblecube")
 """The table top's textures, which the colour and video levels replace (RL-ViGen: one of 10 per level)."""
@@ -142,49 +124,11 @@ FACTORS: dict[str, Factor] = {
 """Factor name -> its transforms at intensity ``x``."""
 
 
-class AdroitScene:
-    """The :class:`~vigen.transforms.scene.SceneHandle` of an Adroit env and its renderer."""
-
-    def __init__(self, env: AdroitPixelEnv) -> None:
-        self._env = env
-
-    @property
-    def model(self) -> mujoco.MjModel:
-        return self._env._env.model
-
-    @property
-    def data(self) -> mujoco.MjData:
-        return self._env._env.data
-
-    def upload_texture(self, texture_id: int) -> None:
-        renderer = self._env.renderer
-        renderer._gl_context.make_current()
-        mujoco.mjr_uploadTexture(self.model, renderer._mjr_context, texture_id)
-
-    def segmentation(self) -> np.ndarray:
-        """``[H, W, 2]`` int32 (object id, object type) of the env's camera; ``-1`` where nothing is hit."""
-        renderer = self._env.renderer
-        renderer.enable_segmentation_rendering()
-        try:
-            renderer.update_scene(self.data, camera=self._env.camera)
-            return renderer.render()
-        finally:
-            renderer.disable_segmentation_rendering()
-
-
-def build_adroit_base(task: str, *, seed: int | None = None, **options: Any) -> Any:
-    """The raw-frame base env of ``"adroit/<task>"`` (gymnasium-robotics is imported when it is built)."""
-    from vigen.envs.adroit_env import AdroitPixelEnv
-
-    return AdroitPixelEnv(task, seed=seed, **options)
-
-
 ADROIT = Suite(
     name="adroit",
     about="Adroit dexterous hand, adroit/<task> (door, hammer, pen); extra [adroit]",
     tasks=lambda: list(TASKS),
-    build_base=build_adroit_base,
-    scene_handle=AdroitScene,
+    build_base=AdroitPixelEnv,
     levels=LEVELS,
     groups=GROUPS,
     factors=FACTORS,
@@ -194,36 +138,3 @@ ADROIT = Suite(
     install='pip install -e ".[adroit]"',
 )
 """The Adroit suite record."""
-
-
-def make_adroit_env(
-    task: str,
-    *,
-    frame_stack: int = 3,
-    generalization: str | dict[str, float] | Sequence[Transform] | None = None,
-    seed: int | None = None,
-    level_options: dict[str, Any] | None = None,
-    **env_options: Any,
-) -> PixelEnv:
-    """Build an Adroit task as a TorchRL pixel env (RL-ViGen's frames: 84×84, a stack of 3).
-
-    Args:
-        task: ``"door"``, ``"hammer"`` or ``"pen"``.
-        frame_stack: frames stacked along channels (``"pixels"`` is ``[3·frame_stack, H, W]``).
-        generalization: a level name (:data:`LEVELS`), a dict of factor intensities (:data:`FACTORS`,
-            e.g. ``{"table_color": 0.5}``) or a list of vigen transforms.
-        seed: seeds the task's first reset and every perturbation of the env, the ``i``-th with
-            ``derive_seed(seed, i)``, as ``env.set_seed(seed)`` does later.
-        level_options: passed to the level's transforms that accept them, e.g. ``{"videos": folder}``
-            for the video levels (default: procedural videos); unknown keys raise, listing the valid ones.
-        **env_options: options of :class:`~vigen.envs.adroit_env.AdroitPixelEnv` (``action_repeat``, ``image_size``,
-            ``camera``, ``episode_length`` (200; pen 100), ``render_settings``, ``device``).
-
-    Examples:
-        >>> from vigen.envs import make_env
-        >>> env = make_env("adroit/door", generalization="video_hard", seed=0)  # doctest: +SKIP
-        >>> env.rollout(2)["pixels"].shape  # doctest: +SKIP
-        torch.Size([2, 9, 84, 84])
-    """
-    return ADROIT.make(task, frame_stack=frame_stack, generalization=generalization, seed=seed, level_options=level_options,
-                       **env_options)

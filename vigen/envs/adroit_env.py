@@ -15,15 +15,55 @@ import torch
 from tensordict import TensorDict, TensorDictBase
 from torchrl.envs.common import _EnvWrapper
 
-from vigen.envs.adroit import EPISODE_LENGTHS, SUCCESS_STEPS, TASKS, AdroitScene
 from vigen.envs.pixels import check_env_arguments, set_task_specs
 from vigen.rendering import RenderSettings
+
+
+TASKS = {"door": "AdroitHandDoorEnv", "hammer": "AdroitHandHammerEnv", "pen": "AdroitHandPenEnv"}
+"""vigen name -> gymnasium-robotics env class (module ``adroit_<name>``)."""
+
+EPISODE_LENGTHS = {"door": 200, "hammer": 200, "pen": 100}
+"""Simulator steps per episode (DAPG / mj_envs ``max_episode_steps``, as in RL-ViGen)."""
+
+SUCCESS_STEPS = {"door": 25, "hammer": 25, "pen": 20}
+"""An episode succeeds once the goal holds on more than this many simulator steps (DAPG's ``evaluate_success``)."""
+
+
+class AdroitScene:
+    """The :class:`~vigen.transforms.scene.SceneHandle` of an Adroit env and its renderer."""
+
+    def __init__(self, env: AdroitPixelEnv) -> None:
+        self._env = env
+
+    @property
+    def model(self) -> mujoco.MjModel:
+        return self._env._env.model
+
+    @property
+    def data(self) -> mujoco.MjData:
+        return self._env._env.data
+
+    def upload_texture(self, texture_id: int) -> None:
+        renderer = self._env.renderer
+        renderer._gl_context.make_current()
+        mujoco.mjr_uploadTexture(self.model, renderer._mjr_context, texture_id)
+
+    def segmentation(self) -> np.ndarray:
+        """``[H, W, 2]`` int32 (object id, object type) of the env's camera; ``-1`` where nothing is hit."""
+        renderer = self._env.renderer
+        renderer.enable_segmentation_rendering()
+        try:
+            renderer.update_scene(self.data, camera=self._env.camera)
+            return renderer.render()
+        finally:
+            renderer.disable_segmentation_rendering()
 
 
 class AdroitPixelEnv(_EnvWrapper):
     """An Adroit hand task rendered to uint8 HWC frames, with the action repeat under the renderer.
 
-    The TorchRL base env of :func:`make_adroit_env`. The action is the hand's (and arm's) joint
+    The TorchRL base env of the ``adroit/`` suite (:func:`vigen.envs.make_env` adds the levels and the
+    frame stack). The action is the hand's (and arm's) joint
     targets in [-1, 1]; rewards (DAPG's dense reward) are summed over repeated steps; an episode
     ends at ``episode_length`` simulator steps as a truncation (the tasks do not terminate).
     ``"success"`` follows DAPG's criterion, which RL-ViGen reports: it turns true once the goal

@@ -11,16 +11,15 @@ Examples:
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-import mujoco
-import numpy as np
-from torchrl.envs import DoubleToFloat, Transform
+from torchrl.envs import DoubleToFloat, EnvBase
 
 from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
-from vigen.envs.levels import Derived, Factor, Level, LevelContext, Scaled, Step
+from vigen.envs.level_types import Derived, Factor, Level, LevelContext, Scaled, Step
 from vigen.envs.pixels import PixelEnv
 from vigen.envs.suite import Suite
 from vigen.transforms import (
@@ -241,46 +240,12 @@ def dmc_tasks() -> list[str]:
     return task_names()
 
 
-def build_dmc_base(task: str, *, seed: int | None = None, **options: Any) -> Any:
-    """The raw-frame base env of ``"dmc/<task>"`` (imports dm_control)."""
-    from vigen.envs.dmc_env import build_dmc_base as build
+def build_dmc_base(task: str, *, seed: int | None = None, **options: Any) -> EnvBase:
+    """The raw-frame base env of ``"dmc/<domain>-<task>"``: a :class:`~vigen.envs.dmc_env.DMCPixelEnv` (imports dm_control)."""
+    from vigen.envs.dmc_env import DMCPixelEnv
 
-    return build(task, seed=seed, **options)
-
-
-class DMCScene:
-    """The :class:`~vigen.transforms.scene.SceneHandle` of a dm_control physics.
-
-    Examples:
-        >>> from vigen.envs.dmc_env import DMCPixelEnv
-        >>> scene = DMCPixelEnv("walker", "walk", image_size=64).scene
-        >>> scene.model.ntex, scene.data.time
-        (2, 0.0)
-        >>> scene.segmentation().shape
-        (64, 64, 2)
-    """
-
-    def __init__(self, physics: Any, segmentation_camera: Any) -> None:
-        self._physics = physics
-        self._segmentation_camera = segmentation_camera
-
-    @property
-    def model(self) -> mujoco.MjModel:
-        return self._physics.model.ptr
-
-    @property
-    def data(self) -> mujoco.MjData:
-        return self._physics.data.ptr
-
-    def segmentation(self) -> np.ndarray:
-        """``[H, W, 2]`` int32 (object id, object type) of the env's camera view; ``-1`` where nothing is hit."""
-        return self._segmentation_camera().render(segmentation=True)
-
-    def upload_texture(self, texture_id: int) -> None:
-        contexts = self._physics._contexts  # None until the first render, which uploads everything
-        if contexts is not None:
-            with contexts.gl.make_current() as ctx:
-                ctx.call(mujoco.mjr_uploadTexture, self.model, contexts.mujoco.ptr, texture_id)
+    domain, _, name = task.partition("-")
+    return DMCPixelEnv(domain, name, seed=seed, **options)
 
 
 DMC = Suite(
@@ -288,7 +253,6 @@ DMC = Suite(
     about="dm_control suite tasks, dmc/<domain>-<task> (e.g. dmc/walker-walk)",
     tasks=dmc_tasks,
     build_base=build_dmc_base,
-    scene_handle=DMCScene,
     levels=LEVELS,
     groups=GROUPS,
     factors=FACTORS,
@@ -300,47 +264,17 @@ DMC = Suite(
 """The dm_control suite record."""
 
 
-def make_dmc_env(
-    domain: str,
-    task: str,
-    *,
-    frame_stack: int = 3,
-    generalization: str | dict[str, float] | Sequence[Transform] | None = None,
-    seed: int | None = None,
-    level_options: dict[str, Any] | None = None,
-    **env_options: Any,
-) -> PixelEnv:
-    """Build a dm_control suite task as a TorchRL pixel env (DrQ-v2's setup by default).
-
-    Args:
-        domain: suite domain, e.g. ``"walker"`` (``"cup"`` is accepted for ``"ball_in_cup"``).
-        task: suite task, e.g. ``"walk"``.
-        frame_stack: frames stacked along channels (``"pixels"`` is ``[3·frame_stack, H, W]``).
-            Use 1 to store single frames and stack at replay-buffer sampling time
-            (``CatFrames.make_rb_transform_and_sampler``), which takes a third of the memory.
-        generalization: a level name (:data:`LEVELS`, e.g. ``"color_hard"``; ``None`` or
-            ``"train"`` is the clean scene), a dict of factor intensities (:data:`FACTORS`, e.g.
-            ``{"camera_rotation": 0.3}``) or a list of vigen transforms. Scene perturbations act on
-            the raw frames, pixel corruptions on each frame before stacking.
-        seed: seeds the task (initial poses and targets) and every perturbation of the env, the
-            ``i``-th with ``derive_seed(seed, i)``; ``env.set_seed(seed)`` later does the same.
-        level_options: passed to the level's transforms that accept them, e.g.
-            ``{"videos": "/data/dmcgb/video_hard"}`` or ``{"palette": ".../color_hard.pt"}``; a key no
-            transform of the suite takes raises, listing the valid ones.
-        **env_options: options of :class:`~vigen.envs.dmc_env.DMCPixelEnv`: ``action_repeat`` (2),
-            ``image_size`` (84), ``camera_id`` (2 for quadruped, else 0), ``episode_length`` (1000
-            simulator steps), ``render_settings`` (dm_control's; :meth:`RenderSettings.fast` is ~3×
-            faster on CPU-only machines) and ``device``.
-
-    Returns:
-        A :class:`~vigen.envs.pixels.PixelEnv` (a ``TransformedEnv``) with uint8 ``"pixels"``, float32
-        ``"action"`` in [-1, 1] (task bounds) and ``"reward"``, and ``"done"``/``"terminated"``/``"truncated"`` flags.
+def make_dmc_env(domain: str, task: str, **kwargs: Any) -> PixelEnv:
+    """Deprecated: ``make_env(f"dmc/{domain}-{task}", **kwargs)``, the one builder of every suite, does the same.
 
     Examples:
-        >>> from vigen.envs.dmc import make_dmc_env
-        >>> env = make_dmc_env("walker", "walk", seed=0)
-        >>> env.rollout(5)["pixels"].shape
-        torch.Size([5, 9, 84, 84])
+        >>> import warnings
+        >>> with warnings.catch_warnings(record=True) as caught:
+        ...     warnings.simplefilter("always")
+        ...     env = make_dmc_env("walker", "walk", seed=0, image_size=32)
+        >>> caught[0].category.__name__, env.reset()["pixels"].shape
+        ('DeprecationWarning', torch.Size([9, 32, 32]))
     """
-    return DMC.make(f"{domain}-{task}", frame_stack=frame_stack, generalization=generalization, seed=seed,
-                    level_options=level_options, **env_options)
+    warnings.warn(f'make_dmc_env is deprecated; use vigen.envs.make_env("dmc/{domain}-{task}", ...), which takes the same '
+                  "arguments.", DeprecationWarning, stacklevel=2)
+    return DMC.make(f"{domain}-{task}", **kwargs)

@@ -28,7 +28,6 @@ from dm_control.mujoco.engine import Camera
 from dm_control.suite.wrappers import pixels
 from torchrl.envs.libs.dm_control import DMControlWrapper
 
-from vigen.envs.dmc import DMCScene
 from vigen.envs.pixels import check_env_arguments
 from vigen.rendering import RenderSettings
 
@@ -49,12 +48,6 @@ def task_names() -> list[str]:
     names = [f"{domain}-{task}" for domain, task in suite.ALL_TASKS]
     aliases = {full: short for short, full in DOMAIN_ALIASES.items()}
     return names + [f"{aliases[d]}-{t}" for d, t in suite.ALL_TASKS if d in aliases]
-
-
-def build_dmc_base(task: str, *, seed: int | None = None, **options: Any) -> DMCPixelEnv:
-    """The base env of ``"dmc/<domain>-<task>"``: :class:`DMCPixelEnv` from the name's ``"<domain>-<task>"`` part."""
-    domain, _, name = task.partition("-")
-    return DMCPixelEnv(domain, name, seed=seed, **options)
 
 
 class ActionRepeat(dm_env.Environment):
@@ -133,10 +126,44 @@ class ActionRepeat(dm_env.Environment):
         self._env.close()
 
 
+class DMCScene:
+    """The :class:`~vigen.transforms.scene.SceneHandle` of a dm_control physics.
+
+    Examples:
+        >>> scene = DMCPixelEnv("walker", "walk", image_size=64).scene
+        >>> scene.model.ntex, scene.data.time
+        (2, 0.0)
+        >>> scene.segmentation().shape
+        (64, 64, 2)
+    """
+
+    def __init__(self, physics: Any, segmentation_camera: Any) -> None:
+        self._physics = physics
+        self._segmentation_camera = segmentation_camera
+
+    @property
+    def model(self) -> mujoco.MjModel:
+        return self._physics.model.ptr
+
+    @property
+    def data(self) -> mujoco.MjData:
+        return self._physics.data.ptr
+
+    def segmentation(self) -> np.ndarray:
+        """``[H, W, 2]`` int32 (object id, object type) of the env's camera view; ``-1`` where nothing is hit."""
+        return self._segmentation_camera().render(segmentation=True)
+
+    def upload_texture(self, texture_id: int) -> None:
+        contexts = self._physics._contexts  # None until the first render, which uploads everything
+        if contexts is not None:
+            with contexts.gl.make_current() as ctx:
+                ctx.call(mujoco.mjr_uploadTexture, self.model, contexts.mujoco.ptr, texture_id)
+
+
 class DMCPixelEnv(DMControlWrapper):
     """A dm_control suite task rendered to uint8 HWC frames, with the action repeat under the renderer.
 
-    The TorchRL base env of :func:`make_dmc_env` (which adds channel-first frames, frame stacking
+    The TorchRL base env of the ``dmc/`` suite (:func:`vigen.envs.make_env` adds channel-first frames, frame stacking
     and float32 actions and rewards). It follows TorchRL's ``DMControlWrapper`` for specs, seeding
     and flags: an episode that ends with discount 1 (the time limit) is ``truncated``, one that
     ends with discount 0 is ``terminated``. :attr:`physics` is the live MuJoCo model, data and

@@ -15,7 +15,7 @@ Examples:
 
 from __future__ import annotations
 
-from vigen.envs.levels import Factor, Scaled, Severity, Span, Step
+from vigen.envs.level_types import Factor, Scaled, Severity, Span, Step
 from vigen.transforms import DistractingColors, PixelCorruption, RandomCamera, RandomLighting
 from vigen.transforms.corruptions import SEVERITIES
 

@@ -1,314 +1,49 @@
-"""Levels as data: what a named level or a factor at some intensity applies, and how it is built.
+"""Levels across the suites: group names resolved for a suite, and ``docs/levels.md`` rendered from every suite's tables.
 
-A :class:`Level` (``"color_hard"``, robosuite's ``"easy"``, DMC-GB2's ``"rotate_hard"``) and a
-:class:`Factor` (``"camera_rotation"`` at an intensity in [0, 1]) are lists of :class:`Step`:
-a transform class and its parameters. A parameter is a plain value, or a small named rule
-(:class:`Derived`) that reads the :class:`LevelContext` — the task, the scene id or the
-intensity — such as :class:`Scaled` (``0.05·x``) or :class:`ByTask`. Every suite declares its
-tables in its :class:`~vigen.envs.suite.Suite` record; ``docs/levels.md`` is generated from them
-(``python -m vigen.envs.levels > docs/levels.md``) and a test keeps the two equal.
+The types level tables are written in (:class:`Level`, :class:`Factor`, :class:`Step`, the
+:class:`Derived` rules, ...) are defined in :mod:`vigen.envs.level_types`, which imports no suite,
+and are importable from here too. This module sits above the registry: ``docs/levels.md`` is
+generated from the suites' tables (``python -m vigen.envs.levels > docs/levels.md``) and a test
+keeps the two equal.
 
 Examples:
-    >>> from vigen.envs.levels import LevelContext, Scaled, Step
-    >>> from vigen.transforms import RandomCamera
-    >>> step = Step(RandomCamera, {"position": 0.0, "rotation_deg": Scaled(90.0)})
-    >>> step.build(LevelContext("walker-walk", intensity=0.1))
-    RandomCamera(position=0.0, rotation_deg=9.0, fov_deg=None)
+    >>> from vigen.envs.levels import Level, resolve_levels
+    >>> resolve_levels(["train", "dmcgb"], suite="dmc")
+    ['train', 'color_easy', 'color_hard', 'video_easy', 'video_hard']
 """
 
 from __future__ import annotations
 
-import inspect
-import math
-import numbers
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
 from typing import Any
 
-import torch
-from torchrl.envs import Transform
-
-from vigen.assets.image_bank import ImageBank
-
-
-@dataclass(frozen=True)
-class LevelContext:
-    """What a level's parameters may depend on: the task, the scene id (robosuite's 0..9) and the factor intensity."""
-
-    task: str
-    scene_id: int = 0
-    intensity: float = 1.0
-
-
-class Derived:
-    """A parameter computed from the :class:`LevelContext` by a small named rule; ``repr`` is its formula.
-
-    Subclasses set :attr:`depends_on_scene` when the value follows the scene id, so an env can
-    move its level to another scene without rebuilding it.
-    """
-
-    depends_on_scene = False
-
-    def __call__(self, context: LevelContext) -> Any:
-        raise NotImplementedError
-
-
-@dataclass(frozen=True, repr=False)
-class ByTask(Derived):
-    """The value for the context's task, from a table.
-
-    Examples:
-        >>> ByTask({"door": ("door",), "lift": ("cube",)})(LevelContext("lift"))
-        ('cube',)
-    """
-
-    table: Mapping[str, Any]
-
-    def __call__(self, context: LevelContext) -> Any:
-        return self.table[context.task]
-
-    def __repr__(self) -> str:
-        return "by task: " + ", ".join(f"{task}: {value!r}" for task, value in self.table.items())
-
-
-@dataclass(frozen=True, repr=False)
-class SceneIndex(Derived):
-    """``offset + scene_id``: the scene's own draw, e.g. its texture set or its video.
-
-    Examples:
-        >>> SceneIndex(10)(LevelContext("door", scene_id=3))
-        13
-    """
-
-    offset: int = 0
-    depends_on_scene = True
-
-    def __call__(self, context: LevelContext) -> int:
-        return self.offset + context.scene_id
-
-    def __repr__(self) -> str:
-        return f"{self.offset} + scene_id" if self.offset else "scene_id"
-
-
-@dataclass(frozen=True, repr=False)
-class Scaled(Derived):
-    """``scale · x`` for the intensity ``x`` (a tuple scales each entry).
-
-    Examples:
-        >>> Scaled(0.5)(LevelContext("walk", intensity=0.2)), Scaled((1.0, 0.5))(LevelContext("walk", intensity=0.2))
-        (0.1, (0.2, 0.1))
-    """
-
-    scale: float | tuple[float, ...]
-
-    def __call__(self, context: LevelContext) -> float | tuple[float, ...]:
-        if isinstance(self.scale, tuple):
-            return tuple(s * context.intensity for s in self.scale)
-        return self.scale * context.intensity
-
-    def __repr__(self) -> str:
-        return f"{self.scale}·x"
-
-
-@dataclass(frozen=True, repr=False)
-class Span(Derived):
-    """``(-half · x, half · x)``: a symmetric range that widens with the intensity ``x``.
-
-    Examples:
-        >>> Span(40.0)(LevelContext("walk", intensity=0.25))
-        (-10.0, 10.0)
-    """
-
-    half: float
-
-    def __call__(self, context: LevelContext) -> tuple[float, float]:
-        return (-self.half * context.intensity, self.half * context.intensity)
-
-    def __repr__(self) -> str:
-        return f"±{self.half}·x"
-
-
-@dataclass(frozen=True, repr=False)
-class Severity(Derived):
-    """``⌈5 · x⌉``: an ImageNet-C severity (1..5) from the intensity ``x`` > 0.
-
-    Examples:
-        >>> [Severity()(LevelContext("walk", intensity=x)) for x in (0.1, 0.2, 0.5, 1.0)]
-        [1, 1, 3, 5]
-    """
-
-    def __call__(self, context: LevelContext) -> int:
-        return min(5, max(1, math.ceil(5 * context.intensity - 1e-9)))
-
-    def __repr__(self) -> str:
-        return "⌈5·x⌉"
-
-
-@dataclass(frozen=True, repr=False)
-class Choice(Derived):
-    """One of ``options`` by intensity: ``x`` in ``((i-1)/n, i/n]`` picks the ``i``-th (of ``n``).
-
-    Examples:
-        >>> [Choice(("IIWA", "Kinova3"))(LevelContext("door", intensity=x)) for x in (0.3, 0.5, 0.9)]
-        ['IIWA', 'IIWA', 'Kinova3']
-    """
-
-    options: tuple[Any, ...]
-
-    def __call__(self, context: LevelContext) -> Any:
-        index = math.ceil(context.intensity * len(self.options) - 1e-9) - 1
-        return self.options[min(len(self.options) - 1, max(0, index))]
-
-    def __repr__(self) -> str:
-        return f"one of {self.options!r} by x"
-
-
-@dataclass(frozen=True)
-class ProceduralImages:
-    """``count`` generated images of side ``size`` from ``seed``, made at the first reset (a table-texture set)."""
-
-    count: int
-    size: int
-    seed: int
-
-    def __call__(self) -> ImageBank:
-        return ImageBank.procedural(self.count, size=self.size, seed=self.seed)
-
-    def __repr__(self) -> str:
-        return f"procedural({self.count}, size={self.size}, seed={self.seed})"
-
-
-@dataclass(frozen=True)
-class LabmazeImages:
-    """``count`` of labmaze's photographic floor and wall textures (installed with dm_control), chosen by ``seed``."""
-
-    count: int
-    size: int
-    seed: int
-
-    def __call__(self) -> ImageBank:
-        bank = ImageBank.builtin(self.size, procedural=0)
-        chosen = torch.randperm(len(bank), generator=torch.Generator().manual_seed(self.seed))[: self.count]
-        return ImageBank(bank.images[chosen], name=f"labmaze({self.count}, seed={self.seed})")
-
-    def __repr__(self) -> str:
-        return f"labmaze({self.count}, size={self.size}, seed={self.seed})"
-
-
-def evaluate_value(value: Any, context: LevelContext) -> Any:
-    """A parameter's value in ``context``: a :class:`Derived` rule is applied, anything else is returned as it is."""
-    return value(context) if isinstance(value, Derived) else value
-
-
-@dataclass(frozen=True)
-class Step:
-    """One transform of a level: its class and its parameters (plain values or :class:`Derived` rules).
-
-    Examples:
-        >>> from vigen.transforms import RandomSceneColors
-        >>> Step(RandomSceneColors, {"scale": 0.2})
-        RandomSceneColors(scale=0.2)
-    """
-
-    transform: type[Transform]
-    params: Mapping[str, Any] = field(default_factory=dict)
-
-    def accepts(self) -> set[str]:
-        """The keyword arguments the transform's constructor takes (its real signature), without ``seed``."""
-        return accepted_options(self.transform)
-
-    def build(self, context: LevelContext, options: Mapping[str, Any] | None = None) -> Transform:
-        """The transform, with its parameters evaluated in ``context`` and the ``options`` it accepts on top."""
-        params = {name: evaluate_value(value, context) for name, value in self.params.items()}
-        params.update({name: value for name, value in (options or {}).items() if name in self.accepts()})
-        return self.transform(**params)
-
-    def scene_params(self, context: LevelContext) -> dict[str, Any]:
-        """The parameters that follow the scene id, evaluated in ``context`` (empty for most steps)."""
-        return {name: value(context) for name, value in self.params.items() if isinstance(value, Derived) and value.depends_on_scene}
-
-    def __repr__(self) -> str:
-        return f"{self.transform.__name__}({', '.join(f'{name}={value!r}' for name, value in self.params.items())})"
-
-
-def accepted_options(transform: type[Transform]) -> set[str]:
-    """The keyword arguments of ``transform``'s constructor, without ``seed`` (seeds are derived, never passed).
-
-    Examples:
-        >>> from vigen.transforms import VideoBackground
-        >>> {"videos", "floor"} <= accepted_options(VideoBackground), "seed" in accepted_options(VideoBackground)
-        (True, False)
-    """
-    parameters = inspect.signature(transform.__init__).parameters.values()
-    kinds = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
-    return {p.name for p in parameters if p.kind in kinds and p.name not in ("self", "seed")}
-
-
-@dataclass(frozen=True)
-class Level:
-    """A named level: what it shows, its source, its steps, and env options it sets (e.g. another robot).
-
-    Examples:
-        >>> from vigen.transforms import RandomSceneColors
-        >>> level = Level("agent colour", "RL-ViGen objects_color hard", (Step(RandomSceneColors, {"scale": 0.2, "parts": ("self",)}),))
-        >>> level.steps[0].transform.__name__
-        'RandomSceneColors'
-    """
-
-    what: str
-    source: str
-    steps: tuple[Step, ...] = ()
-    env_options: Mapping[str, Any] = field(default_factory=dict)
-    tasks: tuple[str, ...] | None = None
-    """The tasks the level applies to (the loco suite's Unitree-only cross-embodiment levels); ``None``: all of its suite's."""
-
-    def applies_to(self, task: str) -> bool:
-        return self.tasks is None or task in self.tasks
-
-
-@dataclass(frozen=True)
-class Factor:
-    """One factor of variation in a suite: its steps at intensity ``x`` (parameters may read ``x``), and env options.
-
-    ``points`` names the suite's levels that are this factor at one intensity (same transform,
-    same parameters), e.g. ``{"objects_color_hard": 0.2}``.
-    """
-
-    steps: tuple[Step, ...] = ()
-    env_options: Mapping[str, Any] = field(default_factory=dict)
-    points: Mapping[str, float] = field(default_factory=dict)
-
-
-def check_intensity(factor: str, intensity: Any) -> float:
-    """``intensity`` as a float in [0, 1], or a clear error naming the factor.
-
-    Examples:
-        >>> check_intensity("camera_rotation", 0.5)
-        0.5
-        >>> check_intensity("camera_rotation", 2)
-        Traceback (most recent call last):
-        ...
-        ValueError: Intensity of 'camera_rotation' must be in [0, 1] (0: off, 1: the strongest), got 2.
-    """
-    if isinstance(intensity, bool) or not isinstance(intensity, numbers.Real):
-        raise TypeError(f"Intensity of {factor!r} must be a number in [0, 1], got {intensity!r} ({type(intensity).__name__}).")
-    if not 0.0 <= float(intensity) <= 1.0 or math.isnan(float(intensity)):
-        raise ValueError(f"Intensity of {factor!r} must be in [0, 1] (0: off, 1: the strongest), got {intensity}.")
-    return float(intensity)
-
-
-def level_label(generalization: str | Mapping[str, float] | None) -> str:
-    """The row label of a level: its name, or ``factor=intensity`` joined by ``+`` (sorted by factor) for a factor dict.
-
-    Examples:
-        >>> level_label("color_hard"), level_label({"object_color": 0.5, "camera_rotation": 0.3}), level_label(None)
-        ('color_hard', 'camera_rotation=0.3+object_color=0.5', 'train')
-    """
-    if generalization is None:
-        return "train"
-    if isinstance(generalization, str):
-        return generalization
-    return "+".join(f"{name}={float(value):g}" for name, value in sorted(generalization.items()))
+from vigen.envs.factors import FACTORS
+from vigen.envs.level_types import (
+    ByTask,
+    Choice,
+    Derived,
+    Factor,
+    LabmazeImages,
+    Level,
+    LevelContext,
+    ProceduralImages,
+    Scaled,
+    SceneIndex,
+    Severity,
+    Span,
+    Step,
+    accepted_options,
+    check_intensity,
+    evaluate_value,
+    level_label,
+)
+from vigen.envs.registry import SUITES, get_suite
+
+__all__ = [
+    "ByTask", "Choice", "Derived", "Factor", "LabmazeImages", "Level", "LevelContext", "ProceduralImages", "Scaled", "SceneIndex",
+    "Severity", "Span", "Step", "accepted_options", "check_intensity", "evaluate_value", "level_label", "levels_markdown",
+    "resolve_levels",
+]
 
 
 def resolve_levels(names: str | Sequence[str], suite: str = "dmc") -> list[str]:
@@ -318,16 +53,11 @@ def resolve_levels(names: str | Sequence[str], suite: str = "dmc") -> list[str]:
         >>> resolve_levels(["train", "dmcgb"])
         ['train', 'color_easy', 'color_hard', 'video_easy', 'video_hard']
     """
-    from vigen.envs.registry import get_suite
-
     return get_suite(suite).resolve_levels(names)
 
 
 def levels_markdown() -> str:
     """The tables of every suite's levels, groups and factors (the content of ``docs/levels.md``)."""
-    from vigen.envs.factors import FACTORS
-    from vigen.envs.registry import SUITES
-
     def cell(text: Any) -> str:
         return str(text).replace("|", "\\|")
 

@@ -29,17 +29,14 @@ Examples:
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from torchrl.envs import DoubleToFloat, Transform
+from torchrl.envs import DoubleToFloat, EnvBase
 
-from vigen.envs.dmc import DMCScene
 from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
-from vigen.envs.levels import ByTask, Choice, Derived, Factor, LabmazeImages, Level, LevelContext, ProceduralImages, Scaled, Step
+from vigen.envs.level_types import ByTask, Choice, Derived, Factor, LabmazeImages, Level, LevelContext, ProceduralImages, Scaled, Step
 from vigen.envs.loco_scene import MAX_MESH_FACES
-from vigen.envs.pixels import PixelEnv
 from vigen.envs.suite import Suite
 from vigen.transforms import (
     DistractingCamera,
@@ -206,11 +203,11 @@ FACTORS: dict[str, Factor] = {
 """Factor name -> its transforms at intensity ``x`` (``embodiment``: the Unitree tasks only)."""
 
 
-def build_loco_base(task: str, *, seed: int | None = None, **options: Any) -> Any:
-    """The raw-frame base env of ``"loco/<task>"`` (imports dm_control and the robot's package)."""
-    from vigen.envs.loco_env import build_loco_base as build
+def build_loco_base(task: str, *, seed: int | None = None, **options: Any) -> EnvBase:
+    """The raw-frame base env of ``"loco/<task>"``: a :class:`~vigen.envs.loco_env.LocoPixelEnv` (imports dm_control)."""
+    from vigen.envs.loco_env import LocoPixelEnv
 
-    return build(task, seed=seed, **options)
+    return LocoPixelEnv(task, seed=seed, **options)
 
 
 LOCO = Suite(
@@ -219,7 +216,6 @@ LOCO = Suite(
           "franka-push); extra [loco]",
     tasks=lambda: list(TASKS),
     build_base=build_loco_base,
-    scene_handle=DMCScene,  # a loco env is a dm_control physics
     levels=LEVELS,
     groups=GROUPS,
     factors=FACTORS,
@@ -230,36 +226,3 @@ LOCO = Suite(
     install='pip install -e ".[loco]"',
 )
 """The loco suite record."""
-
-
-def make_loco_env(
-    task: str,
-    *,
-    frame_stack: int = 3,
-    generalization: str | dict[str, float] | Sequence[Transform] | None = None,
-    seed: int | None = None,
-    level_options: dict[str, Any] | None = None,
-    **env_options: Any,
-) -> PixelEnv:
-    """Build an RL-ViGen locomotion task as a TorchRL pixel env (84×84, a stack of 3, action repeat 2).
-
-    Args:
-        task: ``"unitree-stand"``, ``"unitree-walk"``, ``"franka-reach"`` or ``"franka-push"``.
-        frame_stack: frames stacked along channels (``"pixels"`` is ``[3·frame_stack, H, W]``).
-        generalization: a level name (:data:`LEVELS`), a dict of factor intensities (:data:`FACTORS`)
-            or a list of vigen transforms.
-        seed: seeds the task (targets, object placement) and every perturbation of the env.
-        level_options: passed to the level's transforms that accept them, e.g. ``{"videos": folder}``.
-        **env_options: options of :class:`~vigen.envs.loco_env.LocoPixelEnv`: ``robot`` (``"go1"``;
-            ``"go2"``, ``"aliengo"``, ``"a1"`` with ``model_dir``; ``"panda"``), ``model_dir`` (a MuJoCo
-            Menagerie checkout), ``max_mesh_faces``, ``action_repeat``, ``image_size``, ``camera_id``,
-            ``episode_length`` (1000 control steps of 0.01 s), ``render_settings``, ``device``.
-
-    Examples:
-        >>> from vigen.envs import make_env
-        >>> env = make_env("loco/unitree-stand", generalization="hard", seed=0)  # doctest: +SKIP
-        >>> env.rollout(2)["pixels"].shape  # doctest: +SKIP
-        torch.Size([2, 9, 84, 84])
-    """
-    return LOCO.make(task, frame_stack=frame_stack, generalization=generalization, seed=seed, level_options=level_options,
-                     **env_options)

@@ -4,13 +4,12 @@ A :class:`LocoPixelEnv` is a :class:`~vigen.envs.dmc_env.DMCPixelEnv` whose dm_c
 environment comes from :func:`~vigen.envs.loco_scene.build_scene` and
 :func:`~vigen.envs.loco_tasks.make_control_env` instead of ``suite.load``: the same action
 repeat (2), 84×84 frames, episodes of 1000 control steps (10 s) ending as truncations, seeding,
-and :class:`~vigen.envs.dmc.DMCScene` handle for the scene perturbations.
+and :class:`~vigen.envs.dmc_env.DMCScene` handle for the scene perturbations.
 """
 
 from __future__ import annotations
 
 import os
-from typing import Any
 
 import torch
 
@@ -83,8 +82,3 @@ class LocoPixelEnv(DMCPixelEnv):
             f"{type(self).__name__}({self.domain_name}-{self.task_name}, robot={self.robot}, camera_id={self.camera_id}, "
             f"image_size={self.image_size}, action_repeat={self.action_repeat}, episode_length={self.episode_length})"
         )
-
-
-def build_loco_base(task: str, *, seed: int | None = None, **options: Any) -> LocoPixelEnv:
-    """The raw-frame base env of ``"loco/<task>"``."""
-    return LocoPixelEnv(task, seed=seed, **options)

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import shutil
 import tempfile
-import traceback
 import weakref
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager, suppress
@@ -24,58 +23,14 @@ import torchrl.envs
 from tensordict import TensorDictBase
 from torchrl.envs import EnvBase, TransformedEnv
 
-from vigen.io import atomic_write
+from vigen.envs.failure_report import failures_recorded
+from vigen.envs.pixels import PixelEnv
 
 REPORT_KWARG = "vigen_failure_report"
 """The keyword :class:`ParallelEnv` adds to each worker's factory call: the file its failures go to."""
 
 TRACEBACK_TAIL = 25
 """Lines of a worker's traceback quoted in a :class:`WorkerError` (the whole one is ``error.reports``)."""
-
-
-def record_failure(report: str | Path | None) -> None:
-    """Inside an ``except`` block: write the traceback being handled to ``report`` (``None``: do nothing).
-
-    The file is replaced atomically, so a reader sees a whole traceback or none. A report that
-    cannot be written is given up: the exception being handled matters more. Re-raise after it.
-
-    Examples:
-        >>> import tempfile
-        >>> from pathlib import Path
-        >>> report = Path(tempfile.mkdtemp()) / "worker-0.txt"
-        >>> try:
-        ...     raise ValueError("boom")
-        ... except ValueError:
-        ...     record_failure(report)
-        >>> report.read_text().splitlines()[-1]
-        'ValueError: boom'
-    """
-    if report is not None:
-        with suppress(OSError):
-            atomic_write(report, traceback.format_exc())
-
-
-@contextmanager
-def failures_recorded(report: str | Path | None) -> Iterator[None]:
-    """Run the block; if it raises, :func:`record_failure` to ``report`` and let the exception propagate unchanged.
-
-    Examples:
-        >>> import tempfile
-        >>> from pathlib import Path
-        >>> report = Path(tempfile.mkdtemp()) / "worker-0.txt"
-        >>> try:
-        ...     with failures_recorded(report):
-        ...         raise KeyError("pixels")
-        ... except KeyError:
-        ...     pass
-        >>> report.read_text().splitlines()[-1]
-        "KeyError: 'pixels'"
-    """
-    try:
-        yield
-    except Exception:
-        record_failure(report)
-        raise
 
 
 def build_reporting_env(
@@ -93,8 +48,6 @@ def build_reporting_env(
         >>> env.failure_report
         '/tmp/report.txt'
     """
-    from vigen.envs.pixels import PixelEnv  # pixels.py imports failures_recorded from here
-
     with failures_recorded(vigen_failure_report):
         env = create_env_fn(**kwargs)
     link = env

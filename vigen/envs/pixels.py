@@ -11,7 +11,7 @@ from tensordict import TensorDictBase
 from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import CatFrames, Compose, EnvBase, ToTensorImage, Transform, TransformedEnv
 
-from vigen.envs.parallel import failures_recorded
+from vigen.envs.failure_report import failures_recorded
 from vigen.seeding import ENV_SEED_LIMIT as SEED_LIMIT
 from vigen.seeding import derive_seed
 from vigen.transforms.augmentations.base import ImageAugmentation

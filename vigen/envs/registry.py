@@ -57,17 +57,30 @@ def factors(name: str) -> list[str]:
 
 
 def make_env(name: str, **kwargs: Any) -> EnvBase:
-    """Build a TorchRL pixel env from its vigen name.
+    """Build a TorchRL pixel env from its vigen name: the one builder of every suite.
 
     Args:
         name: ``"<suite>/<task>"``, e.g. ``"dmc/walker-walk"``; :func:`available_envs` lists them.
-        **kwargs: :meth:`Suite.make <vigen.envs.suite.Suite.make>`'s arguments: ``generalization``
-            (a level name, a dict of factor intensities, or a list of transforms), ``seed``,
-            ``frame_stack``, ``level_options``, ``scene_id`` (suites with scenes), and the suite's
-            env options (for ``dmc/``: :func:`vigen.envs.dmc.make_dmc_env`'s, e.g. ``image_size``,
-            ``action_repeat``, ``camera_id``, ``render_settings``; for ``robosuite/``:
-            :func:`vigen.envs.robosuite.make_robosuite_env`'s; for ``adroit/``:
-            :func:`vigen.envs.adroit.make_adroit_env`'s; for ``loco/``: :func:`vigen.envs.loco.make_loco_env`'s).
+        **kwargs: :meth:`Suite.make <vigen.envs.suite.Suite.make>`'s arguments:
+
+            * ``generalization``: a level name (``None`` or ``"train"`` is the clean scene), a dict of
+              factor intensities (e.g. ``{"camera_rotation": 0.3}``) or a list of vigen transforms;
+            * ``seed``: seeds the task and every perturbation of the env, the ``i``-th with
+              ``derive_seed(seed, i)``; ``env.set_seed(seed)`` later does the same;
+            * ``frame_stack`` (3): frames stacked along channels (``"pixels"`` is ``[3·frame_stack, H, W]``);
+            * ``level_options``: passed to the level's transforms that accept them, e.g.
+              ``{"videos": folder}``; a key no transform of the suite takes raises, listing the valid ones;
+            * ``scene_id`` (suites with scenes, robosuite's 10): the scene a level shows; ``None``
+              follows the seed, ``seed % 10``;
+            * the suite's env options, those of its base env: :class:`~vigen.envs.dmc_env.DMCPixelEnv`
+              for ``dmc/`` (e.g. ``image_size``, ``action_repeat``, ``camera_id``, ``render_settings``),
+              :class:`~vigen.envs.robosuite_env.RobosuitePixelEnv` for ``robosuite/``,
+              :class:`~vigen.envs.adroit_env.AdroitPixelEnv` for ``adroit/`` and
+              :class:`~vigen.envs.loco_env.LocoPixelEnv` for ``loco/``.
+
+    Returns:
+        A :class:`~vigen.envs.pixels.PixelEnv` (a ``TransformedEnv``) with uint8 ``"pixels"``, float32
+        ``"action"`` and ``"reward"``, the done flags, and ``"success"`` where the task reports one.
 
     ``make_env`` is a module-level function, so ``functools.partial(make_env, name, ...)`` pickles
     and can be handed to ``ParallelEnv`` and TorchRL's multiprocess collectors.

@@ -2,11 +2,11 @@
 
 RL-ViGen's levels (its ``eval-easy``/``medium``/``hard`` scene presets from SECANT, its camera
 ranges and its cross-embodiment robots) are made of vigen's scene transforms, the same classes as
-for dm_control, acting on the live model through :class:`RobosuiteScene`. A level shows one of
-10 scenes (RL-ViGen's ``scene_id``): the texture draw and the ``hard`` video follow the scene id
-(:class:`~vigen.envs.levels.SceneIndex`). robosuite's own modders are not used: on mujoco 3 they
-write to renamed texture fields, do not re-upload textures to an existing render context, and
-save their defaults against a stale sim after a hard reset.
+for dm_control, acting on the live model through :class:`~vigen.envs.robosuite_env.RobosuiteScene`.
+A level shows one of 10 scenes (RL-ViGen's ``scene_id``): the texture draw and the ``hard`` video
+follow the scene id (:class:`~vigen.envs.level_types.SceneIndex`). robosuite's own modders are not
+used: on mujoco 3 they write to renamed texture fields, do not re-upload textures to an existing
+render context, and save their defaults against a stale sim after a hard reset.
 
 Examples:
     >>> from vigen.envs.robosuite import ROBOSUITE
@@ -17,18 +17,12 @@ Examples:
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
-
-import mujoco
-import numpy as np
-from torchrl.envs import Transform
 
 from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
-from vigen.envs.levels import ByTask, Choice, Factor, Level, Scaled, SceneIndex, Step
-from vigen.envs.pixels import PixelEnv
+from vigen.envs.level_types import ByTask, Choice, Factor, Level, Scaled, SceneIndex, Step
+from vigen.envs.robosuite_env import ROBOTS, TASKS, RobosuitePixelEnv
 from vigen.envs.suite import Suite
 from vigen.transforms import (
     DistractingCamera,
@@ -39,12 +33,6 @@ from vigen.transforms import (
     RandomTextures,
     VideoBackground,
 )
-
-TASKS = {"door": "Door", "lift": "Lift", "two-arm-peg-in-hole": "TwoArmPegInHole"}
-"""vigen name -> robosuite environment class."""
-
-ROBOTS = ("Panda", "IIWA", "Kinova3", "Sawyer", "Jaco", "UR5e")
-"""Single-arm robots installed with robosuite 1.5.2 whose OSC_POSE + gripper action has 7 dimensions."""
 
 ROBOT_PARTS = ("robot", "gripper", "fixed_mount")
 """Name prefixes of the robot's materials and geoms (arm, gripper, mount)."""
@@ -188,42 +176,6 @@ FACTORS: dict[str, Factor] = {
 """Factor name -> its transforms at intensity ``x`` (and env options: ``embodiment`` picks the arm)."""
 
 
-class RobosuiteScene:
-    """The :class:`~vigen.transforms.scene.SceneHandle` of a robosuite env's ``MjSim``.
-
-    Examples:
-        >>> from vigen.envs.robosuite_env import RobosuitePixelEnv
-        >>> scene = RobosuitePixelEnv("lift", image_size=32).scene  # doctest: +SKIP
-        >>> scene.segmentation().shape  # doctest: +SKIP
-        (32, 32, 2)
-    """
-
-    def __init__(self, env: Any, camera: str, image_size: int) -> None:
-        self._env, self._camera, self._image_size = env, camera, image_size
-
-    @property
-    def model(self) -> mujoco.MjModel:
-        return self._env.sim.model._model
-
-    @property
-    def data(self) -> mujoco.MjData:
-        return self._env.sim.data._data
-
-    def upload_texture(self, texture_id: int) -> None:
-        context = self._env.sim._render_context_offscreen
-        if context is not None:
-            context.upload_texture(texture_id)
-
-    def segmentation(self) -> np.ndarray:
-        """``[H, W, 2]`` int32 (object id, object type) of the agent camera, top row first; ``-1`` where nothing is hit."""
-        sim, size = self._env.sim, self._image_size
-        camera_id = sim.model.camera_name2id(self._camera)
-        sim._render_context_offscreen.gl_ctx.make_current()  # each env has its own GL context
-        sim._render_context_offscreen.render(size, size, camera_id=camera_id, segmentation=True)
-        types_ids = sim._render_context_offscreen.read_pixels(size, size, segmentation=True)
-        return np.ascontiguousarray(types_ids[::-1, :, ::-1])
-
-
 def texture_bank(level: str) -> ImageBank:
     """The level's texture set: robosuite's texture files, then generated stand-ins for SECANT's custom textures."""
     import robosuite
@@ -236,19 +188,11 @@ def texture_bank(level: str) -> ImageBank:
     return ImageBank.from_files([folder / f"{name}.png" for name in files], size=256) + generated
 
 
-def build_robosuite_base(task: str, *, seed: int | None = None, **options: Any) -> Any:
-    """The raw-frame base env of ``"robosuite/<task>"`` (robosuite is imported when it is built)."""
-    from vigen.envs.robosuite_env import RobosuitePixelEnv
-
-    return RobosuitePixelEnv(task, seed=seed, **options)
-
-
 ROBOSUITE = Suite(
     name="robosuite",
     about="robosuite manipulation, robosuite/<task> (e.g. robosuite/door); extra [robosuite]",
     tasks=lambda: list(TASKS),
-    build_base=build_robosuite_base,
-    scene_handle=RobosuiteScene,
+    build_base=RobosuitePixelEnv,
     levels=LEVELS,
     groups=GROUPS,
     factors=FACTORS,
@@ -259,49 +203,3 @@ ROBOSUITE = Suite(
     install='pip install -e ".[robosuite]"',
 )
 """The robosuite suite record."""
-
-
-def make_robosuite_env(
-    task: str,
-    *,
-    frame_stack: int = 3,
-    generalization: str | dict[str, float] | Sequence[Transform] | None = None,
-    scene_id: int | None = None,
-    seed: int | None = None,
-    level_options: dict[str, Any] | None = None,
-    **env_options: Any,
-) -> PixelEnv:
-    """Build a robosuite task as a TorchRL pixel env (RL-ViGen's setup by default).
-
-    Args:
-        task: ``"door"``, ``"lift"`` or ``"two-arm-peg-in-hole"``.
-        frame_stack: frames stacked along channels (``"pixels"`` is ``[3·frame_stack, H, W]``).
-        generalization: a level name (:data:`LEVELS`: ``train``, ``easy``, ``medium``, ``hard``,
-            ``camera_easy``, ``camera_hard``, ``robot_iiwa``, ...), a dict of factor intensities
-            (:data:`FACTORS`, e.g. ``{"table_color": 0.5}``) or a list of vigen transforms.
-        scene_id: which of the level's 10 scenes (RL-ViGen's ``scene_id``), fixed for the env's
-            life, through ``set_seed`` too. ``None``: the scene follows the seed, ``seed % 10`` (0
-            without a seed) here and after every ``env.set_seed(seed)``, so ``seeds=range(10)`` in
-            :func:`vigen.evaluation.evaluate` is RL-ViGen's 10 scenes.
-        seed: seeds robosuite (initial joints and object placement) and every perturbation of the
-            env, the ``i``-th with ``derive_seed(seed, i)``, and picks the scene (see ``scene_id``):
-            ``env.set_seed(seed)`` later does all of it, so the two give the same episodes.
-        level_options: passed to the level's transforms that accept them, e.g. ``{"videos": folder}``
-            for the ``hard`` level's video background (default: procedural videos); a key no
-            transform of the suite takes raises, listing the valid ones.
-        **env_options: options of :class:`~vigen.envs.robosuite_env.RobosuitePixelEnv` (``robot``,
-            ``"Panda"``, which a ``robot_*`` level or the ``embodiment`` factor sets; ``image_size``, ``camera``,
-            ``episode_length``, ``control_freq``, ``reward_shaping``, ``render_settings``, ``device``).
-
-    Returns:
-        A :class:`~vigen.envs.pixels.PixelEnv` with uint8 ``"pixels"`` ``[3·frame_stack, H, W]``, float32
-        ``"action"`` and ``"reward"``, ``"success"`` and the done flags.
-
-    Examples:
-        >>> from vigen.envs import make_env
-        >>> env = make_env("robosuite/lift", generalization="easy", scene_id=3, seed=0)  # doctest: +SKIP
-        >>> env.rollout(2)["pixels"].shape  # doctest: +SKIP
-        torch.Size([2, 9, 84, 84])
-    """
-    return ROBOSUITE.make(task, frame_stack=frame_stack, generalization=generalization, scene_id=scene_id, seed=seed,
-                          level_options=level_options, **env_options)

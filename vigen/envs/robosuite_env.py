@@ -13,20 +13,64 @@ from __future__ import annotations
 import functools
 from typing import Any
 
+import mujoco
 import numpy as np
 import torch
 from tensordict import TensorDict, TensorDictBase
 from torchrl.envs.common import _EnvWrapper
 
 from vigen.envs.pixels import check_env_arguments, set_task_specs
-from vigen.envs.robosuite import ROBOTS, TASKS, RobosuiteScene
 from vigen.rendering import RenderSettings
+
+
+TASKS = {"door": "Door", "lift": "Lift", "two-arm-peg-in-hole": "TwoArmPegInHole"}
+"""vigen name -> robosuite environment class."""
+
+ROBOTS = ("Panda", "IIWA", "Kinova3", "Sawyer", "Jaco", "UR5e")
+"""Single-arm robots installed with robosuite 1.5.2 whose OSC_POSE + gripper action has 7 dimensions."""
+
+
+class RobosuiteScene:
+    """The :class:`~vigen.transforms.scene.SceneHandle` of a robosuite env's ``MjSim``.
+
+    Examples:
+        >>> from vigen.envs.robosuite_env import RobosuitePixelEnv
+        >>> scene = RobosuitePixelEnv("lift", image_size=32).scene  # doctest: +SKIP
+        >>> scene.segmentation().shape  # doctest: +SKIP
+        (32, 32, 2)
+    """
+
+    def __init__(self, env: Any, camera: str, image_size: int) -> None:
+        self._env, self._camera, self._image_size = env, camera, image_size
+
+    @property
+    def model(self) -> mujoco.MjModel:
+        return self._env.sim.model._model
+
+    @property
+    def data(self) -> mujoco.MjData:
+        return self._env.sim.data._data
+
+    def upload_texture(self, texture_id: int) -> None:
+        context = self._env.sim._render_context_offscreen
+        if context is not None:
+            context.upload_texture(texture_id)
+
+    def segmentation(self) -> np.ndarray:
+        """``[H, W, 2]`` int32 (object id, object type) of the agent camera, top row first; ``-1`` where nothing is hit."""
+        sim, size = self._env.sim, self._image_size
+        camera_id = sim.model.camera_name2id(self._camera)
+        sim._render_context_offscreen.gl_ctx.make_current()  # each env has its own GL context
+        sim._render_context_offscreen.render(size, size, camera_id=camera_id, segmentation=True)
+        types_ids = sim._render_context_offscreen.read_pixels(size, size, segmentation=True)
+        return np.ascontiguousarray(types_ids[::-1, :, ::-1])
 
 
 class RobosuitePixelEnv(_EnvWrapper):
     """A robosuite task rendered from one camera to uint8 HWC frames (top row first), with success flags.
 
-    The TorchRL base env of :func:`make_robosuite_env`. The action is robosuite's (``OSC_POSE``
+    The TorchRL base env of the ``robosuite/`` suite (:func:`vigen.envs.make_env` adds the levels and the
+    frame stack). The action is robosuite's (``OSC_POSE``
     deltas and the gripper, in [-1, 1]); the reward is robosuite's shaped reward; an episode ends
     at ``episode_length`` steps as a truncation (robosuite tasks do not terminate). ``"success"`` reports
     the task's success check after every step. Seeding sets robosuite's random generator (robot

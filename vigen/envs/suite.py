@@ -4,7 +4,7 @@
 
 1. :func:`~vigen.envs.registry.make_env` finds the :class:`Suite` of ``name``'s prefix;
 2. :meth:`Suite.make` checks every argument, then looks the level up in the suite's table (a
-   named :class:`~vigen.envs.levels.Level`, a dict of :class:`~vigen.envs.levels.Factor`
+   named :class:`~vigen.envs.level_types.Level`, a dict of :class:`~vigen.envs.level_types.Factor`
    intensities, or the user's transforms);
 3. :meth:`Suite.build_level` turns the level's steps into transforms (parameters evaluated for the
    task and scene, ``level_options`` on top);
@@ -24,8 +24,8 @@ from typing import Any
 from torchrl.envs import EnvBase, Transform
 
 from vigen.envs.factors import FACTORS
-from vigen.envs.levels import Factor, Level, LevelContext, Step, check_intensity, evaluate_value, level_label
-from vigen.envs.pixels import PixelEnv, check_env_arguments, check_scene_id, check_transforms, stacked_pixel_env
+from vigen.envs.level_types import Factor, Level, LevelContext, Step, check_intensity, evaluate_value, level_label
+from vigen.envs.pixels import PixelEnv, check_env_arguments, check_scene_id, check_transforms, seed_in_order, stacked_pixel_env
 
 
 @dataclass
@@ -52,17 +52,17 @@ class BuiltLevel:
 
 @dataclass(frozen=True)
 class Suite:
-    """One simulator's tasks, builder, scene handle, level table, groups, factors and defaults.
+    """One simulator's tasks, builder, level table, groups, factors and defaults.
 
     Args:
         name: the env-name prefix, e.g. ``"dmc"``.
         about: one line for error messages and the docs.
         tasks: returns the task names (the part after ``"<name>/"``); may import the simulator.
-        build_base: ``(task, *, seed, **env_options) -> env`` with uint8 HWC ``"pixels"`` and a ``scene`` property.
-        scene_handle: the :class:`~vigen.transforms.scene.SceneHandle` class its envs expose.
-        levels: level name -> :class:`~vigen.envs.levels.Level` (``"train"`` first).
+        build_base: ``(task, *, seed, **env_options) -> env`` with uint8 HWC ``"pixels"`` and a ``scene`` property (the
+            :class:`~vigen.transforms.scene.SceneHandle` scene transforms edit); it may import the simulator.
+        levels: level name -> :class:`~vigen.envs.level_types.Level` (``"train"`` first).
         groups: group name -> level names.
-        factors: factor name (from :data:`~vigen.envs.factors.FACTORS`) -> :class:`~vigen.envs.levels.Factor`.
+        factors: factor name (from :data:`~vigen.envs.factors.FACTORS`) -> :class:`~vigen.envs.level_types.Factor`.
         example_task: a task for examples and the docs.
         env_options: the options ``build_base`` takes, with their defaults (for the docs and the checks).
         extra_transforms: transforms appended after the frame stack (dm_control: ``DoubleToFloat``).
@@ -82,7 +82,6 @@ class Suite:
     about: str
     tasks: Callable[[], Sequence[str]]
     build_base: Callable[..., EnvBase]
-    scene_handle: type
     levels: Mapping[str, Level]
     groups: Mapping[str, Sequence[str]]
     factors: Mapping[str, Factor]
@@ -215,8 +214,6 @@ class Suite:
     def level_transforms(self, task: str, level: str | Mapping[str, float], scene_id: int = 0, seed: int | None = None,
                          **options: Any) -> list[Transform]:
         """The transforms of ``level`` for ``task`` and scene ``scene_id``, the ``i``-th seeded with ``derive_seed(seed, i)``."""
-        from vigen.envs.pixels import seed_in_order
-
         self.check_task(task)
         _, transforms, _ = self.build_level(level, task, scene_id, self.check_level_options(options))
         return seed_in_order(transforms, seed)
