@@ -20,7 +20,8 @@ Examples:
 from vigen.evaluation.aggregate import MeanStd, as_scores, iqm, mean, rlvigen_mean_std, stratified_bootstrap_ci
 from vigen.evaluation.report import (comparison_table, markdown_table, plot_comparison, plot_intensity, plot_levels,
                                      plot_performance_profile, write_csv)
-from vigen.evaluation.rollout import EvaluationError, evaluate
+from vigen.evaluation.jobs import EvaluationError
+from vigen.evaluation.rollout import evaluate
 from vigen.evaluation.statistics import (generalization_gap, generalization_gap_ci, performance_profile,
                                          performance_profile_ci, probability_of_improvement, probability_of_improvement_ci)
 from vigen.evaluation.summary import generalization_gaps, improvements, score_matrix, summarize

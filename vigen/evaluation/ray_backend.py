@@ -17,7 +17,7 @@ from typing import Any
 
 import torch
 
-from vigen.evaluation.rollout import EvaluationError, Job, JobError
+from vigen.evaluation.jobs import EvaluationError, Job, JobError
 from vigen.ray_cluster import ray_session
 
 Rows = list[dict[str, Any]]

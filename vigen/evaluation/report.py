@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from vigen.evaluation.statistics import performance_profile, performance_profile_ci
+from vigen.evaluation.summary import score_matrix, summarize
 from vigen.io import atomic_write
 
 
@@ -218,8 +219,6 @@ def plot_intensity(
     if not lines:
         raise ValueError("lines is empty: pass the summary lines (or rows) of an evaluation that ran a sweep.")
     if statistic not in lines[0] and "return" in lines[0]:
-        from vigen.evaluation.summary import summarize
-
         lines = summarize(lines)
     swept = [line for line in lines if line.get("factor") == factor and _number(line.get("intensity")) is not None]
     if not swept:
@@ -344,8 +343,6 @@ def plot_performance_profile(
         >>> plot_performance_profile(rows, pathlib.Path(tempfile.mkdtemp()) / "profile.png", reps=100).suffix
         '.png'
     """
-    from vigen.evaluation.summary import score_matrix
-
     chosen = [row for row in rows if (row["level"] in levels if levels is not None else row["level"] != "train")]
     if not chosen:
         raise ValueError(f"no rows at levels {levels or 'other than train'}; evaluate a test level or pass levels=.")
