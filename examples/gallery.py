@@ -22,7 +22,7 @@ from pathlib import Path
 import vigen  # noqa: F401  (selects the EGL backend before mujoco is imported)
 import cv2
 import numpy as np
-from vigen.envs import factors, get_suite, make_env
+from vigen.envs import level_options_for, factors, get_suite, make_env
 from vigen.envs.levels import resolve_levels
 from vigen.evaluation import sweep
 from vigen.io import unused_path
@@ -38,7 +38,7 @@ LABEL_WIDTH, SCALE = 190, 2
 
 def first_frame(task: str, level: str | dict[str, float], seed: int, fast: bool, options: dict[str, str]) -> np.ndarray:
     """The newest RGB frame of the reset observation of ``level`` at ``seed``."""
-    env = make_env(task, generalization=level, seed=seed, level_options=options,
+    env = make_env(task, generalization=level, seed=seed, level_options=level_options_for(task, level, options),
                    render_settings=RenderSettings.fast() if fast else None)
     frame = env.reset()["pixels"][-3:].permute(1, 2, 0).numpy()
     env.close()

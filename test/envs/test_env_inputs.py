@@ -155,3 +155,25 @@ def test_a_folder_given_as_the_video_index_is_refused_at_build_with_the_fix():
 
     with pytest.raises(TypeError, match=r"video is the index of the one video to play.*level_options=\{'videos': 'x'\}"):
         make_env("dmc/walker-walk", generalization="video_hard", level_options={"video": "x"})
+
+
+def test_level_options_the_level_would_drop_are_refused_before_building(no_simulator):
+    """A palette on a video level (or a video folder on the train level) did nothing, silently."""
+    with pytest.raises(ValueError, match=r"'palette' do nothing at level 'video_easy'.*\(VideoBackground\).*color_easy"):
+        make_env("dmc/walker-walk", generalization="video_easy", level_options={"palette": "/data/palette.npy"})
+    with pytest.raises(ValueError, match=r"'videos' do nothing at level 'train'.*take no options.*video_easy"):
+        make_env("dmc/walker-walk", level_options={"videos": "/data/davis"})
+    with pytest.raises(ValueError, match="give those arguments to the transforms themselves"):
+        make_env("dmc/walker-walk", generalization=[VideoBackground()], level_options={"videos": "/data/davis"})
+
+
+def test_shared_level_options_go_to_the_levels_that_take_them():
+    from vigen.envs import check_level_options_used, level_options_for
+
+    options = {"videos": "/data/davis", "palette": "/data/palette.npy"}
+    assert level_options_for("dmc/walker-walk", "video_hard", options) == {"videos": "/data/davis"}
+    assert level_options_for("dmc/walker-walk", "color_hard", options) == {"palette": "/data/palette.npy"}
+    assert level_options_for("dmc/walker-walk", "train", options) == {}
+    check_level_options_used("dmc/walker-walk", ["train", "video_hard", "color_hard"], options)  # each is used somewhere
+    with pytest.raises(ValueError, match=r"'videos' do nothing at any of the levels train, color_hard"):
+        check_level_options_used("dmc/walker-walk", ["train", "color_hard"], options)

@@ -9,7 +9,8 @@ Examples:
 
 from vigen.envs.level_types import level_label
 from vigen.envs.parallel import ParallelEnv, WorkerError
-from vigen.envs.registry import SUITES, available_envs, factors, get_suite, make_env
+from vigen.envs.registry import SUITES, available_envs, check_level_options_used, factors, get_suite, level_options_for, make_env
 from vigen.envs.suite import Suite
 
-__all__ = ["SUITES", "ParallelEnv", "Suite", "WorkerError", "available_envs", "factors", "get_suite", "level_label", "make_env"]
+__all__ = ["SUITES", "ParallelEnv", "Suite", "WorkerError", "available_envs", "check_level_options_used", "factors", "get_suite",
+           "level_label", "level_options_for", "make_env"]

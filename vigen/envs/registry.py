@@ -14,6 +14,7 @@ from vigen.envs.adroit import ADROIT
 from vigen.envs.dmc import DMC
 from vigen.envs.loco import LOCO
 from vigen.envs.robosuite import ROBOSUITE
+from vigen.envs.level_types import level_label
 from vigen.envs.suite import Suite
 
 SUITES: dict[str, Suite] = {suite.name: suite for suite in (DMC, ROBOSUITE, ADROIT, LOCO)}
@@ -100,6 +101,39 @@ def make_env(name: str, **kwargs: Any) -> EnvBase:
         )
     prefix, task = name.split("/", 1)
     return get_suite(prefix).make(task, **kwargs)
+
+
+def level_options_for(name: str, generalization: Any, options: dict[str, Any] | None) -> dict[str, Any]:
+    """The ``level_options`` the transforms of one level of env ``name`` take, for callers that share options across levels.
+
+    :func:`make_env` refuses options its level would drop (a palette on a video level); a caller
+    that builds many levels from one set of options (:func:`~vigen.evaluation.evaluate`) gives each
+    level its share. Your own transforms (a list) get none.
+
+    Examples:
+        >>> level_options_for("dmc/walker-walk", "video_easy", {"videos": "/data/davis", "palette": "/data/palette.npy"})
+        {'videos': '/data/davis'}
+        >>> level_options_for("dmc/walker-walk", "train", {"videos": "/data/davis"})
+        {}
+    """
+    if not options:
+        return {}
+    if generalization is not None and not isinstance(generalization, (str, dict)):
+        return {}
+    prefix, task = name.split("/", 1)
+    taken = get_suite(prefix).options_taken(generalization or "train", task)
+    return {key: value for key, value in options.items() if key in taken}
+
+
+def check_level_options_used(name: str, levels: list[Any], options: dict[str, Any] | None) -> None:
+    """Raise on ``level_options`` keys that no level of ``levels`` takes (each would be dropped everywhere)."""
+    if not options:
+        return
+    used = set().union(*(level_options_for(name, level, options) for level in levels))
+    unused = sorted(key for key in options if key not in used)
+    if unused:
+        raise ValueError(f"level_options {', '.join(map(repr, unused))} do nothing at any of the levels "
+                         f"{', '.join(level_label(level) for level in levels)} of {name}; drop them or add a level that takes them.")
 
 
 def _suites_hint() -> str:

@@ -161,6 +161,34 @@ class Suite:
             )
         return dict(options)
 
+    def options_taken(self, generalization: str | Mapping[str, float], task: str) -> set[str]:
+        """The ``level_options`` keys the transforms of one level (a name or a factor dict) take at ``task``."""
+        steps, _ = self.level_steps(generalization, task)
+        return set().union(*(step.accepts() for step, _ in steps))
+
+    def check_options_taken(self, generalization: str | Mapping[str, float] | Sequence[Transform] | Transform | None,
+                            task: str, options: Mapping[str, Any]) -> None:
+        """Raise, naming them, on ``options`` that no transform of this one level takes (they would do nothing)."""
+        if not options:
+            return
+        if generalization is not None and not isinstance(generalization, (str, Mapping)):
+            raise ValueError(f"level_options {sorted(options)} go to the transforms of vigen's named levels and factors; "
+                             "with your own transforms, give those arguments to the transforms themselves.")
+        steps, _ = self.level_steps(generalization or "train", task)
+        taken = set().union(*(step.accepts() for step, _ in steps))
+        unused = sorted(key for key in options if key not in taken)
+        if unused:
+            label = level_label(generalization or "train")
+            names = ", ".join(sorted({step.transform.__name__ for step, _ in steps})) or "none"
+            users = [name for name, level in self.levels.items()
+                     if level.applies_to(task) and set(unused) & self.options_taken(name, task)]
+            where = f" They apply at: {', '.join(users)}." if users else ""
+            raise ValueError(
+                f"level_options {', '.join(map(repr, unused))} do nothing at level {label!r} of {self.name}/ envs: its "
+                f"transforms ({names}) take {', '.join(sorted(taken)) or 'no options'}.{where} Drop them for this level "
+                "(vigen.evaluation.evaluate passes each level only the options its transforms take)."
+            )
+
     def level_steps(self, generalization: str | Mapping[str, float], task: str) -> tuple[list[tuple[Step, LevelContext]], dict[str, Any]]:
         """The steps of a level name or a factor dict, each with its context, and the env options the level sets."""
         if isinstance(generalization, str):
@@ -249,6 +277,7 @@ class Suite:
                 raise ValueError(f"{self.name}/ levels have one scene; scene_id must be None or 0, got {scene_id!r}.")
             check_scene_id(scene_id, self.scenes)
         options = self.check_level_options(level_options)
+        self.check_options_taken(generalization, task, options)
         scene = (0 if seed is None else seed % self.scenes) if scene_id is None else int(scene_id)
         level, transforms, level_env_options = self.build_level(generalization, task, scene, options)
         for name, value in level_env_options.items():

@@ -15,7 +15,7 @@ from tensordict import TensorDictBase
 from torchrl.envs import EnvBase
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-from vigen.envs import factors, level_label, make_env
+from vigen.envs import check_level_options_used, factors, level_label, level_options_for, make_env
 from vigen.envs.levels import resolve_levels
 from vigen.evaluation.jobs import EvaluationError, Job, JobError, Level
 from vigen.evaluation.sweep import check_factor_intensity, level_columns
@@ -133,7 +133,10 @@ def evaluate(
         raise ValueError(f"device={device!r} with backend='ray': Ray tasks here reserve one CPU and no accelerator; "
                          "evaluate on the CPU with Ray, or on the device with backend='serial'.")
     name = env if isinstance(env, str) else getattr(env, "__name__", "env")
-    jobs = [Job(label, level, seed) for label, level in _check_levels(levels, env).items() for seed in seeds]
+    checked = _check_levels(levels, env)
+    if isinstance(env, str):  # options no level takes would do nothing: say so before any episode
+        check_level_options_used(env, list(checked.values()), (env_options or {}).get("level_options"))
+    jobs = [Job(label, level, seed) for label, level in checked.items() for seed in seeds]
     run = functools.partial(run_job, policy=policy, env=env, name=name, episodes=episodes, max_steps=max_steps,
                             env_options=dict(env_options or {}), tags=dict(tags or {}), device=device)
     log = None if rows_path is None else _RowLog(Path(rows_path))
@@ -174,6 +177,8 @@ def run_job(job: Job, *, policy: Policy | None, env: str | EnvFactory, name: str
     try:
         if isinstance(env, str):
             options = env_options if device is None else {**env_options, "device": device}
+            if options.get("level_options"):  # each level gets the options its transforms take
+                options = {**options, "level_options": level_options_for(env, job.level, options["level_options"])}
             instance = make_env(env, generalization=job.level, seed=job.seed, **options)
         else:
             instance = env(job.level, job.seed)
