@@ -8,17 +8,8 @@ from pathlib import Path
 
 import torch
 
-from benchmarks.parity.dmcgb import (
-    DMCGB_DEPARTURES,
-    SAC_STEPS,
-    DMCGBDriver,
-    dmcgb_args,
-    dmcgb_maps,
-    import_dmcgb_fork,
-    load_original_weights,
-    sac_networks,
-    shared_cnn_map,
-)
+from benchmarks.parity.dmcgb import (DMCGB_DEPARTURES, SAC_STEPS, DMCGBDriver, dmcgb_args, dmcgb_maps,
+                                     import_dmcgb_fork, load_original_weights, sac_networks, shared_cnn_map)
 from benchmarks.parity.harness import Batch, Case, ModuleMap, Pairs, Setup, StepMap, Views, replay_augmentation
 
 

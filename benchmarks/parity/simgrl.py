@@ -4,17 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from benchmarks.parity.dmcgb import (
-    DMCGB_DEPARTURES,
-    SAC_STEPS,
-    DMCGBDriver,
-    cuda_is_cpu,
-    dmcgb_args,
-    dmcgb_maps,
-    import_dmcgb_fork,
-    load_original_weights,
-    sac_networks,
-)
+from benchmarks.parity.dmcgb import (DMCGB_DEPARTURES, SAC_STEPS, DMCGBDriver, cuda_is_cpu, dmcgb_args, dmcgb_maps,
+                                     import_dmcgb_fork, load_original_weights, sac_networks)
 from benchmarks.parity.harness import Batch, Case, ModuleMap, Pairs, Setup, Views, replay_augmentation
 
 
