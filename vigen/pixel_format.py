@@ -3,13 +3,22 @@
 A pixel tensor is ``[..., C, H, W]`` (channels first, any leading batch dims) and either
 
 * ``uint8`` on ``[0, 255]``, or
-* floating point on ``[0, max_value]``, with ``max_value = 1.0`` unless the caller says otherwise
-  (TorchRL's ``ToTensorImage()`` scale). Float pixels on the 0–255 scale are declared with
-  ``max_value=255`` on the transform, the encoder or the loss that reads them.
+* floating point.
+
+The value scale of float pixels matters only to a reader whose math assumes a white level:
+a blend with an image, a convolution squashed back to the range, a colour change, noise of a
+given strength, an encoder's normalization. Such a reader (``needs_scale=True``, the default)
+takes float pixels on ``[0, max_value]``, with ``max_value = 1.0`` unless the caller says
+otherwise (TorchRL's ``ToTensorImage()`` scale); float pixels on the 0–255 scale are declared with
+``max_value=255`` on the transform, the encoder or the loss that reads them. A reader whose
+output only moves, interpolates or zeroes the input's values (a shift, a crop, a rotation, a
+zero-filled frequency mask) does not depend on the scale (``needs_scale=False``): it takes float
+pixels on any range, such as normalized observations or TorchRL's mock envs' ``randn`` frames.
 
 :func:`check_pixels` enforces this before any work starts. It costs one ``amax`` over a float
 batch (nothing for uint8) and raises with the fix instead of letting wrongly scaled or
-channels-last images turn into white frames or silently wrong features.
+channels-last images turn into white frames or silently wrong features. A NaN or +inf maximum
+is refused on every scale.
 """
 
 from __future__ import annotations
@@ -125,11 +134,13 @@ def check_pixels(
     max_value: float | None = None,
     rgb: bool = False,
     scan: bool | None = None,
+    needs_scale: bool = True,
 ) -> None:
     """Raise a ``TypeError``/``ValueError`` naming the fix if ``images`` breaks the pixel contract.
 
-    Checks what :func:`check_pixel_layout` checks, then, for float pixels only, that no value is
-    above ``max_value`` (one ``amax``). Values below 0 are not looked for.
+    Checks what :func:`check_pixel_layout` checks, then, for float pixels only, their maximum
+    (one ``amax``): it must be finite (no NaN, no +inf) and, if the caller ``needs_scale``, not
+    above ``max_value``. Values below 0 are not looked for.
 
     The value scan reads a number back from the tensor's device: on an accelerator that is a host
     synchronization, and ``torch.compile`` cannot trace it. So it never runs while compiling, and
@@ -142,6 +153,8 @@ def check_pixels(
         max_value: the declared white of float pixels (``None``: 1.0); uint8 is always 0–255.
         rgb: the caller needs RGB frame stacks, ``C = 3·k``.
         scan: look at the float values (``None``: on CPU tensors only; never while compiling).
+        needs_scale: the caller's math assumes that ``max_value`` is white, so float values above
+            it are refused; ``False`` (shifts, crops, rotations, zero fills) takes any float range.
 
     Examples:
         >>> import torch
@@ -149,7 +162,8 @@ def check_pixels(
         >>> check_pixels(torch.rand(2, 9, 8, 8) * 255, name="Demo")  # doctest: +ELLIPSIS
         Traceback (most recent call last):
         ...
-        ValueError: Demo: float pixels reach 2..., above max_value 1.0; these look like 0–255 pixels: pass max_value=255, ...
+        ValueError: Demo: float pixels reach 2..., above max_value 1.0, and its math assumes pixels on [0, max_value]; for 0–255 pixels pass max_value=255, ...
+        >>> check_pixels(torch.randn(2, 9, 8, 8) * 255, name="Demo", needs_scale=False)  # a shift takes any range
     """
     if not isinstance(images, Tensor):
         raise TypeError(f"{name} takes pixels as a torch.Tensor, got {type(images).__name__}.")
@@ -161,7 +175,8 @@ def check_pixels(
         peak = float(images.detach().amax())
         if not math.isfinite(peak):
             raise ValueError(f"{name}: float pixels hold NaN or inf values; check the env or buffer that made them.")
-        if peak > white * (1 + SCALE_TOLERANCE):
-            hint = ("these look like 0–255 pixels: pass max_value=255, or divide them by 255 "
-                    "(TorchRL's ToTensorImage() gives 0–1)") if white == 1.0 else "clamp them or declare the right max_value"
-            raise ValueError(f"{name}: float pixels reach {peak:g}, above max_value {white}; {hint}.")
+        if needs_scale and peak > white * (1 + SCALE_TOLERANCE):
+            hint = ("for 0–255 pixels pass max_value=255, or divide them by 255 (TorchRL's ToTensorImage() gives 0–1); "
+                    "bring normalized pixels back to [0, 1] first") if white == 1.0 else "clamp them or declare the right max_value"
+            raise ValueError(f"{name}: float pixels reach {peak:g}, above max_value {white}, and its math assumes "
+                             f"pixels on [0, max_value]; {hint}.")

@@ -1,8 +1,10 @@
 """The input contract of the image augmentations (issue 13): nothing lost, nothing silent.
 
-Pixels are ``[..., C, H, W]`` channels first, uint8 on [0, 255] or float on [0, max_value]
-(max_value 1.0 unless declared); colour augmentations need ``C = 3·k``, the others take any
-channel count; constructor arguments are checked; empty batches and leaf specs work.
+Pixels are ``[..., C, H, W]`` channels first, uint8 on [0, 255] or float; augmentations whose
+math assumes a white level (``needs_scale``) take floats on [0, max_value] (max_value 1.0 unless
+declared), the geometric and zero-fill ones any float range; colour augmentations need
+``C = 3·k``, the others take any channel count; constructor arguments are checked; empty
+batches and leaf specs work.
 """
 
 from __future__ import annotations
@@ -48,7 +50,7 @@ class RotateOrConv(RandomChoice):
         super().__init__([RandomRotate(180), RandomConv()], **kwargs)
 
 
-# name -> (class, constructor kwargs, needs RGB frames)
+# name -> (class, constructor kwargs, needs RGB frames); SCALE_FREE: needs_scale is False
 AUGMENTATIONS = {
     "shift": (RandomShift, {}, False),
     "crop": (RandomCrop, {"size": CROP}, False),
@@ -69,6 +71,7 @@ AUGMENTATIONS = {
     "rotate_or_conv": (RotateOrConv, {}, True),
     "shifted_overlay": (RandomShiftedOverlay, {"images": BANK}, True),
 }
+SCALE_FREE = ["shift", "crop", "center_crop", "frequency", "rotate", "rotate_per_call", "rotate_shift"]
 ANY_CHANNELS = [name for name, (_, _, rgb) in AUGMENTATIONS.items() if not rgb]
 RGB_ONLY = [name for name, (_, _, rgb) in AUGMENTATIONS.items() if rgb]
 
@@ -87,11 +90,22 @@ def uint8_images(*shape: int, seed: int = 0) -> torch.Tensor:
 
 
 # -- 1. scale ---------------------------------------------------------------------------------
-@pytest.mark.parametrize("name", AUGMENTATIONS)
+@pytest.mark.parametrize("name", [name for name in AUGMENTATIONS if name not in SCALE_FREE])
 def test_float_0_255_without_max_value_raises_with_the_fix(name):
     x = uint8_images(2, 9, SIZE, SIZE).float()  # 0–255 floats, max_value not declared
     with pytest.raises(ValueError, match="max_value=255"):
         build(name, seed=0)(pixels=x)
+
+
+@pytest.mark.parametrize("name", SCALE_FREE)
+def test_geometric_and_zero_fill_augmentations_take_any_float_range(name):
+    x = uint8_images(2, 9, SIZE, SIZE).float()  # 0–255 floats, max_value not declared
+    transform = build(name, seed=0)
+    assert transform.needs_scale is False
+    from_float = transform(pixels=x)
+    from_uint8 = build(name, seed=0)(pixels=x.to(torch.uint8)).float()
+    assert from_float.dtype == torch.float32 and from_float.max() > 1, "not clipped to the default [0, 1]"
+    assert (from_float - from_uint8).abs().max() <= 1.0  # the same draw; uint8 results are rounded
 
 
 @pytest.mark.parametrize("name", AUGMENTATIONS)

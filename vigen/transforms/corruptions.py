@@ -43,7 +43,9 @@ class PixelCorruption(ImageAugmentation):
     Only ``gaussian_noise`` is random (fresh noise per sample and step). Noise and blur act on
     each channel alone and take any channel count; JPEG, contrast and brightness work on RGB
     frames and need ``C = 3·k`` (see ``RGB_CORRUPTIONS``). Pixels follow the contract of
-    :class:`~vigen.transforms.ImageAugmentation` (float images on 0–255 need ``max_value=255``).
+    :class:`~vigen.transforms.ImageAugmentation`. Every corruption works on ``x / max_value`` in
+    [0, 1] (the strengths above are on that scale), so float images must be on ``[0, max_value]``
+    (``needs_scale``; float images on 0–255 need ``max_value=255``).
 
     Paper: ImageNet-C, https://arxiv.org/abs/1903.12261.
 
@@ -79,6 +81,8 @@ class PixelCorruption(ImageAugmentation):
         check_parameter(name, "severity", severity, low=1, high=5, integer=True)
         super().__init__(in_keys, out_keys, max_value=max_value, seed=seed)
         self.corruption, self.severity = corruption, int(severity)
+
+    needs_scale = True  # severities are set on x / max_value in [0, 1], results clipped there
 
     @property
     def needs_rgb(self) -> bool:  # type: ignore[override]

@@ -78,14 +78,24 @@ class ImageAugmentation(Transform):
     * standalone on a TensorDict, by keyword (``t(pixels=x)``) and inside ``Compose``.
 
     Input contract (:mod:`vigen.pixel_format`), checked on every call before any work: images are
-    ``[..., C, H, W]`` channels first, with any leading batch dims, either uint8 on ``[0, 255]``
-    or float on ``[0, max_value]`` (``max_value`` defaults to 1.0, TorchRL's ``ToTensorImage``
-    scale; float images on the 0–255 scale need ``max_value=255``). Channels-last frames, other
-    dtypes and float values above ``max_value`` raise with the fix. Augmentations that mix the
-    colours of a pixel declare ``needs_rgb = True`` and take stacks of k RGB frames,
-    ``C = 3·k``; the others take any channel count (e.g. grayscale stacks). The output has the
-    input's dtype and shape (crops change H and W), values stay in ``[0, max_value]``, the input
-    is never modified, and an empty batch gives an empty output without drawing anything.
+    ``[..., C, H, W]`` channels first, with any leading batch dims, uint8 on ``[0, 255]`` or
+    float. Channels-last frames, other dtypes and NaN or +inf values raise with the fix. Two
+    class attributes say what else an augmentation needs:
+
+    * ``needs_scale`` (default ``True``): its math assumes a white level (a blend, a squashing
+      filter, a colour change, noise of a set strength), so float images must be on
+      ``[0, max_value]`` (``max_value`` defaults to 1.0, TorchRL's ``ToTensorImage`` scale; float
+      images on the 0–255 scale need ``max_value=255``) and values above it raise with the fix.
+      Augmentations whose output only moves, interpolates or zeroes input values (shift, crop,
+      rotation, zero-filled frequency mask) declare ``needs_scale = False`` and take float
+      images on any range, e.g. normalized observations.
+    * ``needs_rgb`` (default ``False``): it mixes the colours of a pixel, so it takes stacks of k
+      RGB frames, ``C = 3·k``; the others take any channel count (e.g. grayscale stacks).
+
+    The output has the input's dtype and shape (crops change H and W); uint8 and on-scale float
+    values stay in ``[0, max_value]``, and an augmentation that does not need the scale keeps
+    each sample within ``[min(0, its minimum), max(max_value, its maximum)]``. The input is
+    never modified, and an empty batch gives an empty output without drawing anything.
 
     Args:
         in_keys: keys to augment; default ``["pixels"]``.
@@ -111,6 +121,10 @@ class ImageAugmentation(Transform):
 
     needs_rgb: ClassVar[bool] = False
     """Whether the augmentation mixes a pixel's R, G and B, so it needs ``C = 3·k`` channels."""
+
+    needs_scale: ClassVar[bool] = True
+    """Whether the augmentation's math assumes that ``max_value`` is white, so float pixels must lie
+    on ``[0, max_value]``; ``False`` for those that only move, interpolate or zero values (any float range)."""
 
     def __init__(
         self,
@@ -254,7 +268,8 @@ class ImageAugmentation(Transform):
 
     def _as_batch(self, pixels: Tensor) -> Tensor:
         """``pixels`` checked against the contract (once per call) and flattened to ``[N, C, H, W]``."""
-        check_pixels(pixels, name=type(self).__name__, max_value=self.max_value, rgb=self.needs_rgb)
+        check_pixels(pixels, name=type(self).__name__, max_value=self.max_value, rgb=self.needs_rgb,
+                     needs_scale=self.needs_scale)
         return pixels.reshape(-1, *pixels.shape[-3:])
 
     def clone(self) -> ImageAugmentation:

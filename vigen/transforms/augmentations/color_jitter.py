@@ -20,7 +20,8 @@ class RandomColorJitter(ImageAugmentation):
     ``RandomJitterAug`` (0.4, 0.4, 0.4, 0.5), which RL-ViGen defines but never runs. Unlike
     torchvision's ``ColorJitter`` every sample gets its own factors (one draw per call is wrong
     for RL batches); the order is fixed rather than shuffled. Saturation and hue need a pixel's
-    R, G and B, so inputs are stacks of RGB frames, ``C = 3·k``.
+    R, G and B, so inputs are stacks of RGB frames, ``C = 3·k``; every step works on
+    ``x / max_value`` clipped to [0, 1], so float pixels must be on ``[0, max_value]`` (``needs_scale``).
 
     Paper: RL-ViGen, https://arxiv.org/abs/2307.10224 (augmentation suite of its SVEA agent).
 
@@ -56,6 +57,7 @@ class RandomColorJitter(ImageAugmentation):
         self.brightness, self.contrast, self.saturation, self.hue = brightness, contrast, saturation, hue
 
     needs_rgb = True  # saturation and hue mix a pixel's R, G and B
+    needs_scale = True  # every step works on x / max_value in [0, 1] and clips there
 
     def _factors(self, strength: float, images: Tensor) -> Tensor:
         low = max(0.0, 1.0 - strength)

@@ -12,7 +12,11 @@ from vigen.transforms.augmentations.base import ImageAugmentation, Params
 
 
 class _Composite(ImageAugmentation):
-    """Members held as submodules; ``max_value`` and the seed reach every member."""
+    """Members held as submodules; ``max_value`` and the seed reach every member.
+
+    A composite needs RGB stacks, or float pixels on ``[0, max_value]``, when any member does
+    (``needs_rgb``, ``needs_scale``): a chain of geometric members takes any float range.
+    """
 
     def __init__(
         self,
@@ -43,6 +47,10 @@ class _Composite(ImageAugmentation):
     @property
     def needs_rgb(self) -> bool:  # type: ignore[override]
         return any(member.needs_rgb for member in self.members)
+
+    @property
+    def needs_scale(self) -> bool:  # type: ignore[override]
+        return any(member.needs_scale for member in self.members)
 
     @property
     def max_value(self) -> float | None:  # type: ignore[override]

@@ -14,7 +14,8 @@ class RandomConv(ImageAugmentation):
     Kernels are drawn from N(0, 1) per sample (``[3, 3, 3, 3]``, no bias) and applied to every
     stacked RGB frame of the sample (so ``C = 3·k``) with replicate padding: ``sigmoid(k ∗ x / m) · m`` with ``m`` the
     white level. This is DMC-GB's ``random_conv`` (SVEA's default strong augmentation there),
-    batched as one grouped convolution instead of a loop over samples.
+    batched as one grouped convolution instead of a loop over samples. The white level is part
+    of the math, so float pixels must be on ``[0, max_value]`` (``needs_scale``).
 
     Papers: SVEA, https://arxiv.org/abs/2107.00644; random conv (network randomization),
     https://arxiv.org/abs/1910.05396.
@@ -31,6 +32,7 @@ class RandomConv(ImageAugmentation):
     """
 
     needs_rgb = True  # the kernel maps each RGB frame to a new RGB frame
+    needs_scale = True  # sigmoid(k ∗ x / m)·m: divides by, and squashes back to, the white level m
 
     def make_params(self, images: Tensor) -> Params:
         return {"kernels": self.randn(images.shape[0], 3, 3, 3, 3, like=images)}

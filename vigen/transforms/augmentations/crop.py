@@ -23,6 +23,8 @@ def _pair(owner: str, size: int | Sequence[int]) -> tuple[int, int]:
 
 
 class _Crop(ImageAugmentation):
+    needs_scale = False  # a window of input values: any float range
+
     def __init__(
         self,
         size: int | Sequence[int] = 84,
@@ -51,8 +53,9 @@ class RandomCrop(_Crop):
     """Cut a window at a random position, the same for all stacked frames of a sample (CURL).
 
     CURL renders 100×100 frames and trains on random 84×84 crops. Positions are uniform over all
-    windows that fit; the output is ``[..., C, size, size]`` for any channel count, and the
-    observation spec of an env with this transform is resized to match.
+    windows that fit; the output is ``[..., C, size, size]`` for any channel count and any float
+    range (``needs_scale = False``), and the observation spec of an env with this transform is
+    resized to match.
 
     Paper: CURL, https://arxiv.org/abs/2004.04136.
 
@@ -81,6 +84,8 @@ class RandomCrop(_Crop):
 
 class CenterCrop(_Crop):
     """Cut the central window: the evaluation-time counterpart of :class:`RandomCrop` (CURL).
+
+    Any channel count and any float range (``needs_scale = False``).
 
     Paper: CURL, https://arxiv.org/abs/2004.04136.
 

@@ -27,6 +27,11 @@ class RandomFrequencyMask(ImageAugmentation):
     uniform noise image ``Z`` drawn per sample. Unlike RL-ViGen (which leaves values outside
     [0, 255]), the output is clipped to the value range so that it stays inside the observation
     spec; uint8 inputs are rounded. Each channel is masked alone, so any channel count works.
+    Zeroing spectral coefficients does not depend on the pixel scale, so with ``fill="zero"``
+    float pixels on any range work (``needs_scale`` is ``False``) and each sample's float output
+    is clipped to ``[min(0, its minimum), max(max_value, its maximum)]``: ``[0, max_value]``
+    for on-scale pixels. ``fill="noise"`` draws noise on ``[0, max_value]``, so it needs
+    float pixels on that scale (``needs_scale`` is ``True``).
 
     Paper: SRM (Huang et al., NeurIPS 2022),
     https://proceedings.neurips.cc/paper_files/paper/2022/hash/802a4350ca4fced76b13b8b320af1543-Abstract-Conference.html;
@@ -77,6 +82,11 @@ class RandomFrequencyMask(ImageAugmentation):
         self.p, self.max_low, self.max_width = p, max_low, max_width
         self.per_sample, self.fill = per_sample, fill
 
+    @property
+    def needs_scale(self) -> bool:  # type: ignore[override]
+        """Whether the mask needs float pixels on ``[0, max_value]``: only the noise fill, drawn on that scale."""
+        return self.fill == "noise"
+
     def make_params(self, images: Tensor) -> Params:
         n = images.shape[0]
         draws = self.rand(3, n if self.per_sample else 1, like=images).expand(3, n)
@@ -90,7 +100,7 @@ class RandomFrequencyMask(ImageAugmentation):
 
     def apply(self, images: Tensor, params: Params) -> Tensor:
         out = functional.mask_frequency(images, params["low"], params["high"], params.get("noise"))
-        return functional.to_dtype(out, images, self.white(images))
+        return functional.to_input_range(out, images, self.white(images))
 
     def extra_repr(self) -> str:
         return (

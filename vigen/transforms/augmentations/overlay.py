@@ -22,7 +22,8 @@ class RandomOverlay(ImageAugmentation):
     resized once per image size. By default it is :meth:`ImageBank.builtin` (no download); pass a
     folder (Places365 in ``ImageFolder`` layout, or any folder of images) for the papers' setting.
     Unlike DMC-GB, images are not re-cropped (``RandomResizedCrop``) at every draw. The images
-    are RGB, blended into each RGB frame of a stack, so inputs have ``C = 3·k`` channels.
+    are RGB, blended into each RGB frame of a stack, so inputs have ``C = 3·k`` channels, and
+    scaled to the frames' white level, so float inputs must be on ``[0, max_value]`` (``needs_scale``).
 
     Paper: SVEA, https://arxiv.org/abs/2107.00644.
 
@@ -65,6 +66,7 @@ class RandomOverlay(ImageAugmentation):
         self._images = images
 
     needs_rgb = True  # RGB images blended into RGB frames
+    needs_scale = True  # the images are brought to the frames' white level before the blend
 
     @property
     def bank(self) -> ImageBank:

@@ -20,6 +20,8 @@ class RandomRotate(ImageAugmentation):
     turns with torchvision's ``RandomRotation`` and centre-crops back: the same picture, except
     that torchvision draws **one angle per call** (every selected sample of a batch turns alike)
     where this draws one per sample; ``per_sample=False`` draws one angle per call as DMC-GB2 does.
+    Every output pixel is a weighted mean of input pixels, so float pixels on any range work
+    (``needs_scale = False``); float outputs stay within each sample's range (and ``[0, max_value]``).
 
     Paper: DMC-GB2 / SADA, https://arxiv.org/abs/2405.03451.
 
@@ -39,6 +41,8 @@ class RandomRotate(ImageAugmentation):
         >>> torch.equal(rotate.apply(pixels, quarter), torch.rot90(pixels, 1, dims=(-2, -1)))
         True
     """
+
+    needs_scale = False  # bilinear means of input values: any float range
 
     def __init__(
         self,

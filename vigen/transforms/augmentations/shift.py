@@ -18,7 +18,8 @@ class RandomShift(ImageAugmentation):
     at an offset drawn uniformly from ``{0, ..., 2·pad}²``, the same for all channels (so all
     stacked frames) of the sample. Any channel count works, e.g. TorchRL's ``GrayScale()`` then
     ``CatFrames`` (Atari-style DrQ). This is exactly what DrQ-v2's ``RandomShiftsAug`` computes with ``grid_sample``
-    for its integer shifts, done as a gather (no float round trip for uint8 frames).
+    for its integer shifts, done as a gather (no float round trip for uint8 frames). The output
+    only moves input values, so float pixels on any range work (``needs_scale = False``).
 
     Papers: DrQ, https://arxiv.org/abs/2004.13649; DrQ-v2, https://arxiv.org/abs/2107.09645.
 
@@ -37,6 +38,8 @@ class RandomShift(ImageAugmentation):
         >>> torch.equal(shift.apply(pixels, params), shift.apply(pixels, params))
         True
     """
+
+    needs_scale = False  # a gather of input values: any float range
 
     def __init__(
         self,

@@ -32,7 +32,8 @@ class RandomShiftedOverlay(ImageAugmentation):
     As in :class:`~vigen.transforms.RandomOverlay`, the bank defaults to
     :meth:`ImageBank.builtin` (pass a Places365 folder for the paper's images), images are not
     re-cropped (``RandomResizedCrop``) or flipped at every draw, and the blend of uint8 frames
-    is rounded back to uint8 (SimGRL blends floats: at most half a grey level apart).
+    is rounded back to uint8 (SimGRL blends floats: at most half a grey level apart). The images
+    are scaled to the frames' white level, so float inputs must be on ``[0, max_value]`` (``needs_scale``).
 
     Paper: SimGRL (NeurIPS 2024; no arXiv version), https://openreview.net/forum?id=0AumdfLzpK.
 
@@ -59,6 +60,7 @@ class RandomShiftedOverlay(ImageAugmentation):
     """
 
     needs_rgb = True  # RGB images blended into RGB frames
+    needs_scale = True  # the images are brought to the frames' white level before the blend
 
     def __init__(
         self,
