@@ -224,3 +224,15 @@ def test_wrong_structure_is_named(tmp_path, writer):
     with pytest.raises(ValueError, match="non-empty list"):
         load_dmcgb_palette(write(tmp_path / "dict.pt", {"grid_rgb1": [0.1, 0.2, 0.3]}))
 
+
+
+def test_palette_entries_given_in_code_are_checked_when_the_transform_is_built():
+    """Entries with other keys raised KeyError 'grid_rgb1' at the first reset."""
+    from vigen.transforms import RandomSceneColors
+
+    with pytest.raises(ValueError, match=r"palette=\.\.\.\), entry 0: expected a dict with keys \('grid_rgb1'.*got \['grid'\]"):
+        RandomSceneColors(palette=[{"grid": [0.1, 0.2, 0.3]}])
+    entry = {key: [0.2, 0.4, 0.6] for key in ("grid_rgb1", "grid_rgb2", "skybox_rgb", "self_rgb")}
+    with pytest.raises(ValueError, match=r"entry 1, key 'self_rgb'.*outside \[0, 1\]"):
+        RandomSceneColors(palette=[entry, {**entry, "self_rgb": [0, 128, 255]}])
+    assert RandomSceneColors(palette=[entry]).palette[0]["self_rgb"].tolist() == [0.2, 0.4, 0.6]

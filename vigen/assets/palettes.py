@@ -59,7 +59,7 @@ def load_dmcgb_palette(path: str | os.PathLike) -> list[dict[str, np.ndarray]]:
                 f"DMC-GB palette {path} could not be read as a pickle ({type(error).__name__}: {error}); the file is "
                 "truncated or not a palette. Copy it again from DMC-GB's src/env/data/."
             ) from error
-    return _check_palette(entries, path)
+    return check_palette(entries, path)
 
 
 class PalettePickleRefused(pickle.UnpicklingError):
@@ -161,8 +161,15 @@ def _load_torch_zip(path: Path) -> Any:
         ) from error
 
 
-def _check_palette(entries: Any, path: Path) -> list[dict[str, np.ndarray]]:
-    """Each entry as four float64 RGB triples in [0, 1], or a ValueError naming the file, entry and key."""
+def check_palette(entries: Any, path: Path | str = "palette") -> list[dict[str, np.ndarray]]:
+    """Each entry as four float64 RGB triples in [0, 1], or a ValueError naming the source, entry and key.
+
+    Examples:
+        >>> check_palette([{"grid_rgb1": [0.1, 0.2, 0.3]}])
+        Traceback (most recent call last):
+        ...
+        ValueError: palette, entry 0: expected a dict with keys ('grid_rgb1', 'grid_rgb2', 'skybox_rgb', 'self_rgb'), got ['grid_rgb1'].
+    """
     if not isinstance(entries, (list, tuple)) or not entries:
         raise ValueError(
             f"{path} is not a DMC-GB palette: expected a non-empty list of dicts with keys {PALETTE_KEYS}, got "

@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 import torch
 
-from vigen.assets.palettes import PALETTE_KEYS, load_dmcgb_palette
+from vigen.assets.palettes import PALETTE_KEYS, check_palette, load_dmcgb_palette
 from vigen.transforms.scene.base import Defaults, SceneHandle, SceneParams, ScenePerturbation
 from vigen.transforms.scene.mujoco import named_id, texture_pixels
 
@@ -63,7 +63,10 @@ class RandomSceneColors(ScenePerturbation):
         super().__init__(seed=seed)
         self.scale = scale
         self.palette_source = palette if palette is None or isinstance(palette, (str, os.PathLike)) else "entries"
-        self.palette = load_dmcgb_palette(palette) if isinstance(palette, (str, os.PathLike)) else palette
+        if palette is None or isinstance(palette, (str, os.PathLike)):
+            self.palette = None if palette is None else load_dmcgb_palette(palette)
+        else:  # entries given in code: checked now, not at the first reset
+            self.palette = check_palette(list(palette) if isinstance(palette, Sequence) else palette, "RandomSceneColors(palette=...)")
         self.parts = tuple(parts)
 
     def read_defaults(self, scene: SceneHandle) -> Defaults:
