@@ -4,11 +4,13 @@
         --levels train dmcgb --episodes 10 --out reports/cartpole
 
 Each argument is a run folder of ``examples/train.py`` (its newest checkpoint that loads is used) or
-one checkpoint file. Checkpoints load without running code (``weights_only=True``). Runs of the same algorithm with different seeds are aggregated as runs of one
-method. The report folder (never overwritten: a new name is picked if it exists) holds
-``episodes.csv`` (one row per episode), ``summary.csv``, ``report.md`` (levels × methods:
-IQM with its 95 % stratified-bootstrap CI, and RL-ViGen's mean ± std over runs) and
-``levels.png`` (bars with 95 % CIs).
+one checkpoint file. Checkpoints load without running code (``weights_only=True``). The agent is
+built from the run's ``config.json`` as ``examples/train.py`` builds it (``vigen.run.load_agent``:
+the same networks, std schedule and the action bounds of the run's env). Runs of the same algorithm
+with different seeds are aggregated as runs of one method. The report folder (never overwritten: a
+new name is picked if it exists) holds ``episodes.csv`` (one row per episode), ``summary.csv``,
+``report.md`` (levels × methods: IQM with its 95 % stratified-bootstrap CI, and RL-ViGen's mean ±
+std over runs) and ``levels.png`` (bars with 95 % CIs).
 
 ``--sweep FACTOR I1 I2 ...`` (repeatable) adds one level per intensity of a factor (see
 ``vigen.envs.factors``) and writes its robustness curve, ``intensity_<FACTOR>.png`` (IQM against
@@ -42,16 +44,13 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import sys
 from pathlib import Path
 
 import torch
-from tensordict.nn import TensorDictModuleBase
-from torchrl.data import Bounded
 from tqdm import tqdm
 
-from vigen.checkpoint import CheckpointError, load_checkpoint, newest_checkpoint
+from vigen.checkpoint import CheckpointError
 from vigen.devices import resolve_device
 from vigen.envs import factors
 from vigen.envs.levels import resolve_levels
@@ -59,13 +58,12 @@ from vigen.envs.registry import get_suite
 from vigen.evaluation import (comparison_table, evaluate, generalization_gaps, improvements, markdown_table, plot_comparison,
                               plot_intensity, plot_levels, plot_performance_profile, summarize, sweep, write_csv)
 from vigen.io import atomic_write, unused_path
-from vigen.losses import make_loss
-from vigen.policies import make_policy
 from vigen.protocols import PROTOCOLS
 from vigen.ray_cluster import ray_session
 from vigen.rendering import RenderSettings
 from vigen.results import SOURCES, ProtocolMismatch, compare, load, published
 from vigen.results.compare import VALUE_UNITS
+from vigen.run import TrainConfig, TrainedAgent, load_agent
 
 
 DEFAULT_GROUPS = {"dmc": "dmcgb", "robosuite": "rlvigen", "adroit": "rlvigen"}
@@ -122,54 +120,37 @@ def parse_sweep(items: list[str]) -> list[dict[str, float]]:
         raise SystemExit(f"--sweep {' '.join(items)}: {error}") from None
 
 
-def load_agent(path: Path, device: torch.device = torch.device("cpu")) -> tuple[dict, TensorDictModuleBase]:
-    """The run's config and its acting policy on ``device``, with the weights of ``path`` (or the run's newest checkpoint that loads).
-
-    Checkpoints load with ``weights_only=True`` onto the CPU (a GPU run's checkpoint loads on any machine), then move to ``device``.
-    One holding anything but tensors and plain data is refused.
-    """
+def load_run(path: Path, device: torch.device) -> TrainedAgent:
+    """The run's config and agent with the weights of ``path`` (or the run's newest checkpoint that loads), on ``device``."""
     try:
-        if path.is_file():
-            checkpoint_path, checkpoint = path, load_checkpoint(path)
-        else:
-            checkpoint_path, checkpoint, skipped = newest_checkpoint(path / "checkpoints")
-            for bad, why in skipped:
-                print(f"skipped checkpoint {bad}: {why}", file=sys.stderr)
-    except CheckpointError as error:
-        raise SystemExit(f"{path}: {error} Is it a run folder of examples/train.py?") from None
-    config_path = checkpoint_path.parent.parent / "config.json"
-    if not config_path.is_file():
-        raise SystemExit(f"{path}: no config.json at {config_path}; a checkpoint is read with its run's config.json "
-                         "(the network sizes and env settings): keep the checkpoint in its run folder's checkpoints/ "
-                         "and pass the run folder or that file.")
-    config = json.loads(config_path.read_text())
-    loss = make_loss(config["algo"], tuple(config["observation_shape"]), config["action_dim"],
-                     feature_dim=config["feature_dim"], hidden_dim=config["hidden_dim"], device=device)
-    loss.make_value_estimator(gamma=config["gamma"])  # its gamma is part of the saved state
-    loss.load_state_dict(checkpoint["loss"])
-    policy = make_policy(loss, Bounded(-1.0, 1.0, shape=(config["action_dim"],)))  # dm_control's action bounds
-    return dict(config, frames=checkpoint["frames"]), policy
+        trained = load_agent(path, device=device)
+    except (CheckpointError, FileNotFoundError) as error:
+        raise SystemExit(f"{path}: {error}") from None
+    for bad, why in trained.skipped:
+        print(f"skipped checkpoint {bad}: {why}", file=sys.stderr)
+    return trained
 
 
 RUN_SETTINGS = ("action_repeat", "frame_stack", "image_size")
 """The env options a run was trained with (``config.json``); its evaluation uses the same."""
 
 
-def run_env_options(config: dict, args: argparse.Namespace, level_options: dict | None) -> dict:
+def run_env_options(config: TrainConfig, args: argparse.Namespace, level_options: dict | None) -> dict:
     """The evaluation env of a run: its action repeat, frame stack and image size, and the episode length asked for."""
-    length = args.episode_length or config.get("episode_length")
+    length = args.episode_length or config.episode_length
     return {"render_settings": RenderSettings.fast(), "level_options": level_options,
             **({} if length is None else {"episode_length": length}),
-            **{name: config[name] for name in RUN_SETTINGS if config.get(name) is not None}}
+            **{name: getattr(config, name) for name in RUN_SETTINGS if getattr(config, name) is not None}}
 
 
-def run_tags(config: dict, env_options: dict) -> dict:
+def run_tags(trained: TrainedAgent, env_options: dict) -> dict:
     """The columns every row of a run carries: method, run, frames, and the settings a protocol fixes (for --compare)."""
-    channels, _, width = config["observation_shape"]  # uint8 [3 * frame stack, H, W]
-    defaults = get_suite(config["env"]).env_options
-    settings = {"action_repeat": config.get("action_repeat") or defaults.get("action_repeat"), "frame_stack": channels // 3,
+    config = trained.config
+    channels, _, width = config.observation_shape  # uint8 [3 * frame stack, H, W]
+    defaults = get_suite(config.env).env_options
+    settings = {"action_repeat": config.action_repeat or defaults.get("action_repeat"), "frame_stack": channels // 3,
                 "image_size": width, "episode_length": env_options.get("episode_length", defaults.get("episode_length"))}
-    return {"method": config["algo"], "run": config["seed"], "frames": config["frames"], "protocol": config.get("protocol") or "",
+    return {"method": config.algo, "run": config.seed, "frames": trained.frames, "protocol": config.protocol or "",
             **{name: value for name, value in settings.items() if value is not None}}
 
 
@@ -183,35 +164,34 @@ def compare_sources(name: str) -> tuple[str, list[str]]:
 def main() -> None:
     args = parse_args()
     level_options = {"videos": args.videos} if args.videos else None
-    agents = [load_agent(path, args.device) for path in args.runs]
+    agents = [load_run(path, args.device) for path in args.runs]
     protocol, sources = compare_sources(args.compare) if args.compare else (None, [])
     levels = {}  # env name -> its levels
-    for config, _ in agents:
-        suite = config["env"].split("/")[0]
+    for env in dict.fromkeys(trained.config.env for trained in agents):
+        suite = env.split("/")[0]
         try:
-            default = ["train", *PROTOCOLS[protocol].test_levels(config["env"])] if protocol else ["train", DEFAULT_GROUPS.get(suite, "all")]
-            levels[config["env"]] = resolve_levels(args.levels or default, suite=suite)
+            default = ["train", *PROTOCOLS[protocol].test_levels(env)] if protocol else ["train", DEFAULT_GROUPS.get(suite, "all")]
+            levels[env] = resolve_levels(args.levels or default, suite=suite)
         except ValueError as error:
             raise SystemExit(f"--compare {args.compare}: {error}" if protocol else str(error)) from None
         for swept in args.sweep:
-            if swept[0].factor not in factors(config["env"]):
-                raise SystemExit(f"--sweep {swept[0].factor}: not a factor of {config['env']}; its factors are "
-                                 f"{', '.join(factors(config['env']))}.")
-            levels[config["env"]] += swept
-    options = [run_env_options(config, args, level_options) for config, _ in agents]
+            if swept[0].factor not in factors(env):
+                raise SystemExit(f"--sweep {swept[0].factor}: not a factor of {env}; its factors are {', '.join(factors(env))}.")
+            levels[env] += swept
+    options = [run_env_options(trained.config, args, level_options) for trained in agents]
     if protocol is not None:  # the published numbers need the same protocol: check before any episode runs
-        probe = [{**run_tags(config, env_options), "env": config["env"], "level": level, "return": 0.0, "success": 0.0}
-                 for (config, _), env_options in zip(agents, options) for level in levels[config["env"]] if isinstance(level, str)]
+        probe = [{**run_tags(trained, env_options), "env": trained.config.env, "level": level, "return": 0.0, "success": 0.0}
+                 for trained, env_options in zip(agents, options) for level in levels[trained.config.env] if isinstance(level, str)]
         try:
             published_lines(probe, sources, protocol, args.allow_budget_mismatch)
         except ValueError as error:  # ProtocolMismatch included
             raise SystemExit(f"--compare {args.compare}: {error}") from None
-    evaluations = [(policy, config["env"], env_options, run_tags(config, env_options))
-                   for (config, policy), env_options in zip(agents, options)]
+    evaluations = [(trained.agent.policy, trained.config.env, env_options, run_tags(trained, env_options))
+                   for trained, env_options in zip(agents, options)]
     if args.random:  # in each env as its first run saw it
         first: dict[str, dict] = {}
-        for (config, _), env_options in zip(agents, options):
-            first.setdefault(config["env"], env_options)
+        for trained, env_options in zip(agents, options):
+            first.setdefault(trained.config.env, env_options)
         evaluations += [(None, env, env_options, {"method": "random", "run": 0}) for env, env_options in first.items()]
     backend = {} if args.ray is None else {"backend": "ray", "workers": args.workers}
     rows = []

@@ -22,20 +22,18 @@ curve shows the factor's effect.
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 
 import torch
-from torchrl.data import Bounded
+from tensordict.nn import TensorDictModuleBase
 
-from vigen.checkpoint import CheckpointError, load_checkpoint, newest_checkpoint
+from vigen.checkpoint import CheckpointError
 from vigen.envs import factors
 from vigen.evaluation import evaluate, markdown_table, plot_intensity, summarize, sweep, write_csv
 from vigen.io import unused_path
-from vigen.losses import make_loss
-from vigen.policies import make_policy
 from vigen.rendering import RenderSettings
+from vigen.run import TrainConfig, load_agent
 
 
 def parse_args() -> argparse.Namespace:
@@ -59,18 +57,13 @@ def parse_args() -> argparse.Namespace:
     return args
 
 
-def load_policy(path: Path):
-    """The run's config and acting policy from a run folder or checkpoint file (``weights_only`` loading)."""
+def load_policy(path: Path) -> tuple[TrainConfig, TensorDictModuleBase]:
+    """The run's algorithm and acting policy, from a run folder or checkpoint file (``weights_only`` loading)."""
     try:
-        file, checkpoint = (path, load_checkpoint(path)) if path.is_file() else newest_checkpoint(path / "checkpoints")[:2]
-    except CheckpointError as error:
-        raise SystemExit(f"--checkpoint {path}: {error} Is it a run folder of examples/train.py?") from None
-    config = json.loads((file.parent.parent / "config.json").read_text())
-    loss = make_loss(config["algo"], tuple(config["observation_shape"]), config["action_dim"],
-                     feature_dim=config["feature_dim"], hidden_dim=config["hidden_dim"])
-    loss.make_value_estimator(gamma=config["gamma"])
-    loss.load_state_dict(checkpoint["loss"])
-    return config, make_policy(loss, Bounded(-1.0, 1.0, shape=(config["action_dim"],)))
+        trained = load_agent(path)
+    except (CheckpointError, FileNotFoundError) as error:
+        raise SystemExit(f"--checkpoint {path}: {error}") from None
+    return trained.config, trained.agent.policy
 
 
 def main() -> None:
@@ -78,14 +71,14 @@ def main() -> None:
     args = parse_args()
     torch.set_num_threads(args.threads)
     agents = [] if args.checkpoint is None else [load_policy(args.checkpoint)]
-    env = args.env or (agents[0][0]["env"] if agents else "dmc/walker-walk")
+    env = args.env or (agents[0][0].env if agents else "dmc/walker-walk")
     if args.factor not in factors(env):
         raise SystemExit(f"--factor {args.factor}: not a factor of {env}; its factors are {', '.join(factors(env))}.")
     try:
         levels = sweep(args.factor, args.intensities)
     except (TypeError, ValueError) as error:
         raise SystemExit(f"--intensities: {error}") from None
-    policies = [(config["algo"], policy) for config, policy in agents]
+    policies = [(config.algo, policy) for config, policy in agents]
     if not agents or args.random:
         policies.append(("random", None))
 

@@ -12,6 +12,8 @@ import pytest
 import torch
 
 ROOT = Path(__file__).resolve().parents[2]
+# config.json as examples/train.py wrote it before vigen.run.TrainConfig, for `--algo drqv2 *TINY`
+EARLIER_CONFIG = Path(__file__).with_name("data") / "config_2026-11.json"
 TINY = ["--env", "dmc/cartpole-balance", "--seed-frames", "200", "--eval-every", "400", "--eval-episodes", "1",
         "--batch-size", "8", "--hidden-dim", "32", "--buffer-size", "2000", "--episode-length", "100"]
 
@@ -38,6 +40,7 @@ def trained(tmp_path_factory) -> Path:
 def test_train_writes_config_logs_and_checkpoints(trained):
     config = json.loads((trained / "config.json").read_text())
     assert config["algo"] == "drqv2" and config["batch_size"] == 8 and config["observation_shape"] == [9, 84, 84]
+    assert list(config.items()) == list(json.loads(EARLIER_CONFIG.read_text()).items()), "the keys, order and values of earlier runs"
     checkpoint = torch.load(trained / "checkpoints" / "frames_00000400.pt", weights_only=True)
     # 400 frames = 200 agent steps; updates every 2 steps after the 100 seed steps
     assert (checkpoint["steps"], checkpoint["updates"]) == (200, 50)
@@ -50,6 +53,7 @@ def test_train_writes_config_logs_and_checkpoints(trained):
 def test_resume_continues_the_counters_and_keeps_earlier_files(trained, tmp_path):
     run_dir = tmp_path / "resumed"
     subprocess.run(["cp", "-r", str(trained), str(run_dir)], check=True)
+    (run_dir / "config.json").write_text(EARLIER_CONFIG.read_text())  # a run started before TrainConfig resumes too
     first = (run_dir / "checkpoints" / "frames_00000400.pt").read_bytes()
     run("train.py", "--resume", run_dir, "--frames", "800")
     checkpoint = torch.load(run_dir / "checkpoints" / "frames_00000800.pt", weights_only=True)

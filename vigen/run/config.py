@@ -1,0 +1,287 @@
+"""The settings of one training run of ``examples/train.py``: :class:`TrainConfig`, its presets and its protocols.
+
+A new run's config is built in layers, each a :class:`TrainConfig` value: a preset (:data:`PRESETS`),
+the values its algorithm's paper changes (:func:`algo_defaults`), the flags, then a protocol
+(:func:`with_protocol`, which the flags override). ``config.json`` in the run folder holds the
+result (:meth:`TrainConfig.to_json`); ``--resume`` reads it back (:func:`resumed_config`), also the
+files of runs older than a setting, which then get that setting's default.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Collection, Mapping
+from dataclasses import dataclass, replace
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any, Literal
+
+from vigen.envs import available_envs, make_env
+from vigen.envs.levels import resolve_levels
+from vigen.losses import ALGOS
+from vigen.losses.vrl3 import ADROIT_REWARD_SCALES
+from vigen.protocols import PROTOCOLS
+from vigen.ray_cluster import import_ray
+from vigen.run.cli import flag_name, flag_value, setting
+
+DEFAULT_FRAMES = 100_000
+"""A run's budget in environment frames when neither ``--frames`` nor a protocol sets it."""
+
+PROTOCOL_KEYS = ("frames", "action_repeat", "frame_stack", "image_size", "episode_length", "eval_every", "eval_episodes",
+                 "eval_levels")
+"""The settings a protocol fixes (:meth:`vigen.protocols.Protocol.settings`); flags override them."""
+
+WEIGHTS_OPTION = MappingProxyType({"pieg": "encoder_weights", "vrl3": "stage1_weights"})
+"""Algorithms with a pretrained encoder -> the :func:`vigen.losses.make_loss` option that loads ``--encoder-weights``."""
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Every setting of a training run, with the ``cpu`` preset's values as defaults.
+
+    Each field with a help text is a flag of ``examples/train.py`` (``batch_size`` is
+    ``--batch-size``). Frames count environment frames (agent steps × action repeat), as in
+    DrQ-v2's curves. ``frames`` is not saved: a resumed run takes it from the flag or, failing
+    that, from its protocol. The last four fields are recorded by the run itself.
+
+    Paper (the ``paper`` preset): DrQ-v2, https://arxiv.org/abs/2107.09645; RL-ViGen,
+    https://arxiv.org/abs/2307.10224.
+
+    Examples:
+        >>> from dataclasses import replace
+        >>> from vigen.run import PRESETS, TrainConfig
+        >>> config = replace(PRESETS["paper"], algo="svea", seed=3)
+        >>> config.batch_size, config.buffer_size, config.lr
+        (256, 1000000, 0.0001)
+        >>> TrainConfig.from_json(config.to_json()) == config
+        True
+    """
+
+    algo: str = setting("drqv2", "the algorithm (vigen.losses.ALGOS)", choices=lambda: ALGOS)
+    env: str = setting("dmc/cartpole-balance", "the task, <suite>/<task> (vigen.envs.available_envs)")
+    preset: str = setting("cpu", "the base settings: paper (DrQ-v2 / RL-ViGen's) or cpu (batch 64, a 100k buffer)",
+                          choices=lambda: PRESETS)
+    seed: int = setting(0, "seeds the networks, envs, augmentations and evaluations")
+    workers: int = setting(1, "envs collecting in parallel, one per process (local collector: >1 is a MultiSyncCollector)")
+    collector: Literal["local", "ray"] = setting(
+        "local", "local: this machine's processes; ray: TorchRL's RayCollector, one Ray actor per worker")
+    eval_levels: tuple[str, ...] = setting(("train",), "levels evaluated at every checkpoint")
+    logger: Literal["csv", "wandb"] = setting("csv", "csv, or wandb offline")
+    episode_length: int | None = setting(
+        None, "simulator steps per episode", unset="the suite's, dm_control 1000, robosuite 500, Adroit 200, pen 100")
+    encoder_weights: str | None = setting(
+        None, "pretrained encoder weights: PIE-G's ImageNet ResNet-18 (a torchvision state dict), VRL3's stage-1 checkpoint")
+    protocol: str | None = setting(
+        None, "train as a paper did: its budget, action repeat, frame stack, image size and evaluation", choices=lambda: PROTOCOLS)
+    action_repeat: int | None = setting(None, "simulator steps per agent step", unset="the suite's")
+    frame_stack: int | None = setting(None, "frames per observation", unset="3")
+    image_size: int | None = setting(None, "pixels per side", unset="84")
+    compile: bool = setting(False, "compile the whole update (torch.compile; on CUDA also a CUDA graph). The augmentations "
+                                   "then draw from torch's RNG seeded by --seed (torch.compile cannot trace their own generators)")
+    batch_size: int = setting(64, "transitions per gradient update (paper preset: 256)")
+    buffer_size: int = setting(100_000, "replay capacity in transitions (paper preset: 1000000)")
+    lr: float = setting(1e-4, "Adam's learning rate")
+    hidden_dim: int = setting(1024, "width of the actor's and critic's MLPs")
+    feature_dim: int = setting(50, "output size of the actor's and critic's trunk")
+    n_step: int = setting(3, "steps of the n-step return")
+    gamma: float = setting(0.99, "discount")
+    tau: float = setting(0.01, "target critic update rate")
+    seed_frames: int = setting(4000, "frames of random actions before the first update")
+    update_every: int = setting(2, "agent steps per gradient update")
+    std_duration: int = setting(100_000, "agent steps of the exploration std's linear schedule")
+    eval_every: int = setting(10_000, "frames between evaluations, each followed by a checkpoint")
+    eval_episodes: int = setting(5, "episodes per evaluation level (paper preset: 10)")
+    std_init: float = setting(1.0, "exploration std at the start (losses with a SAC policy ignore it)")
+    std_final: float = setting(0.1, "exploration std at the schedule's end")
+    reward_scale: float = setting(1.0, "factor on the rewards stored in the replay buffer")
+    frames: int = setting(DEFAULT_FRAMES, "environment frames in all, with action repeat (a protocol sets its budget)")
+    protocol_settings: Mapping[str, Any] | None = None
+    """Every value the protocol fixes on the env (:meth:`vigen.protocols.Protocol.settings`)."""
+    protocol_overrides: Mapping[str, Mapping[str, Any]] | None = None
+    """The protocol settings a flag changed: ``{name: {"protocol": value, "flag": value}}``."""
+    observation_shape: tuple[int, int, int] | None = None
+    """The pixels' shape, ``(3 · frame stack, height, width)``, read from the env at the run's start."""
+    action_dim: int | None = None
+    """The action's size, read from the env at the run's start."""
+
+    def to_json(self) -> dict[str, Any]:
+        """The run's ``config.json``: every field but ``frames``, the protocol's two only with a protocol, tuples as lists."""
+        saved = {field.name: _plain(getattr(self, field.name)) for field in dataclasses.fields(self) if field.name != "frames"}
+        if self.protocol is None:
+            del saved["protocol_settings"], saved["protocol_overrides"]
+        return saved
+
+    @classmethod
+    def from_json(cls, saved: Mapping[str, Any]) -> TrainConfig:
+        """A config from :meth:`to_json`'s dict; a key it lacks (a setting newer than the run) gets its default.
+
+        Keys that are no field (a setting this version does not know) are ignored.
+
+        Examples:
+            >>> TrainConfig.from_json({"algo": "svea", "eval_levels": ["train", "color_hard"]}).eval_levels
+            ('train', 'color_hard')
+        """
+        return cls(**{field.name: _tupled(saved[field.name]) for field in dataclasses.fields(cls) if field.name in saved})
+
+    def env_options(self) -> dict[str, int]:
+        """The :func:`vigen.envs.make_env` options the run sets (episode length, action repeat, frame stack, image size)."""
+        names = ("episode_length", "action_repeat", "frame_stack", "image_size")
+        return {name: getattr(self, name) for name in names if getattr(self, name) is not None}
+
+    def resumed_frames(self) -> int:
+        """A resumed run's budget without ``--frames``: the flag that overrode its protocol's, the protocol's, or the default."""
+        overridden = (self.protocol_overrides or {}).get("frames")
+        return overridden["flag"] if overridden else (self.protocol_settings or {}).get("frames", DEFAULT_FRAMES)
+
+    def check(self) -> None:
+        """Raise a ``ValueError`` naming the flag and the fix for any setting that cannot run, before anything is built."""
+        for name in ("batch_size", "buffer_size", "hidden_dim", "feature_dim", "n_step", "update_every", "std_duration",
+                     "eval_every", "eval_episodes", "workers"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or value < 1:
+                raise ValueError(f"{flag_name(name)} must be an integer >= 1, got {value}.")
+        for name in ("action_repeat", "frame_stack", "image_size"):
+            if getattr(self, name) is not None and getattr(self, name) < 1:
+                raise ValueError(f"{flag_name(name)} must be an integer >= 1, got {getattr(self, name)}.")
+        if self.frames < 0 or self.seed_frames < 0:
+            raise ValueError(f"--frames and --seed-frames must be >= 0, got {self.frames} and {self.seed_frames}.")
+        if self.buffer_size < self.batch_size:
+            raise ValueError(f"--buffer-size {self.buffer_size} is below --batch-size {self.batch_size}: "
+                             "the buffer could never fill one batch; raise it.")
+        if not (self.lr > 0 and 0 < self.gamma <= 1 and 0 < self.tau <= 1):
+            raise ValueError(f"--lr must be > 0 and --gamma, --tau in (0, 1], got {self.lr}, {self.gamma}, {self.tau}.")
+        if not (self.std_init >= 0 and self.std_final >= 0 and 0 < self.reward_scale < float("inf")):
+            raise ValueError(f"--std-init and --std-final must be >= 0 and --reward-scale positive, got {self.std_init}, "
+                             f"{self.std_final} and {self.reward_scale}.")
+        if self.encoder_weights is not None:
+            if self.algo not in WEIGHTS_OPTION:
+                raise ValueError(f"--encoder-weights: {self.algo} has no pretrained encoder; it applies to "
+                                 f"{', '.join(WEIGHTS_OPTION)}.")
+            if not Path(self.encoder_weights).expanduser().is_file():
+                raise ValueError(f"--encoder-weights {self.encoder_weights}: no such file; give the path of the weights file.")
+        if self.episode_length is not None and self.episode_length < 1:
+            raise ValueError(f"--episode-length must be >= 1, got {self.episode_length}.")
+        if self.collector == "ray":
+            try:
+                import_ray()
+            except ImportError as error:
+                raise ValueError(f"--collector ray: {error}") from None
+        suite = self.env.split("/")[0]
+        if self.env not in available_envs(suite if "/" in self.env else None):
+            make_env(self.env)  # raises with the valid names and the closest matches
+        try:
+            resolve_levels(list(self.eval_levels), suite=suite)
+        except ValueError as error:
+            raise ValueError(f"--eval-levels: {error}") from None
+
+
+PRESETS: Mapping[str, TrainConfig] = MappingProxyType({
+    "paper": TrainConfig(preset="paper", batch_size=256, buffer_size=1_000_000, eval_episodes=10),
+    "cpu": TrainConfig(preset="cpu"),
+})
+"""``paper``: DrQ-v2 / RL-ViGen's setup (batch 256, a 1M-transition buffer, lr 1e-4, 3-step returns, τ = 0.01, 4000 seed
+frames, an update every 2 agent steps, 10 evaluation episodes); ``cpu``: the same agent with batch 64, a 100k buffer and
+5 evaluation episodes, to learn easy tasks on a laptop CPU."""
+
+
+def algo_defaults(algo: str, env: str) -> dict[str, float]:
+    """The preset values an algorithm's paper changes, as :class:`TrainConfig` fields.
+
+    VRL3 (RL-ViGen's Adroit setup): a fixed exploration std of 0.01 and, on Adroit, rewards rescaled
+    as its safe-Q threshold assumes (door ×1/20, hammer ×1/100, pen ×1/50). Paper: VRL3,
+    https://arxiv.org/abs/2202.10324.
+
+    Examples:
+        >>> algo_defaults("vrl3", "adroit/door")
+        {'std_init': 0.01, 'std_final': 0.01, 'reward_scale': 0.05}
+        >>> algo_defaults("svea", "dmc/walker-walk")
+        {}
+    """
+    if algo == "vrl3":
+        suite, _, task = env.partition("/")
+        scale = ADROIT_REWARD_SCALES.get(task, 1.0) if suite == "adroit" else 1.0
+        return dict(std_init=0.01, std_final=0.01, reward_scale=scale)
+    return {}
+
+
+def new_config(flags: Mapping[str, Any]) -> TrainConfig:
+    """A new run's config: the preset, its algorithm's defaults, the flags, then the protocol, which the flags override.
+
+    Args:
+        flags: :class:`TrainConfig` fields given on the command line (or by a caller).
+
+    Raises:
+        ValueError: an unknown preset, or a protocol that does not cover the env.
+
+    Examples:
+        >>> config = new_config({"algo": "vrl3", "preset": "paper", "frames": 800})
+        >>> config.batch_size, config.std_init, config.frames
+        (256, 0.01, 800)
+        >>> new_config({"protocol": "dmcgb", "env": "dmc/walker-walk"}).action_repeat
+        4
+    """
+    preset = flags.get("preset", TrainConfig.preset)
+    if preset not in PRESETS:
+        raise ValueError(f"--preset {preset}: no such preset; choose one of {', '.join(PRESETS)}.")
+    base = PRESETS[preset]
+    config = replace(base, **{**algo_defaults(flags.get("algo", base.algo), flags.get("env", base.env)), **flags})
+    return config if config.protocol is None else with_protocol(config, explicit=flags.keys())
+
+
+def with_protocol(config: TrainConfig, explicit: Collection[str] = ()) -> TrainConfig:
+    """``config`` trained as its protocol says on its env, keeping the settings named in ``explicit`` (recorded as overrides).
+
+    Raises:
+        ValueError: the protocol does not cover ``config.env`` (``--protocol NAME: ...``).
+
+    Examples:
+        >>> from vigen.run import TrainConfig
+        >>> config = with_protocol(TrainConfig(env="dmc/walker-walk", protocol="dmcgb", frames=800), explicit={"frames"})
+        >>> config.frames, config.eval_episodes, config.protocol_overrides["frames"]
+        (800, 30, {'protocol': 2000000, 'flag': 800})
+    """
+    if config.protocol is None:
+        raise ValueError("with_protocol: the config names no protocol; set protocol= first.")
+    try:
+        settings = PROTOCOLS[config.protocol].settings(config.env)
+    except ValueError as error:
+        raise ValueError(f"--protocol {config.protocol}: {error}") from None
+    kept = {key: _plain(getattr(config, key)) for key in PROTOCOL_KEYS if key in explicit}
+    overrides = {key: {"protocol": settings[key], "flag": value} for key, value in kept.items() if value != settings[key]}
+    protocol_values = {key: _tupled(settings[key]) for key in PROTOCOL_KEYS if key not in kept}
+    return replace(config, **protocol_values, protocol_settings=settings, protocol_overrides=overrides)
+
+
+def resumed_config(saved: Mapping[str, Any], flags: Mapping[str, Any]) -> TrainConfig:
+    """A resumed run's config: its ``config.json`` (``saved``), whose settings the flags may not contradict, but for ``frames``.
+
+    Without a ``frames`` flag the run goes on to its own budget (:meth:`TrainConfig.resumed_frames`).
+
+    Raises:
+        ValueError: naming each flag that contradicts the saved config and its saved value.
+
+    Examples:
+        >>> resumed_config({"algo": "svea", "batch_size": 8}, {"frames": 800}).frames
+        800
+        >>> resumed_config({"algo": "svea", "batch_size": 8}, {"batch_size": 16})  # doctest: +ELLIPSIS
+        Traceback (most recent call last):
+        ...
+        ValueError: these flags contradict its config.json: --batch-size 16 (the run has 8). Drop them to continue the run ...
+    """
+    config = TrainConfig.from_json(saved)
+    conflicts = [f"{flag_name(name)} {flag_value(value)} (the run has {flag_value(getattr(config, name))})"
+                 for name, value in flags.items() if name != "frames" and getattr(config, name) != value]
+    if conflicts:
+        raise ValueError(f"these flags contradict its config.json: {'; '.join(conflicts)}. "
+                         "Drop them to continue the run as it was, or start a new run.")
+    return replace(config, frames=flags.get("frames", config.resumed_frames()))
+
+
+def _plain(value: Any) -> Any:
+    """A field's value as JSON holds it (tuples as lists)."""
+    return list(value) if isinstance(value, tuple) else value
+
+
+def _tupled(value: Any) -> Any:
+    """A JSON value as the field holds it (lists as tuples)."""
+    return tuple(value) if isinstance(value, list) else value
