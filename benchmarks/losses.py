@@ -76,26 +76,9 @@ from torchrl.objectives import SoftUpdate
 
 from augmentations import drqv2_shift, float_overlay, rlvigen_random_mask_freq_v2, seconds
 from vigen.devices import resolve_device
-from vigen.losses import (
-    ActorCriticLoss, UpdateStep, CURLLoss, DrQLoss, DrQv2Loss, MaDiLoss, PIEGLoss, SADALoss, SCPLLoss, SGQNLoss, SimGRLLoss, SRMLoss,
-    SVEALoss, VRL3Loss, attribution_mask,
-)
-from vigen.models import (
-    Actor,
-    AttributionDecoder,
-    Critic,
-    CURLHead,
-    DrQv2Encoder,
-    GaussianActor,
-    LatentDynamics,
-    MaDiMasker,
-    PerFrameEncoder,
-    PIEGEncoder,
-    ProjectedEncoder,
-    SharedCNN,
-    VRL3Encoder,
-)
-from vigen.transforms import ImageBank, RandomOverlay, RandomShiftedOverlay
+from vigen.losses import ALGOS as VIGEN_ALGOS
+from vigen.losses import ActorCriticLoss, UpdateStep, attribution_mask, build_loss, make_networks
+from vigen.transforms import ImageBank, RandomFrequencyMask, RandomOverlay, RandomShiftedOverlay
 
 ACTIONS, GAMMA, STD, CLIP, TAU, LR = 6, 0.99, 0.2, 0.3, 0.01, 1e-4
 ALGOS = ["drqv2", "svea", "srm", "sgqn", "curl", "drq", "sada", "madi", "simgrl", "vrl3", "pieg", "scpl"]
@@ -104,43 +87,10 @@ RLVIGEN_MS_AT_64 = {"drqv2": 280, "svea": 640, "srm": 1050, "curl": 760, "sgqn":
 
 # -- networks ----------------------------------------------------------------------------------
 def networks(algo: str) -> dict[str, nn.Module]:
-    if algo in ("svea", "srm"):
-        encoder: nn.Module = SharedCNN(9)
-    elif algo == "madi":
-        encoder = SharedCNN(9, centered=False)
-    elif algo == "simgrl":
-        encoder = PerFrameEncoder(9, centered=False)
-    elif algo == "vrl3":
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # no stage-1 weights: random init, as RL-ViGen runs it
-            encoder = VRL3Encoder(9)
-    elif algo == "pieg":
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # no ImageNet file here: random frozen weights, the same FLOPs
-            encoder = PIEGEncoder(9, image_size=84)
-    elif algo == "scpl":
-        encoder = SharedCNN(9, centered=False)
-    elif algo in ("sgqn", "curl"):
-        encoder = ProjectedEncoder(9, image_size=84)
-    else:
-        encoder = DrQv2Encoder(9)
-    features = encoder.output_dim(9, 84, 84)
-    if algo == "drq":
-        actor: nn.Module = GaussianActor(features, ACTIONS)
-    elif algo in ("sada", "scpl", "madi", "simgrl"):
-        actor = GaussianActor(features, ACTIONS, feature_dim=50)
-    else:
-        actor = Actor(features, ACTIONS)
-    nets = {"encoder": encoder, "actor": actor, "critic": Critic(features, ACTIONS)}
-    if algo == "sgqn":
-        nets["decoder"] = AttributionDecoder(ACTIONS)
-    if algo == "curl":
-        nets["head"] = CURLHead(512)
-    if algo == "madi":
-        nets["masker"] = MaDiMasker()
-    if algo == "scpl":
-        nets["dynamics"] = LatentDynamics(50, ACTIONS)
-    return nets
+    """The algorithm's networks as ``make_loss`` builds them (84×84×9 pixels, 6 actions)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # VRL3 / PIE-G without weight files: random initialisation, the same FLOPs
+        return make_networks(algo, (9, 84, 84), ACTIONS)
 
 
 # -- the reference: RL-ViGen's agents, written plainly ------------------------------------------
@@ -472,35 +422,17 @@ class Vigen:
 
     def __init__(self, algo: str, nets: dict[str, nn.Module], bank: ImageBank, *, device: torch.device = torch.device("cpu"),
                  compile: bool = False) -> None:
-        common = {"std": STD}
-        encoder, actor, critic = nets["encoder"], nets["actor"], nets["critic"]
-        if algo == "drqv2":
-            self.loss: ActorCriticLoss = DrQv2Loss(encoder, actor, critic, **common)
-        elif algo == "svea":
-            self.loss = SVEALoss(encoder, actor, critic, strong_augmentation=RandomOverlay(images=bank), **common)
-        elif algo == "srm":
-            from vigen.transforms import RandomFrequencyMask
+        def overlay() -> RandomOverlay:
+            return RandomOverlay(images=bank)
 
-            strong = [RandomOverlay(images=bank), RandomFrequencyMask()]
-            self.loss = SRMLoss(encoder, actor, critic, strong_augmentation=strong, **common)
-        elif algo == "sgqn":
-            self.loss = SGQNLoss(encoder, actor, critic, nets["decoder"], attribution_augmentation=RandomOverlay(images=bank), **common)
-        elif algo == "curl":
-            self.loss = CURLLoss(encoder, actor, critic, nets["head"], **common)
-        elif algo == "sada":
-            self.loss = SADALoss(encoder, actor, critic, strong_augmentation=RandomOverlay(images=bank))
-        elif algo == "madi":
-            self.loss = MaDiLoss(encoder, actor, critic, nets["masker"], strong_augmentation=RandomOverlay(images=bank))
-        elif algo == "simgrl":
-            self.loss = SimGRLLoss(encoder, actor, critic, strong_augmentation=RandomShiftedOverlay(images=bank))
-        elif algo == "vrl3":
-            self.loss = VRL3Loss(encoder, actor, critic, std=STD)
-        elif algo == "pieg":
-            self.loss = PIEGLoss(encoder, actor, critic, strong_augmentation=RandomOverlay(images=bank), **common)
-        elif algo == "scpl":
-            self.loss = SCPLLoss(encoder, actor, critic, nets["dynamics"], strong_augmentation=RandomOverlay(images=bank))
-        else:
-            self.loss = DrQLoss(encoder, actor, critic)
+        views = {"svea": {"strong_augmentation": overlay()}, "sgqn": {"attribution_augmentation": overlay()},
+                 "srm": {"strong_augmentation": [overlay(), RandomFrequencyMask()]}, "sada": {"strong_augmentation": overlay()},
+                 "madi": {"strong_augmentation": overlay()}, "simgrl": {"strong_augmentation": RandomShiftedOverlay(images=bank)},
+                 "pieg": {"strong_augmentation": overlay()}, "scpl": {"strong_augmentation": overlay()}}
+        nets = dict(nets)
+        masker = {"masker": nets.pop("masker")} if "masker" in nets else {}
+        policy = {"std": STD} if VIGEN_ALGOS[algo].takes_std else {}
+        self.loss: ActorCriticLoss = build_loss(algo, *nets.values(), **masker, **policy, **views.get(algo, {}))
         self.loss.to(device)
         self.loss.make_value_estimator(gamma=GAMMA)
         # as examples/train.py: eager steps a fused Adam, a compiled update fuses the step itself (capturable for a CUDA graph)

@@ -18,7 +18,7 @@ class _NoRecorder:
 
 
 def build_madi(reference: Path, setup: Setup) -> Case:
-    from vigen.losses import MaDiLoss
+    from vigen.losses import build_loss
     from vigen.models import MaDiMasker, SharedCNN
 
     ref = import_dmcgb_fork(reference, "madi")
@@ -32,13 +32,16 @@ def build_madi(reference: Path, setup: Setup) -> Case:
     views = Views(batch, setup)
     overlay_pairs: Pairs = [(views.obs, views.overlay(0, views.obs))]
     networks = sac_networks(SharedCNN(setup.channels, max_value=255, centered=False), setup)
-    networks["masker"] = MaDiMasker(num_filters=32, max_value=255)
+    masker = MaDiMasker(num_filters=32, max_value=255)
+    networks["masker"] = masker
     maps = dmcgb_maps([shared_cnn_map("agent.critic.encoder.shared.layers", "encoder.convnet")])  # MaDi renames shared_cnn
     maps.append(ModuleMap("agent.masker.layers", "masker.net", (("2", "0"), ("4", "2"), ("6", "4"))))
     load_original_weights(networks, maps, driver)
     maps[-1] = ModuleMap("agent.masker.layers", "input_mask.net", (("2", "0"), ("4", "2"), ("6", "4")))  # the loss's name
-    loss = MaDiLoss(*networks.values(), init_temperature=0.1, augmentation=replay_augmentation(views.weak(), "shift"),
-                    strong_augmentation=replay_augmentation(overlay_pairs, "overlay"))
+    del networks["masker"]  # the madi preset puts it in front of the encoder (input_mask)
+    loss = build_loss("madi", *networks.values(), masker=masker, init_temperature=0.1,
+                      augmentation=replay_augmentation(views.weak(), "shift"),
+                      strong_augmentation=replay_augmentation(overlay_pairs, "overlay"))
     loss.make_value_estimator(gamma=setup.gamma)
     steps = [StepMap("critic", "loss_critic", (("critic_optimizer", 0), ("masker_optimizer", 0))), *SAC_STEPS[1:]]
     departures = [*DMCGB_DEPARTURES,

@@ -61,9 +61,9 @@ def actor_and_critic(setup: Setup, repr_dim: int) -> tuple[nn.Module, nn.Module]
 
 
 def ddpg_options() -> dict[str, Any]:
-    from vigen.losses import LinearSchedule
+    from vigen.losses import LinearSchedule, NoisyDeterministic
 
-    return dict(std=LinearSchedule(1.0, 0.1, 100_000), std_clip=0.3)
+    return dict(policy=NoisyDeterministic(LinearSchedule(1.0, 0.1, 100_000), clip=0.3))
 
 
 def finish(loss: Any, setup: Setup) -> Any:
@@ -88,7 +88,7 @@ def build_drqv2(reference: Path, setup: Setup) -> Case:
 
 
 def _svea_like(reference: Path, setup: Setup, name: str) -> Case:
-    from vigen.losses import SRMLoss, SVEALoss
+    from vigen.losses import SVEALoss
     from vigen.models import SharedCNN
 
     ref = _rlvigen(reference, ["utils", "svea", "srm"])
@@ -112,9 +112,8 @@ def _svea_like(reference: Path, setup: Setup, name: str) -> Case:
         strong.append(replay_augmentation(mask_pairs, "frequency mask"))
         departures.append("RL-ViGen's frequency mask is not clamped to [0, 255] and applies with p=0.5 per batch; the "
                           "replayed view is vigen's RandomFrequencyMask(p=1) draw (clamped), given to both sides.")
-    cls = SRMLoss if name == "srm" else SVEALoss
     encoder = SharedCNN(setup.channels, max_value=255)
-    loss = cls(encoder, *actor_and_critic(setup, 32 * 21 * 21), augmentation=replay_augmentation(views.weak(), "shift"),
+    loss = SVEALoss(encoder, *actor_and_critic(setup, 32 * 21 * 21), augmentation=replay_augmentation(views.weak(), "shift"),
                strong_augmentation=strong, **ddpg_options())
     modules = [ModuleMap("encoder", "encoder", (("layers", "convnet"),)), *CRITIC_MODULES]
     return Case(name, agent, finish(loss, setup), modules, CRITIC_STEPS, {"aug": views.weak()}, module_views,
@@ -189,7 +188,7 @@ def build_sgqn(reference: Path, setup: Setup) -> Case:
 
 
 def build_drq(reference: Path, setup: Setup) -> Case:
-    from vigen.losses import DrQLoss
+    from vigen.losses import DrQLoss, SquashedGaussian
     from vigen.models import Critic, DrQv2Encoder, GaussianActor
 
     ref = _rlvigen(reference, ["utils", "drq"])
@@ -202,10 +201,10 @@ def build_drq(reference: Path, setup: Setup) -> Case:
     loss = DrQLoss(DrQv2Encoder(setup.channels, max_value=255),
                    GaussianActor(repr_dim, setup.action_dim, setup.hidden_dim, hidden_depth=2, log_std_bounds=(-10.0, 2.0)),
                    Critic(repr_dim, setup.action_dim, setup.feature_dim, setup.hidden_dim),
-                   init_temperature=0.1, augmentation=replay_augmentation(views.weak(), "shift"))
+                   policy=SquashedGaussian(init_temperature=0.1), augmentation=replay_augmentation(views.weak(), "shift"))
     loss.make_value_estimator(gamma=setup.gamma)
     modules = [ModuleMap("encoder", "encoder"), ModuleMap("actor", "actor", (("trunk", "policy"),)),
-               ModuleMap("critic", "critic", (("Q1", "q1"), ("Q2", "q2"))), ModuleMap("log_alpha", "log_alpha")]
+               ModuleMap("critic", "critic", (("Q1", "q1"), ("Q2", "q2"))), ModuleMap("log_alpha", "policy.log_alpha")]
     steps = [
         StepMap("critic", "loss_critic", (("critic_opt", 0), ("encoder_opt", 0))),
         StepMap("actor", "loss_actor", (("actor_opt", 0),)),

@@ -14,7 +14,7 @@ from benchmarks.parity.harness import Batch, Case, ModuleMap, Pairs, Setup, Step
 
 
 def build_scpl(reference: Path, setup: Setup) -> Case:
-    from vigen.losses import SCPLLoss
+    from vigen.losses import build_loss
     from vigen.models import LatentDynamics, SharedCNN
 
     ref = import_dmcgb_fork(reference, "SCPL")
@@ -32,7 +32,7 @@ def build_scpl(reference: Path, setup: Setup) -> Case:
     maps.append(ModuleMap("agent.transition_model", "dynamics",
                           (("fc_mu", "next_embedding"), ("fc_reward", "reward"), ("fc", "hidden"), ("ln", "norm"))))
     load_original_weights(networks, maps, driver)
-    loss = SCPLLoss(*networks.values(), init_temperature=0.1, augmentation=replay_augmentation(views.weak(), "shift"),
+    loss = build_loss("scpl", *networks.values(), init_temperature=0.1, augmentation=replay_augmentation(views.weak(), "shift"),
                     strong_augmentation=replay_augmentation(overlay_pairs, "overlay"))
     loss.make_value_estimator(gamma=setup.gamma)
     steps = [*SAC_STEPS, StepMap("dynamics", "loss_dynamics", (("encoder_optimizer", 0), ("decoder_optimizer", 0)))]

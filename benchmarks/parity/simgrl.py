@@ -10,7 +10,7 @@ from benchmarks.parity.harness import Batch, Case, ModuleMap, Pairs, Setup, View
 
 
 def build_simgrl(reference: Path, setup: Setup) -> Case:
-    from vigen.losses import SimGRLLoss
+    from vigen.losses import build_loss
     from vigen.models import PerFrameEncoder
     from vigen.transforms import RandomShiftedOverlay
 
@@ -27,7 +27,7 @@ def build_simgrl(reference: Path, setup: Setup) -> Case:
     maps = dmcgb_maps([ModuleMap("agent.critic.encoder.shared_cnn.layers", "encoder.frame_net", frame),
                         ModuleMap("agent.critic.encoder.shared_cnn.layers2", "encoder.stack_net")])
     load_original_weights(networks, maps, driver)
-    loss = SimGRLLoss(*networks.values(), init_temperature=0.1, augmentation=replay_augmentation(views.weak(), "shift"),
+    loss = build_loss("simgrl", *networks.values(), init_temperature=0.1, augmentation=replay_augmentation(views.weak(), "shift"),
                       strong_augmentation=replay_augmentation(overlay_pairs, "shifted overlay"))
     loss.make_value_estimator(gamma=setup.gamma)
     departures = [*DMCGB_DEPARTURES,

@@ -353,6 +353,7 @@ SIMGRL = os.environ.get("VIGEN_PARITY_SIMGRL")
 def _one_float64_update(name: str, path: str):
     """One float64 update of ``name`` on both sides at batch 2 (steps recorded, not taken); every vigen weight mapped."""
     setup = harness.Setup(batch_size=2)
+    torch.manual_seed(setup.seed)  # the networks' initial weights, as the command line seeds them (unseeded, VRL3's worst row varied)
     with harness.float64_mode():
         case = algorithms.ALGORITHMS[name](Path(path), setup)
         harness.copy_weights(case)  # every vigen parameter has a counterpart of the same shape

@@ -8,9 +8,8 @@ from typing import Any
 import torch
 from tensordict import TensorDict
 
-from vigen.losses import ActorCriticLoss, CURLLoss, DrQLoss, DrQv2Loss, SADALoss, SGQNLoss, SRMLoss, SVEALoss
+from vigen.losses import ActorCriticLoss, CURLLoss, DrQLoss, DrQv2Loss, SADALoss, SGQNLoss, SVEALoss, build_loss
 from vigen.models import Actor, AttributionDecoder, Critic, CURLHead, DrQv2Encoder, GaussianActor, ProjectedEncoder
-from vigen.losses import MaDiLoss, SimGRLLoss
 from vigen.models import MaDiMasker, PerFrameEncoder
 from vigen.losses import VRL3Loss
 from vigen.models import VRL3Encoder
@@ -46,12 +45,13 @@ def make_loss(name: str, max_value: float | None = None, **kwargs: Any) -> Actor
     features = encoder.output_dim(9, SIZE, SIZE)
     critic = Critic(features, ACTIONS, feature_dim=8, hidden_dim=16)
     actor = Actor(features, ACTIONS, feature_dim=8, hidden_dim=16)
+    kwargs = _policy_options(name, kwargs)
     if name == "drqv2":
         loss = DrQv2Loss(encoder, actor, critic, **kwargs)
     elif name == "svea":
         loss = SVEALoss(encoder, actor, critic, **kwargs)
     elif name == "srm":
-        loss = SRMLoss(encoder, actor, critic, **kwargs)
+        loss = build_loss("srm", encoder, actor, critic, **kwargs)
     elif name == "sgqn":
         decoder = AttributionDecoder(ACTIONS, embedding_dim=EMBEDDING, image_size=SIZE)
         loss = SGQNLoss(encoder, actor, critic, decoder, **kwargs)
@@ -63,10 +63,10 @@ def make_loss(name: str, max_value: float | None = None, **kwargs: Any) -> Actor
         loss = SADALoss(encoder, GaussianActor(features, ACTIONS, hidden_dim=16), critic, **kwargs)
     elif name == "madi":
         actor = GaussianActor(features, ACTIONS, hidden_dim=16, feature_dim=8)
-        loss = MaDiLoss(encoder, actor, critic, MaDiMasker(num_filters=4), **kwargs)
+        loss = build_loss("madi", encoder, actor, critic, masker=MaDiMasker(num_filters=4, max_value=max_value), **kwargs)
     elif name == "simgrl":
         actor = GaussianActor(features, ACTIONS, hidden_dim=16, feature_dim=8)
-        loss = SimGRLLoss(encoder, actor, critic, **kwargs)
+        loss = build_loss("simgrl", encoder, actor, critic, **kwargs)
     elif name == "vrl3":
         loss = VRL3Loss(encoder, actor, critic, **kwargs)
     elif name == "pieg":
@@ -78,6 +78,17 @@ def make_loss(name: str, max_value: float | None = None, **kwargs: Any) -> Actor
         raise ValueError(name)
     loss.make_value_estimator(gamma=0.9)
     return loss
+
+
+def _policy_options(name: str, kwargs: dict[str, Any]) -> dict[str, Any]:
+    """The policy's shorthand options (``std``, ``init_temperature``, ...) as ``policy=``, as ``make_loss`` takes them."""
+    from vigen.losses.registry import NOISY_OPTIONS, SAC_OPTIONS, make_policy_head
+
+    if "policy" in kwargs or not any(key in kwargs for key in (*NOISY_OPTIONS, *SAC_OPTIONS)):
+        return kwargs
+    options = dict(kwargs)
+    policy = make_policy_head(name, options)  # takes the policy's options out of options
+    return {**options, "policy": policy}
 
 
 def make_batch(batch: int = 6, seed: int = 0, **next_entries: torch.Tensor) -> TensorDict:

@@ -16,8 +16,8 @@ from vigen.policies import make_policy
 from vigen.transforms import ImageAugmentation, RandomShift
 
 pytestmark = pytest.mark.filterwarnings("ignore:No target network updater")
-CLASS_NAMES = {"drqv2": "DrQv2Loss", "svea": "SVEALoss", "srm": "SRMLoss", "sgqn": "SGQNLoss", "curl": "CURLLoss", "drq": "DrQLoss",
-               "sada": "SADALoss", "madi": "MaDiLoss", "simgrl": "SimGRLLoss",
+CLASS_NAMES = {"drqv2": "DrQv2Loss", "svea": "SVEALoss", "srm": "SVEALoss", "sgqn": "SGQNLoss", "curl": "CURLLoss", "drq": "DrQLoss",
+               "sada": "SADALoss", "madi": "SVEALoss", "simgrl": "SVEALoss",
                "vrl3": "VRL3Loss", "pieg": "PIEGLoss", "scpl": "SCPLLoss"}
 
 

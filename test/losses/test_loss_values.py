@@ -16,6 +16,7 @@ from torchrl.objectives import SoftUpdate
 from loss_helpers import SIZE, make_batch, make_loss
 from vigen.losses import (
     DrQv2Loss,
+    NoisyDeterministic,
     GuidedBackprop,
     LinearSchedule,
     attribution_mask,
@@ -149,7 +150,7 @@ def test_clipped_noise_and_schedule():
 
 # -- SVEA / SRM --------------------------------------------------------------------------------
 def test_svea_weights_the_weak_and_strong_views():
-    loss = make_loss("svea", augmentation=None, std=0.0, strong_augmentation=Invert(), alpha=0.3, beta=0.7)
+    loss = make_loss("svea", augmentation=None, std=0.0, strong_augmentation=Invert(), weak_weight=0.3, strong_weight=0.7)
     batch = make_batch()
     out = loss(batch)
     with torch.no_grad():
@@ -157,7 +158,7 @@ def test_svea_weights_the_weak_and_strong_views():
         weak = _mse_pair(*loss.critic(loss.encoder(batch["pixels"]), batch["action"]), target)
         strong = _mse_pair(*loss.critic(loss.encoder(255 - batch["pixels"]), batch["action"]), target)
     assert torch.allclose(out["loss_critic"], 0.3 * weak + 0.7 * strong, atol=1e-5)
-    loss.alpha, loss.beta = 1.0, 0.0  # schedulable coefficients
+    loss.weak_weight, loss.strong_weight = 1.0, 0.0  # schedulable coefficients
     assert torch.allclose(loss(batch)["loss_critic"], weak, atol=1e-5)
 
 
@@ -260,7 +261,7 @@ def test_sgqn_consistency_term_and_saliency():
 def test_sgqn_critic_gradients_are_the_plain_ones():
     """The guided switch only changes the saliency pass, never the loss's own backward."""
     sgqn = make_loss("sgqn", augmentation=None, std=0.0, consistency_weight=0.0)
-    drqv2 = DrQv2Loss(sgqn.encoder, sgqn.actor, sgqn.critic, augmentation=None, std=0.0)
+    drqv2 = DrQv2Loss(sgqn.encoder, sgqn.actor, sgqn.critic, augmentation=None, policy=NoisyDeterministic(std=0.0))
     drqv2.make_value_estimator(gamma=GAMMA)
     drqv2.target_critic_params.data.update_(sgqn.target_critic_params.data)
     batch = make_batch()
@@ -366,7 +367,7 @@ def test_drq_temperature_gradient_goes_to_log_alpha_only():
     loss = make_loss("drq")
     out = loss(make_batch())
     out["loss_alpha"].backward()
-    assert loss.log_alpha.grad is not None and loss.log_alpha.grad != 0
+    assert loss.policy.log_alpha.grad is not None and loss.policy.log_alpha.grad != 0
     assert all(p.grad is None for p in loss.actor_params.values(True, True))
 
 

@@ -43,7 +43,7 @@ def dot_batch(batch: int, generator: torch.Generator) -> TensorDict:
 
 def policy_error(loss, x: torch.Tensor) -> float:
     with torch.no_grad():
-        mean = loss.policy(loss.encode(dot_images(x)))  # through the input mask, if the loss has one
+        mean = loss.actor_output(loss.encode(dot_images(x)))  # through the input mask, if the loss has one
         action = torch.tanh(mean[0]) if isinstance(mean, tuple) else mean
     return (action[:, 0] - x).abs().mean().item()
 

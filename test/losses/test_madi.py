@@ -12,7 +12,7 @@ from torchrl.data import Bounded
 from torchrl.objectives import SoftUpdate
 
 from loss_helpers import SIZE, dmcgb_squashed_sample, make_batch, make_loss
-from vigen.losses import ALGOS, MaDiLoss, SACSVEALoss
+from vigen.losses import ALGOS, SquashedGaussian, SVEALoss, build_loss
 from vigen.losses import make_loss as make_paper_loss
 from vigen.models import Critic, DrQv2Encoder, GaussianActor, MaDiMasker, SharedCNN
 from vigen.policies import make_policy
@@ -108,7 +108,7 @@ def test_masker_bad_input_is_explained():
 ALPHA = 0.1  # the initial temperature
 
 
-def _madi(**kwargs) -> MaDiLoss:
+def _madi(**kwargs) -> SVEALoss:
     torch.manual_seed(0)
     return make_loss("madi", augmentation=None, strong_augmentation=Invert(), **kwargs)
 
@@ -124,7 +124,7 @@ def test_loss_is_sac_sveas_on_masked_views():
     batch = make_batch()
     torch.manual_seed(4)
     out = loss(batch)
-    masker, encoder, critic, actor = loss.masker, loss.encoder, loss.critic, loss.actor
+    masker, encoder, critic, actor = loss.input_mask, loss.encoder, loss.critic, loss.actor
     target_encoder = copy.deepcopy(encoder)
     with torch.no_grad():
         for param, value in zip(target_encoder.parameters(), loss.target_encoder_params.values(True, True)):
@@ -146,7 +146,8 @@ def test_loss_is_sac_sveas_on_masked_views():
     assert torch.allclose(out["loss_critic"], 0.5 * weak_td + 0.5 * strong_td, atol=1e-6)
     assert torch.allclose(out["loss_actor"], (ALPHA * log_prob - actor_q).mean(), atol=1e-6)
     assert torch.allclose(out["loss_alpha"], (ALPHA * (-log_prob + 2)).mean(), atol=1e-6), "target entropy −|A|"
-    unmasked = SACSVEALoss(encoder, actor, critic, augmentation=None, strong_augmentation=Invert())
+    unmasked = SVEALoss(encoder, actor, critic, policy=SquashedGaussian(squash_epsilon=1e-6), augmentation=None,
+                        strong_augmentation=Invert(), augment_next=False, target_encoder=True)
     unmasked.make_value_estimator(gamma=GAMMA)
     unmasked.load_state_dict({k: v for k, v in loss.state_dict().items() if not k.startswith("input_mask")}, strict=False)
     torch.manual_seed(4)
@@ -157,7 +158,7 @@ def test_only_the_critic_loss_reaches_the_masker():
     loss = _madi()
     SoftUpdate(loss, tau=0.01)
     out = loss(make_batch())
-    masker = list(loss.masker.parameters())
+    masker = list(loss.input_mask.parameters())
     loss.zero_grad(set_to_none=True)
     out["loss_actor"].backward(retain_graph=True)
     assert all(p.grad is None or not p.grad.any() for p in masker), "the actor reads detached features"
@@ -169,7 +170,7 @@ def test_the_target_passes_through_the_masker_have_no_gradient():
     """Two masked passes without gradient (next obs, for the online and the target encoder), one with (both critic views)."""
     loss = _madi()
     calls = []
-    loss.masker.register_forward_hook(lambda module, args, output: calls.append((args[0].shape[0], output.requires_grad)))
+    loss.input_mask.register_forward_hook(lambda module, args, output: calls.append((args[0].shape[0], output.requires_grad)))
     loss(make_batch(batch=6))
     assert calls[:2] == [(6, False), (6, False)], "the target's passes come first, without gradient"
     assert all(grad for _, grad in calls[2:]) and sum(n for n, _ in calls[2:]) == 12, "weak and strong views"
@@ -181,7 +182,7 @@ def test_the_acting_policy_masks_its_pixels():
     pixels = make_batch(batch=3)["pixels"]
     with set_interaction_type(InteractionType.DETERMINISTIC), torch.no_grad():
         action = policy(make_batch(batch=3).select("pixels"))["action"]
-        expected = torch.tanh(loss.actor(loss.encoder(loss.masker(pixels)))[0])  # the squashed Gaussian's mean action
+        expected = torch.tanh(loss.actor(loss.encoder(loss.input_mask(pixels)))[0])  # the squashed Gaussian's mean action
         unmasked = torch.tanh(loss.actor(loss.encoder(pixels))[0])
     assert torch.allclose(action, expected, atol=1e-6) and not torch.allclose(action, unmasked, atol=1e-4)
 
@@ -190,7 +191,7 @@ def test_the_masker_has_its_own_learning_rate_and_betas():
     loss = make_loss("madi")
     groups = loss.optimizer_groups(lr=3e-4)
     assert [g["lr"] for g in groups] == [3e-4, 1e-3] and groups[1]["betas"] == (0.9, 0.999)
-    masker = {id(p) for p in loss.masker.parameters()}
+    masker = {id(p) for p in loss.input_mask.parameters()}
     assert {id(p) for p in groups[1]["params"]} == masker
     assert not masker & {id(p) for p in groups[0]["params"]}
     assert {id(p) for g in groups for p in g["params"]} == {id(p) for p in loss.parameters()}
@@ -202,26 +203,28 @@ def test_the_masker_has_its_own_learning_rate_and_betas():
 
 def test_the_masker_takes_the_encoders_max_value():
     loss = make_loss("madi", max_value=255)
-    assert loss.masker.max_value == 255 == loss.max_value
+    assert loss.input_mask.max_value == 255 == loss.max_value
     encoder = DrQv2Encoder(9, max_value=255)
     features = encoder.output_dim(9, SIZE, SIZE)
     heads = GaussianActor(features, 2, hidden_dim=16, feature_dim=8), Critic(features, 2, feature_dim=8, hidden_dim=16)
     with pytest.raises(ValueError, match="max_value"):
-        MaDiLoss(encoder, *heads, MaDiMasker(max_value=1.0))
-    assert MaDiLoss(encoder, *heads).masker.max_value == 255, "the default masker"
+        build_loss("madi", encoder, *heads, masker=MaDiMasker(max_value=1.0))
+    with pytest.raises(ValueError, match="max_value"):
+        build_loss("madi", encoder, *heads, masker=MaDiMasker())  # a loss never changes what the caller passed
+    assert build_loss("madi", encoder, *heads).input_mask.max_value == 255, "the default masker"
     with pytest.raises(TypeError, match="masker="):
-        MaDiLoss(encoder, *heads, input_mask=MaDiMasker())
+        build_loss("madi", encoder, *heads, input_mask=MaDiMasker())
     with pytest.raises(ValueError, match="masker_lr"):
-        MaDiLoss(encoder, *heads, masker_lr=0.0)
+        build_loss("madi", encoder, *heads, masker_lr=0.0)
 
 
 def test_make_loss_builds_madi_on_dmcgbs_networks():
-    assert ALGOS["madi"] is MaDiLoss and issubclass(MaDiLoss, SACSVEALoss)
+    assert ALGOS["madi"].loss is SVEALoss and ALGOS["madi"].policy == "sac"
     loss = make_paper_loss("madi", (9, 44, 44), action_dim=2, hidden_dim=8, max_value=255)
-    assert isinstance(loss, MaDiLoss) and isinstance(loss.encoder, SharedCNN) and isinstance(loss.masker, MaDiMasker)
-    assert loss.masker.max_value == 255 and not loss.encoder.centered, "DMC-GB's x / 255"
+    assert isinstance(loss, SVEALoss) and isinstance(loss.encoder, SharedCNN) and isinstance(loss.input_mask, MaDiMasker)
+    assert loss.input_mask.max_value == 255 and not loss.encoder.centered, "DMC-GB's x / 255"
     assert isinstance(loss.actor, GaussianActor) and isinstance(loss.actor.trunk, torch.nn.Sequential), "its own projection"
-    assert loss.target_encoder and not loss.augment_next and loss.squash_epsilon == 1e-6, "DMC-GB's SVEA"
+    assert loss.scores_on_target_encoder and not loss.augment_next and loss.policy.squash_epsilon == 1e-6, "DMC-GB's SVEA"
     assert isinstance(loss.strong_augmentation[0], RandomOverlay)
 
 

@@ -65,13 +65,13 @@ def test_update_by_hand():
     assert torch.allclose(out["q_strong_mean"], s1.mean(), atol=1e-5)
 
 
-def test_is_svea_with_alpha_and_beta():
-    loss = _deterministic(reduction="none", alpha=0.25, beta=2.0)
-    clean = _deterministic(reduction="none", alpha=1.0, beta=0.0)
-    strong = _deterministic(reduction="none", alpha=0.0, beta=1.0)
+def test_is_svea_with_weak_and_strong_weights():
+    loss = _deterministic(reduction="none", weak_weight=0.25, strong_weight=2.0)
+    clean = _deterministic(reduction="none", weak_weight=1.0, strong_weight=0.0)
+    strong = _deterministic(reduction="none", weak_weight=0.0, strong_weight=1.0)
     for other, (alpha, beta) in ((clean, (1.0, 0.0)), (strong, (0.0, 1.0))):
         other.load_state_dict(loss.state_dict())  # (the coefficients are buffers: set them again)
-        other.alpha.fill_(alpha), other.beta.fill_(beta)
+        other.weak_weight.fill_(alpha), other.strong_weight.fill_(beta)
     batch = make_batch()
     expected = 0.25 * clean(batch)["loss_critic"] + 2.0 * strong(batch)["loss_critic"]
     assert torch.allclose(loss(batch)["loss_critic"], expected, atol=1e-5)
@@ -169,7 +169,7 @@ def test_reset_keeps_the_frozen_resnet_and_its_loaded_statistics():
 
 
 def test_make_loss_builds_pieg_and_loads_weights(tmp_path):
-    assert ALGOS["pieg"] is PIEGLoss
+    assert ALGOS["pieg"].loss is PIEGLoss
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         source = PIEGEncoder(9, image_size=SIZE, out_dim=8)

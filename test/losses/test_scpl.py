@@ -180,10 +180,14 @@ def test_without_target_encoder_the_target_reads_the_online_encoder():
 def test_strong_views_of_obs_and_next_obs_share_one_draw():
     """SCPL overlays obs and next obs stacked along the channels: the same image for both."""
     loss = make_loss("scpl", augmentation=None, strong_augmentation=RandomOverlay(alpha=1.0, seed=0))
-    views = loss.observations(make_batch())
-    assert torch.equal(views.strong_obs, views.strong_next_obs), "alpha = 1: both are the sample's image"
-    assert not torch.equal(views.strong_obs[0], views.strong_obs[1]), "each sample its own image"
-    assert torch.equal(views.reward, make_batch()["next", "reward"])
+    seen, augmentation = [], loss.strong_augmentation[0]
+    draw = augmentation.augment
+    augmentation.augment = lambda images: seen.append(draw(images)) or seen[-1]  # record the one strong draw
+    loss(make_batch())
+    (pair,) = seen
+    strong_obs, strong_next_obs = pair.chunk(2, dim=1)  # obs and next obs stacked along the channels, one draw
+    assert torch.equal(strong_obs, strong_next_obs), "alpha = 1: both are the sample's image"
+    assert not torch.equal(strong_obs[0], strong_obs[1]), "each sample its own image"
 
 
 def test_dynamics_term_trains_the_model_the_critic_trunk_and_the_encoder():
@@ -195,7 +199,7 @@ def test_dynamics_term_trains_the_model_the_critic_trunk_and_the_encoder():
 
     assert all(p.grad is not None and p.grad.abs().sum() > 0 for p in loss.dynamics.parameters())
     assert reached(loss.critic_params) == {"trunk"}, "not the Q heads"
-    assert reached(loss.encoder_params) and not reached(loss.actor_params) and loss.log_alpha.grad is None
+    assert reached(loss.encoder_params) and not reached(loss.actor_params) and loss.policy.log_alpha.grad is None
 
 
 def test_kl_weight_and_covariance():
@@ -212,12 +216,12 @@ def test_kl_weight_and_covariance():
 
 
 def test_make_loss_builds_scpls_networks():
-    assert ALGOS["scpl"] is SCPLLoss
+    assert ALGOS["scpl"].loss is SCPLLoss
     loss = make_paper_loss("scpl", (9, 84, 84), action_dim=6, hidden_dim=64, feature_dim=100, seed=0)
     assert isinstance(loss.encoder, SharedCNN) and not loss.encoder.centered, "DMC-GB's x / 255"
     assert isinstance(loss.actor, GaussianActor) and isinstance(loss.actor.trunk, nn.Sequential), "its own projection"
     assert isinstance(loss.dynamics, LatentDynamics) and loss.dynamics.hidden.in_features == 106
-    assert loss.squash_epsilon == 1e-6 and loss.target_encoder
+    assert loss.policy.squash_epsilon == 1e-6 and loss.scores_on_target_encoder
     groups = loss.optimizer_groups(1e-4)
     assert [g["lr"] for g in groups] == [1e-4, 3e-4]
     assert {id(p) for p in groups[1]["params"]} == {id(p) for p in loss.dynamics.parameters()}

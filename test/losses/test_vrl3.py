@@ -156,7 +156,7 @@ def test_vrl3_defaults():
     loss = make_paper_loss("vrl3", (9, SIZE, SIZE), ACTIONS, hidden_dim=8, feature_dim=8)
     assert isinstance(loss, VRL3Loss) and isinstance(loss.encoder, VRL3Encoder)
     loss.set_step(10**6)
-    assert loss.stddev == 0.01 and loss.std_clip == 0.3
+    assert loss.stddev == 0.01 and loss.policy.clip == 0.3
     assert (loss.safe_q_threshold, loss.safe_q_factor, loss.pretanh_threshold, loss.pretanh_penalty) == (200.0, 0.5, 5.0, 1e-3)
     assert loss.encoder_lr_scale == 1.0 and len(loss.optimizer_groups(1e-4)) == 1
     assert ADROIT_REWARD_SCALES["door"] == 1 / 20
@@ -302,4 +302,4 @@ def test_the_actor_reads_the_same_actor_as_vigens():
     actor = Actor(32, ACTIONS, feature_dim=8, hidden_dim=16)
     loss = VRL3Loss(_encoder(channels=4), actor, Critic(32, ACTIONS, feature_dim=8, hidden_dim=16))
     features = torch.randn(5, 32)
-    assert torch.allclose(torch.tanh(loss.pre_tanh(features)), loss.policy(features))
+    assert torch.allclose(torch.tanh(loss.pre_tanh(features)), loss.actor_output(features))

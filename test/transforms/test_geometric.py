@@ -195,7 +195,7 @@ def test_the_all_choice_keeps_uint8_and_shape_and_runs_in_a_loss():
     out = strong(pixels=x)
     assert out.dtype == torch.uint8 and out.shape == x.shape
     loss = make_loss("sada", (9, 84, 84), action_dim=2, hidden_dim=16, feature_dim=8, strong_augmentation=strong, seed=0)
-    views = [loss._augment(loss.strong_augmentation, pixels(size=84)) for _ in range(2)]
+    views = [loss.augment(pixels(size=84), loss.strong_augmentation) for _ in range(2)]
     loss.seed_augmentations(0)
-    again = [loss._augment(loss.strong_augmentation, pixels(size=84)) for _ in range(2)]
+    again = [loss.augment(pixels(size=84), loss.strong_augmentation) for _ in range(2)]
     assert all(torch.equal(a, b) for a, b in zip(views, again))

@@ -1,48 +1,38 @@
-"""The actor-critic update every vigen loss shares, written in the order of DrQ-v2's ``update``.
+"""What every vigen loss shares: TorchRL's plumbing and the pieces of the update, each written once.
 
-:class:`ActorCriticLoss` runs, on one replay-buffer batch:
+:class:`ActorCriticLoss` owns the plumbing: the batch keys (``set_keys``), the TD(0) value
+estimator (n-step returns through ``steps_to_next_obs``), the batch checks, the output with its
+``td_error`` priority, prioritized-replay weights, ``reduction`` and the finite-loss check. Its
+building blocks are the update's pieces, written once:
 
-1. **augment**: the weak views ``obs = aug(pixels)``, ``next_obs = aug(next pixels)``;
-2. **critic target** (no gradient): ``y = r + γⁿ·(1 − terminated)·V(next_obs)``;
-3. **critic loss**: the TD error of every critic view, weighted, from one encoder pass;
-4. **actor loss**: on detached features, through a frozen critic;
-5. **auxiliary losses**: what a method adds (contrastive, attribution, temperature, ...).
+* :meth:`~ActorCriticLoss.next_value` and :meth:`~ActorCriticLoss.bootstrap`: the critic target
+  ``y = r + γⁿ·(1 − terminated)·V(h')`` (optionally scored on a target encoder);
+* :func:`squared_td_errors` and :func:`weighted_td_errors`: the critic's TD loss over one or more views;
+* :meth:`~ActorCriticLoss.actor_loss`: the actor's objective through a frozen critic;
+* ``loss.policy``: how actions are drawn in the update and in the environment, a
+  :class:`~vigen.losses.NoisyDeterministic` (DrQ-v2) or a :class:`~vigen.losses.SquashedGaussian`
+  (SAC, with its temperature loss).
 
-Each step is a method that returns a small typed result (:class:`Observations`,
-:class:`CriticResult`, :class:`ActorResult`, :class:`AuxiliaryResult`), and a method changes
-what it needs through named hooks:
-
-* :meth:`~ActorCriticLoss.critic_views`: the views the TD loss is taken on and their weights
-  (SVEA's strong view, DrQ's clean view);
-* :meth:`~ActorCriticLoss.auxiliary_views`: more views to encode, with gradient, in the same
-  encoder pass (CURL's anchor);
-* :meth:`~ActorCriticLoss.actor_features`: what the actor reads and what the critic scores its
-  actions on (SADA trains the actor on clean and augmented views against the clean Q);
-* ``input_mask``: a module in front of the encoder for every view and for the acting policy
-  (MaDi's masker);
-* the encoder itself: any module from pixels to features (SimGRL encodes each frame apart and
-  stacks features; PIE-G's is a frozen ResNet);
-* :meth:`~ActorCriticLoss.auxiliary_losses`: extra ``loss_*`` terms (CURL, SGQN, SCPL);
-* :meth:`~ActorCriticLoss.sample_action` and :meth:`~ActorCriticLoss.next_value`: the policy's
-  sampling and the bootstrapped value (DDPG's clipped noise, SAC's entropy term);
-* :meth:`~ActorCriticLoss.make_policy`: the acting policy, from the same networks.
+Each algorithm's ``forward`` strings these together in the order of its paper's update, top to
+bottom, as DrQ-v2's ``update`` reads (see :class:`~vigen.losses.DrQv2Loss`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any, Literal
 
 import torch
 from tensordict import TensorDict, TensorDictBase, TensorDictParams
-from tensordict.nn import TensorDictModuleBase, dispatch
+from tensordict.nn import TensorDictModuleBase
 from tensordict.utils import NestedKey, unravel_key
 from torch import Tensor, nn
 from torchrl.data import TensorSpec
 from torchrl.objectives import LossModule
 from torchrl.objectives.utils import ValueEstimators, dispatch_value_estimator
 
+from vigen.losses.policies import ActingPolicy, ActorOutput
 from vigen.models import weight_init
 from vigen.pixel_format import check_pixels
 from vigen.seeding import derive_seed
@@ -50,89 +40,28 @@ from vigen.transforms import ImageAugmentation, RandomShift
 
 Augmentations = ImageAugmentation | Sequence[ImageAugmentation] | None
 
+LEGACY_STATE_KEYS = {
+    "log_alpha": "policy.log_alpha",
+    "alpha": "weak_weight", "beta": "strong_weight",
+    "svea_alpha": "weak_weight", "svea_beta": "strong_weight",
+}
+"""State-dict keys of vigen's losses before one name per coefficient (0.x checkpoints) → today's keys."""
+
+BATCH_NORMS = (nn.BatchNorm1d, nn.BatchNorm2d, nn.BatchNorm3d, nn.SyncBatchNorm)
+"""The BatchNorm module types whose statistics a loss's acting policy or views must manage (VRL3, PIE-G)."""
+
 
 @dataclass(frozen=True)
-class Observations:
-    """What one update reads from its batch, and the weak views it draws (step 1).
-
-    Attributes:
-        pixels: the stored frame stacks ``[B, 3·k, H, W]``.
-        next_pixels: the stored next frame stacks.
-        action: the actions taken, ``[B, A]``.
-        obs: the weak view of ``pixels`` (``pixels`` itself without augmentation).
-        next_obs: the weak view of ``next_pixels``, drawn independently.
-    """
+class Batch:
+    """What an update reads from its batch: the stored frame stacks ``[B, 3·k, H, W]`` and the actions ``[B, A]``."""
 
     pixels: Tensor
     next_pixels: Tensor
     action: Tensor
-    obs: Tensor
-    next_obs: Tensor
 
     @property
-    def batch_size(self) -> int:
+    def size(self) -> int:
         return self.pixels.shape[0]
-
-
-@dataclass(frozen=True)
-class View:
-    """One view the critic's TD loss is taken on, with its weight in ``loss_critic``.
-
-    A view with a ``name`` logs the mean Q1 of its samples as ``q_<name>_mean``.
-    """
-
-    pixels: Tensor
-    weight: float | Tensor = 1.0
-    name: str | None = None
-
-
-@dataclass
-class CriticResult:
-    """The critic step's per-sample loss and what later steps read from it (step 3).
-
-    Attributes:
-        loss: per-sample critic loss ``[B]``, gradient to the critic and the encoder.
-        q1, q2: both Q values of the first view ``[B, 1]`` (the TD error and ``q_mean`` use them).
-        view_features: encoder features of every critic view, in the order of
-            :meth:`ActorCriticLoss.critic_views`, with gradient.
-        auxiliary_features: encoder features of :meth:`ActorCriticLoss.auxiliary_views`.
-        metrics: detached values to log.
-    """
-
-    loss: Tensor
-    q1: Tensor
-    q2: Tensor
-    view_features: tuple[Tensor, ...]
-    auxiliary_features: tuple[Tensor, ...] = ()
-    metrics: dict[str, Tensor] = field(default_factory=dict)
-
-    @property
-    def features(self) -> Tensor:
-        """Features of the first view: what the actor reads (detached) by default."""
-        return self.view_features[0]
-
-
-@dataclass
-class ActorResult:
-    """The actor step's per-sample loss (step 4).
-
-    Attributes:
-        loss: per-sample actor loss ``[B']`` (``B'`` is ``B`` unless the actor reads more views).
-        log_prob: log-probability of the sampled actions, for losses with a learned temperature.
-        metrics: detached values to log.
-    """
-
-    loss: Tensor
-    log_prob: Tensor | None = None
-    metrics: dict[str, Tensor] = field(default_factory=dict)
-
-
-@dataclass
-class AuxiliaryResult:
-    """The extra per-sample ``loss_*`` terms of a method, and their metrics (step 5)."""
-
-    losses: dict[str, Tensor] = field(default_factory=dict)
-    metrics: dict[str, Tensor] = field(default_factory=dict)
 
 
 def default_shift(augmentation: Augmentations | Literal["default"]) -> Augmentations:
@@ -154,36 +83,71 @@ def default_shift(augmentation: Augmentations | Literal["default"]) -> Augmentat
     return augmentation
 
 
-def td_error(q1: Tensor, q2: Tensor, target: Tensor) -> Tensor:
-    """Per-sample squared TD error of both critics, ``(Q1 − y)² + (Q2 − y)²``, shape ``[B]``.
+def squared_td_errors(q1: Tensor, q2: Tensor, target: Tensor) -> Tensor:
+    """Per-sample squared TD errors of both critics, ``(Q1 − y)² + (Q2 − y)²``, shape ``[B]``.
 
-    The sum of two MSEs of DrQ-v2's critic loss, before the batch mean.
+    The sum of DrQ-v2's two critic MSEs, before the batch mean. (TorchRL's ``"td_error"`` priority
+    that the losses write is another quantity, ``max(|Q1 − y|, |Q2 − y|)``.)
 
     Paper: DrQ-v2, https://arxiv.org/abs/2107.09645.
 
     Examples:
         >>> import torch
-        >>> td_error(torch.tensor([[1.0]]), torch.tensor([[3.0]]), torch.tensor([[2.0]]))
+        >>> squared_td_errors(torch.tensor([[1.0]]), torch.tensor([[3.0]]), torch.tensor([[2.0]]))
         tensor([2.])
     """
     return ((q1 - target).pow(2) + (q2 - target).pow(2)).squeeze(-1)
 
 
-class ActorCriticLoss(LossModule):
-    """The skeleton of vigen's augmentation-based actor-critic losses (see the module docstring).
+def weighted_td_errors(q1: Tensor, q2: Tensor, target: Tensor, weights: Sequence[float | Tensor]) -> Tensor:
+    """``Σ_v w_v·[(Q1_v − y)² + (Q2_v − y)²]`` per sample, for the Q values of ``len(weights)`` views stacked view-major.
 
-    Subclasses choose the policy (:meth:`sample_action`, :meth:`next_value`, :meth:`make_policy`)
-    and what their method adds through the hooks. The skeleton owns the TorchRL plumbing: keys
-    (``set_keys``), the TD(0) value estimator (``make_value_estimator(gamma=...)``; n-step returns
-    through ``steps_to_next_obs``), the batch checks, prioritized-replay weights and the
-    ``td_error`` priority, ``reduction`` and the finite-loss check.
+    ``q1`` and ``q2`` are ``[V·B, 1]`` (the views of one batch concatenated), ``target`` is ``[B, 1]``:
+    every view is scored against the same target, as SVEA's critic loss does.
+
+    Paper: SVEA, https://arxiv.org/abs/2107.00644.
+
+    Examples:
+        >>> import torch
+        >>> q = torch.tensor([[1.0], [3.0]])  # one sample, two views
+        >>> weighted_td_errors(q, q, torch.tensor([[2.0]]), weights=[0.5, 0.5])
+        tensor([2.])
+    """
+    errors = squared_td_errors(q1, q2, target.repeat(len(weights), 1)).split(target.shape[0])
+    loss = weights[0] * errors[0]
+    for weight, error in zip(weights[1:], errors[1:]):
+        loss = loss + weight * error
+    return loss
+
+
+def per_sample_mean(loss: Tensor, views: int) -> Tensor:
+    """A per-sample loss over ``views`` views of each sample (``[V·B]``, view-major) as its mean over the views, ``[B]``.
+
+    Examples:
+        >>> import torch
+        >>> per_sample_mean(torch.tensor([1.0, 2.0, 3.0, 4.0]), views=2)
+        tensor([2., 3.])
+    """
+    if loss.shape[0] % views:
+        raise ValueError(f"per_sample_mean: {loss.shape[0]} values are not {views} views of one batch.")
+    return loss.reshape(views, -1).mean(0)
+
+
+class ActorCriticLoss(LossModule):
+    """TorchRL's plumbing for vigen's actor-critic losses, and the update's pieces, each written once.
+
+    A loss subclasses it with its ``__init__`` (its options) and its ``forward``: the update in its
+    paper's order, built from :meth:`read_batch`, :meth:`augment`, :meth:`next_value`,
+    :meth:`bootstrap`, :meth:`encode`, :meth:`q_values`, :func:`weighted_td_errors`,
+    :meth:`actor_loss` and :meth:`output`. How actions are drawn is ``policy``'s.
 
     The batch (checked before any work, naming every missing key and the fix):
 
     * ``pixels`` and ``("next", "pixels")``: frame stacks ``[B, 3·k, H, W]`` as
       :mod:`vigen.pixel_format` defines them, uint8 on 0–255 or float on ``[0, max_value]``. The
       loss's ``max_value`` is its encoder's (vigen's encoders take ``max_value=``), so it is set
-      once, on the encoder; every augmentation of the loss whose ``max_value`` is ``None`` gets it.
+      once, on the encoder; every augmentation of the loss whose ``max_value`` is ``None`` gets it
+      (the loss keeps private copies: what the caller passed is never changed).
     * ``action``, ``("next", "reward")`` and ``("next", "terminated")``. ``terminated`` tells true
       terminations from time limits; a batch without it is refused rather than bootstrapping
       from ``done``. If every ``done`` of your data is a true termination, say so with
@@ -194,18 +158,28 @@ class ActorCriticLoss(LossModule):
     any optimizer step: a ``ValueError`` naming the batch entries that hold NaN or inf, or a
     ``FloatingPointError`` naming the non-finite parameters when the batch is finite.
 
-    Paper: DrQ-v2 (the update this skeleton follows), https://arxiv.org/abs/2107.09645.
+    Paper: DrQ-v2 (the update the pieces follow), https://arxiv.org/abs/2107.09645.
 
     Args:
         encoder: pixels ``[B, 3·k, H, W]`` → features ``[B, D]``.
-        actor: features → the policy's parameters.
+        actor: features → the policy's parameters (an action for ``NoisyDeterministic``, mean and
+            log σ for ``SquashedGaussian``).
         critic: (features, action) → (Q1, Q2); it gets target parameters (``target_critic_params``)
             for ``torchrl.objectives.SoftUpdate``.
-        augmentation: the weak augmentation, drawn independently for obs and next obs (``None``
-            if the replay buffer already augments).
+        policy: how actions are drawn, :class:`~vigen.losses.NoisyDeterministic` or
+            :class:`~vigen.losses.SquashedGaussian`.
+        augmentation: the weak augmentation (``None`` if the replay buffer already augments).
         input_mask: a module applied to the pixels before the encoder, in every view and in the
             acting policy (MaDi's masker); ``None`` for none.
-        channels_last: run the convolutions in channels-last memory layout.
+        target_encoder: keep a target copy of the encoder (``target_encoder_params``, moved by
+            ``SoftUpdate`` with the target critic) and score the next action on its features
+            (DMC-GB's SAC, the original DrQ). ``"keys"`` keeps the copy without scoring on it
+            (CURL's momentum key encoder).
+        param_groups: per-module optimizer options, ``{attribute: {"lr": ..., ...}}`` for
+            :meth:`optimizer_groups` (MaDi's masker, SCPL's dynamics model); a callable value maps
+            the base learning rate (VRL3's encoder scale).
+        channels_last: feed the convolutions channels-last pixels (:func:`~vigen.losses.make_loss`
+            also puts vigen's networks in that layout; a loss never changes the caller's modules).
         reduction: ``"mean"``, ``"sum"`` or ``"none"`` (per-sample losses).
         check_finite: raise when a loss is NaN or inf; ``False`` skips the check.
 
@@ -226,7 +200,7 @@ class ActorCriticLoss(LossModule):
             done: end of episode, read at ``("next", done)``.
             terminated: true termination (no bootstrap), read at ``("next", terminated)``.
             steps_to_next_obs: n of the n-step return (``γⁿ``); optional.
-            priority: where the TD error is written for prioritized replay.
+            priority: where ``max(|Q1 − y|, |Q2 − y|)`` is written for prioritized replay.
             priority_weight: importance weights of a prioritized sampler; optional.
         """
 
@@ -243,10 +217,12 @@ class ActorCriticLoss(LossModule):
     tensor_keys: _AcceptedKeys
     default_value_estimator = ValueEstimators.TD0
     SUPPORTED_VALUE_ESTIMATORS = (ValueEstimators.TD0,)
-    out_keys = ["loss_critic", "loss_actor", "q_mean", "target_mean", "target_std"]
+    own_out_keys: tuple[str, ...] = ()
+    """The losses and metrics an algorithm adds to the output."""
     compiles_whole = True
     """Whether ``torch.compile(fullgraph=True)`` traces the whole update (:class:`~vigen.losses.UpdateStep`)."""
 
+    policy: ActingPolicy
     encoder: nn.Module
     encoder_params: TensorDictParams
     target_encoder_params: TensorDictParams
@@ -263,8 +239,11 @@ class ActorCriticLoss(LossModule):
         actor: nn.Module,
         critic: nn.Module,
         *,
+        policy: ActingPolicy,
         augmentation: Augmentations = None,
         input_mask: nn.Module | None = None,
+        target_encoder: bool | Literal["keys"] = False,
+        param_groups: Mapping[str, Mapping[str, Any]] | None = None,
         channels_last: bool = True,
         reduction: str = "mean",
         check_finite: bool = True,
@@ -272,116 +251,125 @@ class ActorCriticLoss(LossModule):
         super().__init__()
         if reduction not in ("mean", "sum", "none"):
             raise ValueError(f"reduction must be 'mean', 'sum' or 'none', got {reduction!r}.")
+        if target_encoder not in (True, False, "keys"):
+            raise ValueError(f"target_encoder must be True, False or 'keys' (a key encoder only), got {target_encoder!r}.")
         self._in_keys = None
         self.reduction = reduction
         self.check_finite = check_finite
         self.max_value: float | None = getattr(encoder, "max_value", None)
         self.channels_last = channels_last
-        if channels_last:
-            encoder.to(memory_format=torch.channels_last)
+        mask_max = getattr(input_mask, "max_value", None)
+        if input_mask is not None and hasattr(input_mask, "max_value") and mask_max != self.max_value:
+            raise ValueError(
+                f"{type(self).__name__}: the input mask has max_value={mask_max} but the encoder's is {self.max_value}; "
+                "the mask hands the encoder float pixels on its scale, so they must agree. Build it with "
+                f"max_value={self.max_value} (make_loss does)."
+            )
+        self.policy = policy
         self.input_mask = input_mask
-        self.convert_to_functional(encoder, "encoder")
+        self.convert_to_functional(encoder, "encoder", create_target_params=bool(target_encoder))
         self.convert_to_functional(actor, "actor")
         self.convert_to_functional(critic, "critic", create_target_params=True)
+        self.scores_on_target_encoder = target_encoder is True
         self.augmentation = self._augmentations(augmentation)
         self.register_buffer("schedule_step", torch.zeros((), dtype=torch.long))
+        self.param_groups = dict(param_groups or {})
+        self._register_load_state_dict_pre_hook(_rename_legacy_keys)
+
+    @property
+    def out_keys(self) -> list[str]:
+        """Every entry of the output: the shared ones, the policy's (``std``, or ``loss_alpha``, ``alpha``, ``entropy``), the algorithm's."""
+        return ["loss_critic", "loss_actor", "q_mean", "target_mean", "target_std", *self.policy.out_keys, *self.own_out_keys]
 
     def set_step(self, step: int) -> None:
         """Evaluate the loss's schedules at ``step`` from now on (DrQ-v2: agent steps = frames / action repeat)."""
         self.schedule_step.fill_(int(step))
 
-    # -- the update, in DrQ-v2's order -------------------------------------------------------
-    @dispatch
-    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+    # -- the update's pieces -------------------------------------------------------------------
+    def read_batch(self, tensordict: TensorDictBase) -> Batch:
+        """Check the batch (see the class docstring) and read its pixels, next pixels and actions."""
         self._check_batch(tensordict)
-        batch = self.observations(tensordict)                   # 1. augment
-        with torch.no_grad():
-            target = self.critic_target(batch, tensordict)      # 2. critic target
-        critic = self.critic_loss(batch, target)                # 3. critic loss (trains the encoder)
-        actor = self.actor_loss(batch, critic)                  # 4. actor loss (detached features)
-        auxiliary = self.auxiliary_losses(batch, critic, actor)  # 5. what the method adds
-        return self._output(tensordict, target, critic, actor, auxiliary)
-
-    def observations(self, tensordict: TensorDictBase) -> Observations:
-        """Step 1: read the batch and draw the weak views of obs and next obs."""
         keys = self.tensor_keys
-        pixels, next_pixels = tensordict.get(keys.pixels), tensordict.get(("next", keys.pixels))
-        return Observations(
-            pixels=pixels, next_pixels=next_pixels, action=tensordict.get(keys.action),
-            obs=self.augment(pixels), next_obs=self.augment(next_pixels),
-        )
+        return Batch(tensordict.get(keys.pixels), tensordict.get(("next", keys.pixels)), tensordict.get(keys.action))
 
-    def critic_target(self, batch: Observations, tensordict: TensorDictBase) -> Tensor:
-        """Step 2: ``y = r + γⁿ·(1 − terminated)·V(h')`` with ``h' = encoder(next_obs)``, ``[B, 1]``.
+    def augment(self, pixels: Tensor, augmentations: nn.ModuleList | None = None) -> Tensor:
+        """``pixels`` through ``augmentations`` in turn (default: the weak augmentation), a fresh draw per call."""
+        for augmentation in self.augmentation if augmentations is None else augmentations:
+            augmented = augmentation.augment(pixels)
+            if augmented.dtype != pixels.dtype:
+                raise TypeError(
+                    f"{type(augmentation).__name__} turned {pixels.dtype} pixels into {augmented.dtype}; the loss "
+                    "cannot tell their scale. Augmentations keep the dtype: end apply() with .to(images.dtype)."
+                )
+            pixels = augmented
+        return pixels
 
-        The online encoder encodes the next view (DrQ-v2 has no target encoder); :meth:`next_value`
-        gives ``V``.
+    def next_value(self, next_obs: Tensor) -> Tensor:
+        """``V(h') = min(Q1', Q2')(h'_Q, a')`` (minus ``α·log π(a'|h')`` for SAC) with ``a'`` drawn by the policy at ``h'``.
+
+        ``h' = encoder(next_obs)`` is the *online* encoder's (DrQ-v2 has no target encoder); with
+        ``target_encoder=True`` the target critic scores on the target encoder's ``h'_Q`` (DMC-GB's SAC).
+        Call it without gradient.
         """
-        next_value = self.next_value(self.encode(batch.next_obs))
+        features = self.encode(next_obs)
+        scored = self.encode(next_obs, params=self.target_encoder_params) if self.scores_on_target_encoder else features
+        action, log_prob = self.policy.sample(self.actor_output(features), self.schedule_step)
+        return self.policy.value(torch.min(*self.target_q_values(scored, action)), log_prob)
+
+    def critic_target(self, tensordict: TensorDictBase, next_obs: Tensor) -> Tensor:
+        """The critic target ``y = r + γⁿ·(1 − terminated)·V(h')`` of the next view ``next_obs``, without gradient, ``[B, 1]``."""
+        with torch.no_grad():
+            return self.bootstrap(tensordict, self.next_value(next_obs))
+
+    def bootstrap(self, tensordict: TensorDictBase, next_value: Tensor) -> Tensor:
+        """The critic target ``y = r + γⁿ·(1 − terminated)·V``, ``[B, 1]``, from TorchRL's TD(0) estimator."""
         return self.value_estimator.value_estimate(tensordict, next_value=next_value)
 
-    def critic_loss(self, batch: Observations, target: Tensor) -> CriticResult:
-        """Step 3: ``Σ_views weight·[(Q1(h, a) − y)² + (Q2(h, a) − y)²]`` per sample.
+    def actor_loss(
+        self,
+        features: Tensor,
+        critic_features: Tensor | None = None,
+        *,
+        actor_output: ActorOutput | None = None,
+    ) -> tuple[Tensor, Tensor | None]:
+        """The actor's per-sample objective at detached ``features``, and the log-probability of its actions.
 
-        The critic views and the auxiliary views share one encoder pass when their shapes agree.
+        ``ã`` is drawn by the policy from ``actor(features)`` (or the given ``actor_output``) and
+        scored by the critic, frozen (its parameters detached, so this trains the actor only), on
+        ``critic_features`` (default ``features``): ``−min(Q1, Q2)(h, ã)``, or
+        ``α·log π(ã|h) − min(Q1, Q2)(h, ã)`` for SAC.
         """
-        views = self.critic_views(batch)
-        extra = self.auxiliary_views(batch)
-        features = self.encode_views([view.pixels for view in views] + list(extra))
-        view_features, auxiliary_features = features[: len(views)], features[len(views):]
-        count = len(views)
-        q1, q2 = self.q_values(torch.cat(view_features) if count > 1 else view_features[0], batch.action.repeat(count, 1))
-        errors = td_error(q1, q2, target.repeat(count, 1)).split(batch.batch_size)
-        loss = views[0].weight * errors[0]
-        for view, error in zip(views[1:], errors[1:]):
-            loss = loss + view.weight * error
-        size = batch.batch_size
-        metrics = {f"q_{view.name}_mean": q.detach().mean() for view, q in zip(views, q1.split(size)) if view.name}
-        return CriticResult(loss, q1[:size], q2[:size], tuple(view_features), tuple(auxiliary_features), metrics)
+        output = self.actor_output(features) if actor_output is None else actor_output
+        action, log_prob = self.policy.sample(output, self.schedule_step)
+        q = torch.min(*self.q_values(features if critic_features is None else critic_features, action, frozen=True))
+        return self.policy.objective(q, log_prob).squeeze(-1), log_prob
 
-    def actor_loss(self, batch: Observations, critic: CriticResult) -> ActorResult:
-        """Step 4: ``−min(Q1, Q2)(h, ã)`` with ``ã`` sampled from the policy on detached features.
+    def output(
+        self,
+        tensordict: TensorDictBase,
+        target: Tensor,
+        q1: Tensor,
+        q2: Tensor,
+        losses: Mapping[str, Tensor],
+        metrics: Mapping[str, Tensor] | None = None,
+    ) -> TensorDict:
+        """The loss's TensorDict: the reduced per-sample ``losses`` (``loss_critic`` weighted by ``priority_weight``), the metrics.
 
-        The critic is frozen here (its parameters detached): the actor loss trains the actor only.
+        ``q1``, ``q2`` are the critic's values of the batch's first view ``[B, 1]`` and ``target``
+        its target ``y``: ``q_mean``, ``target_mean``, ``target_std`` and the ``td_error`` priority
+        ``max(|Q1 − y|, |Q2 − y|)`` (written into ``tensordict``) come from them.
         """
-        policy_features, critic_features = self.actor_features(batch, critic)
-        action, log_prob = self.sample_action(policy_features)
-        q1, q2 = self.q_values(critic_features, action, frozen=True)
-        return ActorResult(-torch.min(q1, q2).squeeze(-1), log_prob)
-
-    def auxiliary_losses(self, batch: Observations, critic: CriticResult, actor: ActorResult) -> AuxiliaryResult:
-        """Step 5: the method's extra per-sample ``loss_*`` terms (none here)."""
-        return AuxiliaryResult()
-
-    # -- hooks ----------------------------------------------------------------------------------
-    def augment(self, pixels: Tensor) -> Tensor:
-        """The weak augmentation (a fresh draw per call)."""
-        return self._augment(self.augmentation, pixels)
-
-    def critic_views(self, batch: Observations) -> list[View]:
-        """The views the TD loss is taken on; the first one's features feed the actor."""
-        return [View(batch.obs)]
-
-    def auxiliary_views(self, batch: Observations) -> list[Tensor]:
-        """Views encoded with gradient in the critic's encoder pass, for :meth:`auxiliary_losses`."""
-        return []
-
-    def actor_features(self, batch: Observations, critic: CriticResult) -> tuple[Tensor, Tensor]:
-        """(what the policy reads, what the critic scores its actions on), both detached."""
-        features = critic.features.detach()
-        return features, features
-
-    def sample_action(self, features: Tensor) -> tuple[Tensor, Tensor | None]:
-        """A differentiable action sample from the policy at ``features``, and its log-probability."""
-        raise NotImplementedError
-
-    def next_value(self, next_features: Tensor) -> Tensor:
-        """The bootstrapped value at the next features, through the target critic, ``[B, 1]``."""
-        raise NotImplementedError
-
-    def make_policy(self, action_spec: TensorSpec, *, pixels_key: NestedKey = "pixels") -> TensorDictModuleBase:
-        """The acting policy (a TorchRL module, pixels → ``"action"``) on this loss's live networks."""
-        raise NotImplementedError
+        keys = self.tensor_keys
+        priority = torch.maximum((q1 - target).abs(), (q2 - target).abs()).detach().squeeze(-1)
+        tensordict.set(keys.priority, priority)
+        weights = self._maybe_get_priority_weight(tensordict)
+        out = {name: self._reduce_loss(value, tensordict, weights=weights if name == "loss_critic" else None)
+               for name, value in losses.items()}
+        out.update(q_mean=q1.detach().mean(), target_mean=target.mean(), target_std=target.std())
+        out.update({name: value.detach() for name, value in (metrics or {}).items()})
+        if self.check_finite and not torch.compiler.is_compiling():  # a compiled update guards with tensor ops (UpdateStep)
+            self._check_finite(out, tensordict)
+        return TensorDict(out, batch_size=[])
 
     # -- building blocks ---------------------------------------------------------------------
     def encode(self, pixels: Tensor, params: TensorDictBase | None = None) -> Tensor:
@@ -401,8 +389,8 @@ class ActorCriticLoss(LossModule):
             return list(self.encode(torch.cat(list(views))).split(views[0].shape[0]))
         return [self.encode(view) for view in views]
 
-    def policy(self, features: Tensor) -> Tensor | tuple[Tensor, ...]:
-        """The actor's output at ``features``."""
+    def actor_output(self, features: Tensor) -> ActorOutput:
+        """The actor's output at ``features`` (an action, or the mean and log σ of SAC's Gaussian)."""
         with self.actor_params.to_module(self.actor, preserve_module_state=False):
             return self.actor(features)
 
@@ -417,20 +405,56 @@ class ActorCriticLoss(LossModule):
         with self.target_critic_params.to_module(self.critic, preserve_module_state=False):
             return self.critic(features, action)
 
-    def metrics(self) -> dict[str, Tensor]:
-        """Loss-wide values logged with every update (e.g. the noise std)."""
-        return {}
+    def policy_metrics(self, log_prob: Tensor | None = None) -> dict[str, Tensor]:
+        """The policy's metrics (the noise std, or α and the entropy of the actor's samples)."""
+        return self.policy.metrics(self.schedule_step, log_prob)
+
+    @property
+    def stddev(self) -> float:
+        """The current noise std of a ``NoisyDeterministic`` policy (a Python float: reading it synchronizes)."""
+        stddev = getattr(self.policy, "stddev", None)
+        if stddev is None:
+            raise AttributeError(f"{type(self).__name__} samples from its SAC policy; it has no noise std.")
+        return stddev(self.schedule_step)
+
+    @property
+    def alpha(self) -> Tensor:
+        """The temperature α of a ``SquashedGaussian`` policy."""
+        if not isinstance(getattr(self.policy, "log_alpha", None), Tensor):
+            raise AttributeError(f"{type(self).__name__} acts with DrQ-v2's noisy deterministic actor; it has no temperature.")
+        return self.policy.alpha
 
     def prepare_compile(self) -> None:
         """Set up what a compiled update needs before it is traced (:class:`~vigen.losses.UpdateStep` calls it; nothing here)."""
 
+    def make_policy(self, action_spec: TensorSpec, *, pixels_key: NestedKey = "pixels") -> TensorDictModuleBase:
+        """The acting policy (a TorchRL module, pixels → ``"action"``) on this loss's live networks.
+
+        With :class:`~vigen.losses.NoisyDeterministic`: ``actor(encoder(pixels))`` and TorchRL's
+        ``AdditiveGaussianModule`` whose σ follows the loss's std schedule (call
+        ``policy[-1].step(frames)`` as frames are collected); the noise is added when the
+        exploration type is ``RANDOM`` (collectors' default) and left out under ``DETERMINISTIC``
+        (evaluation), unclipped, the action clamped to the spec, as in DrQ-v2's acting. With
+        :class:`~vigen.losses.SquashedGaussian`: a ``ProbabilisticActor`` sampling the
+        tanh-squashed Gaussian (its mean under ``DETERMINISTIC``).
+        """
+        return self.policy.acting_module(PixelsToAction(self), action_spec, pixels_key, self.device)
+
     def optimizer_groups(self, lr: float) -> list[dict[str, Any]]:
         """Parameter groups for one optimizer over the whole loss: ``torch.optim.Adam(loss.optimizer_groups(lr))``.
 
-        One group at ``lr`` here; a method whose paper gives a module its own learning rate or
-        betas (MaDi's masker) returns that module's parameters as a group of their own.
+        One group at ``lr``, then one per entry of ``param_groups`` (a module, or ``"encoder"`` for the
+        encoder's parameters) with its own options (MaDi's masker: lr 1e-3, betas (0.9, 0.999)).
         """
-        return [{"params": list(self.parameters()), "lr": lr}]
+        groups, own = [], set()
+        for name, options in self.param_groups.items():
+            module = self.encoder_params if name == "encoder" else getattr(self, name)
+            params = list(module.parameters())
+            own.update(id(parameter) for parameter in params)
+            resolved = {key: value(lr) if callable(value) else value for key, value in options.items()}
+            groups.append({"params": params, **resolved})
+        rest = [parameter for parameter in self.parameters() if id(parameter) not in own]
+        return [{"params": rest, "lr": lr}, *groups]
 
     def seed_augmentations(self, seed: int | None) -> None:
         """Seed every augmentation this loss owns, each with its own stream below ``seed``.
@@ -499,31 +523,6 @@ class ActorCriticLoss(LossModule):
             target = getattr(self, f"target_{name}_params", None)
             if target is not None:
                 target.data.update_(getattr(self, f"{name}_params").data)
-
-    def _output(
-        self,
-        tensordict: TensorDictBase,
-        target: Tensor,
-        critic: CriticResult,
-        actor: ActorResult,
-        auxiliary: AuxiliaryResult,
-    ) -> TensorDict:
-        keys = self.tensor_keys
-        priority = torch.maximum((critic.q1 - target).abs(), (critic.q2 - target).abs()).detach().squeeze(-1)
-        tensordict.set(keys.priority, priority)
-        size = priority.shape[0]
-        out = {
-            "loss_critic": self._reduce_loss(critic.loss, tensordict, weights=self._maybe_get_priority_weight(tensordict)),
-            "loss_actor": self._reduce_loss(_per_sample(actor.loss, size), tensordict),
-        }
-        for name, value in auxiliary.losses.items():
-            out[name] = self._reduce_loss(_per_sample(value, size), tensordict)
-        out.update(q_mean=critic.q1.detach().mean(), target_mean=target.mean(), target_std=target.std(), **self.metrics())
-        for metrics in (critic.metrics, actor.metrics, auxiliary.metrics):
-            out.update({name: value.detach() for name, value in metrics.items()})
-        if self.check_finite and not torch.compiler.is_compiling():  # a compiled update guards with tensor ops (UpdateStep)
-            self._check_finite(out, tensordict)
-        return TensorDict(out, batch_size=[])
 
     # -- what the batch must hold ------------------------------------------------------------
     def _required_keys(self) -> dict[NestedKey, str]:
@@ -613,18 +612,6 @@ class ActorCriticLoss(LossModule):
             return pixels
         return pixels.float() / (255.0 / (1.0 if self.max_value is None else self.max_value))
 
-    @staticmethod
-    def _augment(augmentations: nn.ModuleList, pixels: Tensor) -> Tensor:
-        for augmentation in augmentations:
-            augmented = augmentation.augment(pixels)
-            if augmented.dtype != pixels.dtype:
-                raise TypeError(
-                    f"{type(augmentation).__name__} turned {pixels.dtype} pixels into {augmented.dtype}; the loss "
-                    "cannot tell their scale. Augmentations keep the dtype: end apply() with .to(images.dtype)."
-                )
-            pixels = augmented
-        return pixels
-
     def _augmentations(self, augmentations: Augmentations) -> nn.ModuleList:
         """Private copies of ``augmentations``; those without a ``max_value`` get the loss's (its encoder's)."""
         if augmentations is None:
@@ -650,11 +637,26 @@ class ActorCriticLoss(LossModule):
         return nn.ModuleList(copies)
 
 
-def _per_sample(loss: Tensor, batch_size: int) -> Tensor:
-    """A loss over ``k`` views of each sample (``[k·B]``, view-major) as the per-sample mean over its views, ``[B]``."""
-    if loss.ndim == 1 and loss.shape[0] != batch_size and loss.shape[0] % batch_size == 0:
-        return loss.reshape(-1, batch_size).mean(0)
-    return loss
+class PixelsToAction(nn.Module):
+    """A loss's acting network, ``actor(encoder(input_mask(pixels)))``, sharing the loss's modules."""
+
+    def __init__(self, loss: ActorCriticLoss) -> None:
+        super().__init__()
+        self.input_mask = loss.input_mask
+        self.encoder = loss.encoder
+        self.head = loss.actor
+
+    def forward(self, pixels: Tensor) -> ActorOutput:
+        if self.input_mask is not None:
+            pixels = self.input_mask(pixels)
+        return self.head(self.encoder(pixels))
+
+
+def _rename_legacy_keys(state_dict: dict[str, Any], prefix: str, *args: Any) -> None:
+    """Load a state dict saved before one name per coefficient (see :data:`LEGACY_STATE_KEYS`)."""
+    for old, new in LEGACY_STATE_KEYS.items():
+        if prefix + old in state_dict and prefix + new not in state_dict:
+            state_dict[prefix + new] = state_dict.pop(prefix + old)
 
 
 def _reinitialise(module: nn.Module) -> None:

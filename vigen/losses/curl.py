@@ -2,19 +2,21 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 import torch
 import torch.nn.functional as F
-from torch import Tensor, nn
+from tensordict import TensorDictBase
+from tensordict.nn import dispatch
+from torch import nn
 
-from vigen.losses.base import ActorResult, Augmentations, AuxiliaryResult, CriticResult, Observations
-from vigen.losses.drqv2 import DrQv2Loss
+from vigen.losses.base import ActorCriticLoss, Augmentations, default_shift, squared_td_errors
+from vigen.losses.policies import NoisyDeterministic
 from vigen.models import CURLHead
 from vigen.transforms import RandomShift
 
 
-class CURLLoss(DrQv2Loss):
+class CURLLoss(ActorCriticLoss):
     """CURL on DrQ-v2 (RL-ViGen's variant): InfoNCE with a bilinear similarity over the batch.
 
     Two more views of each observation are drawn with ``contrastive_augmentation``: the anchor
@@ -24,7 +26,7 @@ class CURLLoss(DrQv2Loss):
         ``loss_curl = CrossEntropy(logits, labels=arange(B))``:
 
     each anchor must pick its own positive among the batch. The critic gets its own shifted view,
-    encoded in the same pass as the anchors (:meth:`auxiliary_views`).
+    encoded in the same pass as the anchors.
 
     RL-ViGen's agent takes this step after the critic step: it encodes the anchor with the
     encoder the critic step has just moved and steps the encoder a second time, with its own
@@ -48,7 +50,10 @@ class CURLLoss(DrQv2Loss):
         head: the bilinear head (:class:`~vigen.models.CURLHead`) of the encoder's output size.
         contrastive_augmentation: draws the anchor and positive views; default ``RandomShift(4)``.
         key_encoder: encode positives with a momentum copy of the encoder.
-        **kwargs: the options of :class:`DrQv2Loss`.
+        policy: DrQ-v2's :class:`~vigen.losses.NoisyDeterministic` (its default).
+        augmentation: the critic's view; ``"default"`` is ``RandomShift(pad=4)``.
+        **kwargs: ``input_mask``, ``channels_last``, ``reduction``, ``check_finite`` (see
+            :class:`~vigen.losses.ActorCriticLoss`).
 
     Examples:
         >>> import torch
@@ -69,7 +74,7 @@ class CURLLoss(DrQv2Loss):
         ['loss_actor', 'loss_critic', 'loss_curl']
     """
 
-    out_keys = DrQv2Loss.out_keys + ["loss_curl", "curl_accuracy"]
+    own_out_keys = ("loss_curl", "curl_accuracy")
 
     def __init__(
         self,
@@ -78,32 +83,35 @@ class CURLLoss(DrQv2Loss):
         critic: nn.Module,
         head: CURLHead,
         *,
+        policy: NoisyDeterministic | None = None,
+        augmentation: Augmentations | Literal["default"] = "default",
         contrastive_augmentation: Augmentations = None,
         key_encoder: bool = False,
         **kwargs: Any,
     ) -> None:
-        super().__init__(encoder, actor, critic, **kwargs)
+        super().__init__(encoder, actor, critic, policy=NoisyDeterministic() if policy is None else policy,
+                         augmentation=default_shift(augmentation), target_encoder="keys" if key_encoder else False,
+                         **kwargs)
         self.head = head
-        if contrastive_augmentation is None:
-            contrastive_augmentation = RandomShift(pad=4)
-        self.contrastive_augmentation = self._augmentations(contrastive_augmentation)
+        self.contrastive_augmentation = self._augmentations(
+            RandomShift(pad=4) if contrastive_augmentation is None else contrastive_augmentation)
         self.key_encoder = key_encoder
-        if key_encoder:
-            self.convert_to_functional(encoder, "encoder", create_target_params=True)
 
-    def auxiliary_views(self, batch: Observations) -> list[Tensor]:
-        """The anchors ``aug₁(obs)``, encoded with gradient in the critic's encoder pass."""
-        return [self._augment(self.contrastive_augmentation, batch.pixels)]
-
-    def auxiliary_losses(self, batch: Observations, critic: CriticResult, actor: ActorResult) -> AuxiliaryResult:
-        """InfoNCE of the anchors against positives ``aug₂(obs)`` encoded without gradient."""
-        (anchor,) = critic.auxiliary_features
-        with torch.no_grad():
+    @dispatch
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        batch = self.read_batch(tensordict)
+        obs, next_obs = self.augment(batch.pixels), self.augment(batch.next_pixels)
+        target = self.critic_target(tensordict, next_obs)
+        anchor_view = self.augment(batch.pixels, self.contrastive_augmentation)
+        features, anchor = self.encode_views([obs, anchor_view])  # one encoder pass
+        q1, q2 = self.q_values(features, batch.action)
+        loss_actor, _ = self.actor_loss(features.detach())
+        with torch.no_grad():  # the positives: a second draw, on the key encoder if there is one
             keys = self.target_encoder_params if self.key_encoder else None
-            positive = self.encode(self._augment(self.contrastive_augmentation, batch.pixels), params=keys)
+            positive = self.encode(self.augment(batch.pixels, self.contrastive_augmentation), params=keys)
         logits = self.head.logits(anchor, positive)
-        labels = torch.arange(batch.batch_size, device=logits.device)
-        return AuxiliaryResult(
-            {"loss_curl": F.cross_entropy(logits, labels, reduction="none")},
-            {"curl_accuracy": (logits.argmax(dim=1) == labels).float().mean()},
-        )
+        labels = torch.arange(batch.size, device=logits.device)
+        return self.output(tensordict, target, q1, q2,
+                           {"loss_critic": squared_td_errors(q1, q2, target), "loss_actor": loss_actor,
+                            "loss_curl": F.cross_entropy(logits, labels, reduction="none")},
+                           {**self.policy_metrics(), "curl_accuracy": (logits.argmax(dim=1) == labels).float().mean()})

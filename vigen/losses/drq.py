@@ -6,13 +6,14 @@ from typing import Any, Literal
 
 import torch
 from tensordict import TensorDictBase
+from tensordict.nn import dispatch
 from torch import Tensor, nn
 
-from vigen.losses.base import ActorCriticLoss, Augmentations, Observations, View, default_shift
-from vigen.losses.sac import SoftActorCritic
+from vigen.losses.base import ActorCriticLoss, Augmentations, default_shift, weighted_td_errors
+from vigen.losses.policies import SquashedGaussian
 
 
-class DrQLoss(SoftActorCritic, ActorCriticLoss):
+class DrQLoss(ActorCriticLoss):
     """DrQ as in RL-ViGen: SAC on a clean and a randomly shifted view of every observation.
 
     With ``h₀ = encoder(obs)``, ``h₁ = encoder(shift(obs))`` and the same two views of the next
@@ -41,15 +42,14 @@ class DrQLoss(SoftActorCritic, ActorCriticLoss):
     Args:
         encoder, critic: as in :class:`DrQv2Loss`.
         actor: features → (mean, log σ).
-        init_temperature: initial α.
-        target_entropy: ``"auto"`` for ``−action_dim``, or a number.
+        policy: SAC's :class:`~vigen.losses.SquashedGaussian`; default α₀ = 0.1, ``H̄ = −|A|``, DrQ's log π.
         augmentation: the shift; ``"default"`` is ``RandomShift(pad=4)``.
         clean_view: pair the raw observation with one shifted view (RL-ViGen); ``False`` draws
             two shifted views (the original DrQ's K = M = 2).
         target_encoder: encode the next views with a target copy of the encoder (the original
             DrQ) instead of the online encoder (RL-ViGen).
-        **kwargs: ``input_mask``, ``channels_last``, ``reduction``, ``check_finite``
-            (see :class:`~vigen.losses.ActorCriticLoss`).
+        **kwargs: ``input_mask``, ``param_groups``, ``channels_last``, ``reduction``,
+            ``check_finite`` (see :class:`~vigen.losses.ActorCriticLoss`).
 
     Examples:
         >>> import torch
@@ -72,46 +72,39 @@ class DrQLoss(SoftActorCritic, ActorCriticLoss):
         (['loss_actor', 'loss_alpha', 'loss_critic'], 0.1)
     """
 
-    out_keys = ActorCriticLoss.out_keys + ["loss_alpha", "alpha", "entropy"]
-
     def __init__(
         self,
         encoder: nn.Module,
         actor: nn.Module,
         critic: nn.Module,
         *,
-        init_temperature: float = 0.1,
-        target_entropy: float | Literal["auto"] = "auto",
+        policy: SquashedGaussian | None = None,
         augmentation: Augmentations | Literal["default"] = "default",
         clean_view: bool = True,
         target_encoder: bool = False,
         **kwargs: Any,
     ) -> None:
-        augmentation = default_shift(augmentation)
-        super().__init__(
-            encoder, actor, critic, augmentation=augmentation, init_temperature=init_temperature,
-            target_entropy=target_entropy, target_encoder=target_encoder, **kwargs,
-        )
+        super().__init__(encoder, actor, critic, policy=SquashedGaussian() if policy is None else policy,
+                         augmentation=default_shift(augmentation), target_encoder=target_encoder, **kwargs)
         self.clean_view = clean_view
 
-    def _two_views(self, pixels: Tensor, shifted: Tensor) -> tuple[Tensor, Tensor]:
-        """(raw or a second shift, the first shift): RL-ViGen's pair, or the original DrQ's."""
+    @dispatch
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        batch = self.read_batch(tensordict)
+        obs, next_obs = self.augment(batch.pixels), self.augment(batch.next_pixels)
+        with torch.no_grad():  # the mean of both next views' targets
+            first, second = self.next_value(torch.cat(self.two_views(batch.next_pixels, next_obs))).chunk(2)
+            target = 0.5 * (self.bootstrap(tensordict, first) + self.bootstrap(tensordict, second))
+        features = self.encode_views(self.two_views(batch.pixels, obs))
+        q1, q2 = self.q_values(torch.cat(features), batch.action.repeat(2, 1))
+        loss_critic = weighted_td_errors(q1, q2, target, [1.0, 1.0])  # summed over the views, not averaged
+        loss_actor, log_prob = self.actor_loss(features[0].detach())
+        size = batch.size
+        return self.output(tensordict, target, q1[:size], q2[:size],
+                           {"loss_critic": loss_critic, "loss_actor": loss_actor,
+                            **self.policy.losses(log_prob, batch.action.shape[-1])},
+                           self.policy_metrics(log_prob))
+
+    def two_views(self, pixels: Tensor, shifted: Tensor) -> tuple[Tensor, Tensor]:
+        """(raw or a second shift, the first shift): RL-ViGen's pair, or the original DrQ's (a fresh draw)."""
         return (pixels, shifted) if self.clean_view else (shifted, self.augment(pixels))
-
-    def critic_target(self, batch: Observations, tensordict: TensorDictBase) -> Tensor:
-        """The mean of the SAC targets of both next views.
-
-        With ``target_encoder`` the next action is sampled on the online encoder's features and
-        scored by the target critic on the target encoder's, as in the original DrQ (its actor's
-        encoder shares the online critic's convolutions).
-        """
-        views = torch.cat(self._two_views(batch.next_pixels, batch.next_obs))
-        online = self.encode(views)
-        scored = self.encode(views, params=self.target_encoder_params) if self.target_encoder else None
-        first, second = self.next_value(online, scored).chunk(2)
-        estimate = self.value_estimator.value_estimate
-        return 0.5 * (estimate(tensordict, next_value=first) + estimate(tensordict, next_value=second))
-
-    def critic_views(self, batch: Observations) -> list[View]:
-        """Both views, each with weight 1 (the MSEs are summed, not averaged)."""
-        return [View(view) for view in self._two_views(batch.pixels, batch.obs)]

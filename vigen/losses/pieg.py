@@ -11,11 +11,11 @@ from tensordict.utils import NestedKey
 from torch import Tensor, nn
 from torchrl.data import TensorSpec
 
+from vigen.losses.base import BATCH_NORMS
 from vigen.losses.svea import SVEALoss
 from vigen.losses.vrl3 import RunningStatistics
 
 BatchNormMode = Literal["running", "observation"]
-_BATCH_NORMS = (nn.BatchNorm1d, nn.BatchNorm2d, nn.BatchNorm3d, nn.SyncBatchNorm)
 
 
 class PIEGLoss(SVEALoss):
@@ -24,9 +24,9 @@ class PIEGLoss(SVEALoss):
     The update is :class:`~vigen.losses.SVEALoss`'s on DrQ-v2's DDPG, with ``s = shift(obs)``,
     ``s̃ = overlay(s)`` and ``y = r + γⁿ·(1 − terminated)·min(Q1', Q2')(h', a')``:
 
-        ``loss_critic = α·[MSE(Q1(h), y) + MSE(Q2(h), y)] + β·[MSE(Q1(h̃), y) + MSE(Q2(h̃), y)]``
+        ``loss_critic = w·[MSE(Q1(h), y) + MSE(Q2(h), y)] + w̃·[MSE(Q1(h̃), y) + MSE(Q2(h̃), y)]``
 
-    with α = β = 0.5, ``h = encoder(s)``, ``h̃ = encoder(s̃)``, ``h' = encoder(shift(next obs))``
+    with w = w̃ = 0.5, ``h = encoder(s)``, ``h̃ = encoder(s̃)``, ``h' = encoder(shift(next obs))``
     (no gradient), and ``loss_actor = −min(Q1, Q2)(h.detach(), μ(h.detach()) + noise)``.
 
     What PIE-G changes is the encoder, :class:`~vigen.models.PIEGEncoder`: ImageNet ResNet-18
@@ -70,9 +70,8 @@ class PIEGLoss(SVEALoss):
             :class:`~vigen.models.PIEGEncoder` (``make_loss("pieg", ..., encoder_weights=<file>)``).
         acting_batchnorm: ``"running"`` or ``"observation"``, the BatchNorm statistics of the
             acting policy (see above).
-        **kwargs: the options of :class:`~vigen.losses.SVEALoss` (``strong_augmentation``
-            (default: the random overlay), ``alpha``, ``beta``) and :class:`~vigen.losses.DrQv2Loss`
-            (``augmentation`` (default ``RandomShift(pad=4)``), ``std``, ``std_clip``, ...).
+        **kwargs: the options of :class:`~vigen.losses.SVEALoss` (``policy``, ``augmentation``,
+            ``strong_augmentation`` (default: the random overlay), ``weak_weight``, ``strong_weight``, ...).
 
     Examples:
         >>> import torch, warnings
@@ -184,7 +183,7 @@ class ObservationStatistics(nn.Module):
         self.module = module
 
     def forward(self, pixels: Tensor) -> Tensor:
-        norms = [m for m in self.module.modules() if isinstance(m, _BATCH_NORMS)]
+        norms = [m for m in self.module.modules() if isinstance(m, BATCH_NORMS)]
         modes = [norm.training for norm in norms]
         saved = [[buffer.clone() for buffer in norm.buffers(recurse=False)] for norm in norms]
         for norm in norms:

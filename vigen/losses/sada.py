@@ -1,22 +1,24 @@
-"""SADA: SVEA's critic, and an actor trained on clean and augmented views against the clean Q."""
+"""SADA (DMC-GB2): SAC with SVEA's two-view critic and an actor that also reads the strong view."""
 
 from __future__ import annotations
 
 from typing import Any
 
 import torch
-from torch import Tensor, nn
+from tensordict import TensorDictBase
+from tensordict.nn import dispatch
+from torch import nn
 
-from vigen.losses.base import Augmentations, CriticResult, Observations
-from vigen.losses.svea_sac import SACSVEALoss
-from vigen.transforms import RandomOverlay
+from vigen.losses.base import per_sample_mean
+from vigen.losses.policies import SquashedGaussian
+from vigen.losses.svea import SVEALoss
 
 
-class SADALoss(SACSVEALoss):
+class SADALoss(SVEALoss):
     """SADA (DMC-GB2): SAC with SVEA's two-view critic and an actor that also reads the strong view.
 
-    It is :class:`~vigen.losses.SACSVEALoss` with DMC-GB2's settings (the next observation shifted,
-    no target encoder, DrQ's log π) and one hook changed, :meth:`actor_features`.
+    It is :class:`~vigen.losses.SVEALoss` on SAC with DMC-GB2's settings (the next observation shifted,
+    no target encoder, DrQ's log π), with its own actor step.
 
     With the weak view ``s = shift(obs)``, the strong view ``s̃ = strong(s)`` and their features
     ``h = encoder(s)``, ``h̃ = encoder(s̃)`` (one pass):
@@ -35,18 +37,18 @@ class SADALoss(SACSVEALoss):
     and twin critic with DrQ's SAC actor (:class:`~vigen.models.GaussianActor` on a trunk);
     ``make_loss("sada", ...)`` builds them.
 
-    Paper: SADA / DMC-GB2, https://arxiv.org/abs/2405.03451.
+    Paper: SADA / DMC-GB2, https://arxiv.org/abs/2405.17416.
 
     Args:
         encoder, actor, critic: as in :class:`~vigen.losses.SVEALoss`; the actor returns (mean, log σ).
         augmentation: the weak view; ``"default"`` is ``RandomShift(pad=4)``.
         strong_augmentation: the strong view, applied on top of the weak one; ``None`` for
             ``RandomOverlay(alpha=0.5)``.
+        policy: SAC's :class:`~vigen.losses.SquashedGaussian`; default DMC-GB2's (α₀ = 0.1, DrQ's log π).
         weak_weight, strong_weight: weights of the two views' TD errors (0.25 each: DMC-GB2's 0.5
-            of the stacked MSEs); the loss's ``svea_alpha`` and ``svea_beta``.
-        **kwargs: the options of :class:`~vigen.losses.SACSVEALoss` (``init_temperature``,
-            ``input_mask``, ...); ``augment_next``, ``target_encoder`` and ``squash_epsilon`` default
-            to DMC-GB2's ``True``, ``False`` and ``None``.
+            of the stacked MSEs).
+        **kwargs: the options of :class:`~vigen.losses.SVEALoss` (``augment_next``, ``target_encoder``,
+            ``input_mask``, ...), with DMC-GB2's defaults (``True``, ``False``).
 
     Examples:
         >>> import torch
@@ -72,19 +74,22 @@ class SADALoss(SACSVEALoss):
         actor: nn.Module,
         critic: nn.Module,
         *,
+        policy: SquashedGaussian | None = None,
         weak_weight: float = 0.25,
         strong_weight: float = 0.25,
         **kwargs: Any,
     ) -> None:
-        for option, dmcgb2 in (("augment_next", True), ("target_encoder", False), ("squash_epsilon", None)):
-            kwargs.setdefault(option, dmcgb2)
-        super().__init__(encoder, actor, critic, alpha=weak_weight, beta=strong_weight, **kwargs)
+        super().__init__(encoder, actor, critic, policy=SquashedGaussian() if policy is None else policy,
+                         weak_weight=weak_weight, strong_weight=strong_weight, **kwargs)
 
-    @staticmethod
-    def _default_strong_augmentation() -> Augmentations:
-        return RandomOverlay(alpha=0.5)
-
-    def actor_features(self, batch: Observations, critic: CriticResult) -> tuple[Tensor, Tensor]:
-        """The policy reads ``[h, h̃]``; the critic scores its actions on ``[h, h]``."""
-        clean, strong = (features.detach() for features in critic.view_features)
-        return torch.cat([clean, strong]), torch.cat([clean, clean])
+    @dispatch
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        batch = self.read_batch(tensordict)
+        critic = self.two_view_critic(tensordict, batch)
+        clean, augmented = critic.weak_features.detach(), critic.strong_features.detach()
+        # the policy reads [h, h̃]; the critic scores its actions on [h, h]
+        loss_actor, log_prob = self.actor_loss(torch.cat([clean, augmented]), torch.cat([clean, clean]))
+        losses = {"loss_actor": loss_actor, **self.policy.losses(log_prob, batch.action.shape[-1])}
+        return self.output(tensordict, critic.target, critic.q1[:batch.size], critic.q2[:batch.size],
+                           {"loss_critic": critic.loss, **{name: per_sample_mean(value, views=2) for name, value in losses.items()}},
+                           {"q_strong_mean": critic.q1[batch.size:].detach().mean(), **self.policy_metrics(log_prob)})

@@ -3,18 +3,17 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any, Literal
 
 import torch
 from tensordict import TensorDictBase
+from tensordict.nn import dispatch
 from torch import Tensor, nn
 
-from vigen.losses.base import ActorResult, Augmentations, AuxiliaryResult, CriticResult, Observations, td_error
+from vigen.losses.base import Augmentations, per_sample_mean, squared_td_errors
+from vigen.losses.policies import SquashedGaussian
 from vigen.losses.saliency import GuidedBackprop, install_guided_forward, salient_q_consistency
-from vigen.losses.sampling import squashed_normal_sample
-from vigen.losses.svea_sac import SACSVEALoss
-from vigen.transforms import RandomOverlay
+from vigen.losses.svea import SVEALoss
 
 
 def diagonal_gaussian_kl(mean_p: Tensor, log_var_p: Tensor, mean_q: Tensor, log_var_q: Tensor) -> Tensor:
@@ -34,23 +33,7 @@ def diagonal_gaussian_kl(mean_p: Tensor, log_var_p: Tensor, mean_q: Tensor, log_
     return 0.5 * (ratio + (mean_q - mean_p).pow(2) / log_var_q.exp() - 1.0 - (log_var_p - log_var_q)).sum(-1)
 
 
-@dataclass(frozen=True)
-class PairedObservations(Observations):
-    """SCPL's step 1: the weak views, their strong views (one draw per (obs, next obs) pair) and the reward.
-
-    Attributes:
-        strong_obs: ``strong(obs)``.
-        strong_next_obs: ``strong(next_obs)`` with the same draw as ``strong_obs`` (e.g. the same
-            overlay image), as SCPL augments obs and next obs stacked along the channels.
-        reward: the batch's (n-step) reward ``[B, 1]``.
-    """
-
-    strong_obs: Tensor
-    strong_next_obs: Tensor
-    reward: Tensor
-
-
-class SCPLLoss(SACSVEALoss):
+class SCPLLoss(SVEALoss):
     """SCPL: SAC with SVEA's two-view critic, a saliency-masked Q consistency, a policy KL and a dynamics model.
 
     With the weak views ``s = shift(obs)``, ``s' = shift(next obs)`` (drawn independently), the
@@ -81,7 +64,7 @@ class SCPLLoss(SACSVEALoss):
     online encoder's features and scored by the target critic on the target encoder's.
     ``SoftUpdate`` moves the target encoder with the target critic.
 
-    Departures from SCPL's code (measured in ``benchmarks/parity.py``): SCPL steps the critic,
+    Departures from SCPL's code (measured in ``benchmarks/parity``): SCPL steps the critic,
     then the actor and temperature, then (every second update) the encoder and the model with
     their own Adam (lr 3e-4), each after the previous step; here every term comes from the same
     parameters and one optimizer step takes them all, every update. The actor, the target and
@@ -90,8 +73,8 @@ class SCPLLoss(SACSVEALoss):
     projection). With n-step returns the reward model predicts the n-step reward of the batch
     (SCPL: one step).
 
-    It is :class:`~vigen.losses.SACSVEALoss` (with the next observation shifted, SCPL's
-    ``sample_drq``) with its steps 1 and 3 to 5 extended.
+    It is :class:`~vigen.losses.SVEALoss` on SAC (with the next observation shifted, SCPL's
+    ``sample_drq``) with its own update.
 
     Paper: SCPL, "Salience-Invariant Consistent Policy Learning for Generalization in Visual
     Reinforcement Learning" (AAMAS 2025), code https://github.com/bofusun/SCPL.
@@ -108,7 +91,7 @@ class SCPLLoss(SACSVEALoss):
         augmentation: the weak view; ``"default"`` is ``RandomShift(pad=4)``.
         strong_augmentation: the strong view; ``None`` for ``RandomOverlay(alpha=0.5)`` (SCPL's
             ``scpl``; pass ``RandomConv()`` for its ``scplr``).
-        weak_weight, strong_weight: w and w̃ (0.5 each); the loss's ``svea_alpha`` and ``svea_beta``.
+        weak_weight, strong_weight: w and w̃ (0.5 each).
         quantile: the saliency quantile of the mask (0.9).
         consistency_weight: λ_c (0.5).
         kl_weight: λ_KL (1).
@@ -116,9 +99,9 @@ class SCPLLoss(SACSVEALoss):
         dynamics_weight: weight of ``loss_dynamics`` (1).
         dynamics_lr: the model's learning rate in :meth:`optimizer_groups` (SCPL: 3e-4).
         target_encoder: encode the next view for the target critic with a target encoder.
-        init_temperature, target_entropy: see :class:`~vigen.losses.SoftActorCritic`.
-        squash_epsilon: SCPL's (DMC-GB's) ``log(relu(1 − tanh²) + 1e-6)``; ``None`` for DrQ's form.
-        **kwargs: ``input_mask``, ``channels_last``, ``reduction``, ``check_finite``, ``init_temperature``, ...
+        policy: SAC's :class:`~vigen.losses.SquashedGaussian`; default SCPL's (DMC-GB's) α₀ = 0.1 and
+            ``log(relu(1 − tanh²) + 1e-6)`` (``squash_epsilon=1e-6``).
+        **kwargs: ``input_mask``, ``channels_last``, ``reduction``, ``check_finite``.
 
     Examples:
         >>> import torch
@@ -142,9 +125,9 @@ class SCPLLoss(SACSVEALoss):
         [0.0001, 0.0003]
     """
 
-    out_keys = SACSVEALoss.out_keys + [
-        "mask_fraction", "consistency", "policy_kl", "loss_dynamics", "transition_error", "reward_error",
-    ]
+    own_out_keys = ("q_strong_mean", "loss_dynamics", "mask_fraction", "consistency", "policy_kl",
+                    "transition_error", "reward_error")
+    _schedulable_buffers = frozenset({"weak_weight", "strong_weight", "consistency_weight", "kl_weight", "dynamics_weight"})
 
     def __init__(
         self,
@@ -153,6 +136,7 @@ class SCPLLoss(SACSVEALoss):
         critic: nn.Module,
         dynamics: nn.Module,
         *,
+        policy: SquashedGaussian | None = None,
         augmentation: Augmentations | Literal["default"] = "default",
         strong_augmentation: Augmentations = None,
         weak_weight: float = 0.5,
@@ -164,7 +148,6 @@ class SCPLLoss(SACSVEALoss):
         dynamics_weight: float = 1.0,
         dynamics_lr: float = 3e-4,
         target_encoder: bool = True,
-        squash_epsilon: float | None = 1e-6,
         **kwargs: Any,
     ) -> None:
         name = type(self).__name__
@@ -179,9 +162,11 @@ class SCPLLoss(SACSVEALoss):
             raise ValueError(f"{name}: kl_covariance must be 'std' (SCPL's code) or 'variance', got {kl_covariance!r}.")
         if not (isinstance(dynamics_lr, (int, float)) and math.isfinite(dynamics_lr) and dynamics_lr > 0):
             raise ValueError(f"{name}: dynamics_lr must be a positive number, got {dynamics_lr!r}.")
-        super().__init__(encoder, actor, critic, augmentation=augmentation, strong_augmentation=strong_augmentation,
-                         alpha=weak_weight, beta=strong_weight, augment_next=True, target_encoder=target_encoder,
-                         squash_epsilon=squash_epsilon, **kwargs)
+        super().__init__(encoder, actor, critic,
+                         policy=SquashedGaussian(squash_epsilon=1e-6) if policy is None else policy,
+                         augmentation=augmentation, strong_augmentation=strong_augmentation, weak_weight=weak_weight,
+                         strong_weight=strong_weight, augment_next=True, target_encoder=target_encoder,
+                         param_groups={"dynamics": {"lr": float(dynamics_lr)}}, **kwargs)
         GuidedBackprop(encoder, critic)  # fails early, with advice, when there is no nn.ReLU to guide
         self.dynamics = dynamics
         self.quantile = quantile
@@ -191,82 +176,49 @@ class SCPLLoss(SACSVEALoss):
                                    ("dynamics_weight", dynamics_weight)):
             self.register_coeff_buffer(coefficient, value)
 
-    _schedulable_buffers = frozenset({"consistency_weight", "kl_weight", "dynamics_weight"})
-
     prepare_compile = install_guided_forward  # a compiled update's guided pass
 
-    @staticmethod
-    def _default_strong_augmentation() -> Augmentations:
-        return RandomOverlay(alpha=0.5)
-
-    # -- the steps --------------------------------------------------------------------------------
-    def observations(self, tensordict: TensorDictBase) -> PairedObservations:
-        """The weak views, the strong views of obs and next obs (one draw per pair) and the reward."""
-        weak = super().observations(tensordict)
-        pair = self._augment(self.strong_augmentation, torch.cat([weak.obs, weak.next_obs], dim=1))
+    @dispatch
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        batch = self.read_batch(tensordict)
+        size, action = batch.size, batch.action
+        obs, next_obs = self.augment(batch.pixels), self.augment(batch.next_pixels)
+        # one strong draw for each (obs, next obs) pair: SCPL augments them stacked along the channels
+        pair = self.augment(torch.cat([obs, next_obs], dim=1), self.strong_augmentation)
         strong_obs, strong_next_obs = pair.chunk(2, dim=1)
-        reward = tensordict.get(("next", self.tensor_keys.reward))
-        return PairedObservations(weak.pixels, weak.next_pixels, weak.action, weak.obs, weak.next_obs,
-                                  strong_obs, strong_next_obs, reward)
-
-    def strong_view(self, batch: Observations) -> Tensor:
-        """The strong view drawn in step 1, with the next observation's."""
-        assert isinstance(batch, PairedObservations)
-        return batch.strong_obs
-
-    def critic_loss(self, batch: Observations, target: Tensor) -> CriticResult:
-        """TD loss of both views plus ``λ_c·`` the mean over the views of the Q consistency with their salient pixels."""
-        views = self.critic_views(batch)
-        size, count = batch.batch_size, len(views)
-        pixels = torch.cat([view.pixels for view in views])
-        salient = salient_q_consistency(self, pixels, batch.action.repeat(count, 1), self.quantile)
-        q1, q2, mask = salient.q1, salient.q2, salient.mask
-        consistency = salient.consistency.reshape(count, size).mean(0)
-        errors = td_error(q1, q2, target.repeat(count, 1)).split(size)
-        loss = self.consistency_weight * consistency
-        for view, error in zip(views, errors):
-            loss = loss + view.weight * error
-        metrics = {"q_strong_mean": q1[size:].detach().mean(), "mask_fraction": mask.float().mean(),
-                   "consistency": consistency.detach().mean()}
-        return CriticResult(loss, q1[:size], q2[:size], tuple(salient.features.split(size)), metrics=metrics)
-
-    def actor_loss(self, batch: Observations, critic: CriticResult) -> ActorResult:
-        """SAC's actor loss on ``h`` plus ``λ_KL·KL(π(·|h) ‖ π(·|h̃))`` (detached features, frozen critic)."""
-        clean, strong = (features.detach() for features in critic.view_features)
-        mean, log_std = self.policy(torch.cat([clean, strong]))
+        target = self.critic_target(tensordict, next_obs)
+        # the critic: the TD loss of both views plus λ_c· their mean Q consistency with their salient pixels
+        salient = salient_q_consistency(self, torch.cat([obs, strong_obs]), action.repeat(2, 1), self.quantile)
+        q1, q2 = salient.q1, salient.q2
+        consistency = salient.consistency.reshape(2, size).mean(0)
+        errors = squared_td_errors(q1, q2, target.repeat(2, 1)).split(size)
+        loss_critic = self.consistency_weight * consistency + self.weak_weight * errors[0] + self.strong_weight * errors[1]
+        # the actor: SAC's loss on h plus λ_KL·KL(π(·|h) ‖ π(·|h̃)), on detached features
+        clean, strong = (features.detach() for features in salient.features.split(size))
+        mean, log_std = self.actor_output(torch.cat([clean, strong]))
         (mean_clean, mean_strong), (log_std_clean, log_std_strong) = mean.chunk(2), log_std.chunk(2)
-        action, log_prob = squashed_normal_sample(mean_clean, log_std_clean, epsilon=self.squash_epsilon)
-        q = torch.min(*self.q_values(clean, action, frozen=True))
+        loss_actor, log_prob = self.actor_loss(clean, actor_output=(mean_clean, log_std_clean))
         per_unit = 1.0 if self.kl_covariance == "std" else 2.0  # log of the covariance's diagonal: log σ or 2·log σ
         kl = diagonal_gaussian_kl(torch.tanh(mean_clean), per_unit * log_std_clean.detach(),
                                   torch.tanh(mean_strong), per_unit * log_std_strong)
-        loss = (self.alpha.detach() * log_prob - q).squeeze(-1) + self.kl_weight * kl
-        return ActorResult(loss, log_prob, {"entropy": -log_prob.detach().mean(), "policy_kl": kl.detach().mean()})
-
-    def auxiliary_losses(self, batch: Observations, critic: CriticResult, actor: ActorResult) -> AuxiliaryResult:
-        """The temperature loss and the dynamics model's next-embedding and reward errors on both views."""
-        assert isinstance(batch, PairedObservations)
-        result = super().auxiliary_losses(batch, critic, actor)
-        count = len(critic.view_features)
-        embedding = self.embed(torch.cat(critic.view_features))
+        loss_actor = loss_actor + self.kl_weight * kl
+        # the dynamics model: the next embedding and the reward from (embedding, action), on both views
+        embedding = self.embed(salient.features)
         with torch.no_grad():
-            next_embedding = self.embed(self.encode(torch.cat([batch.next_obs, batch.strong_next_obs])))
-        predicted_next, predicted_reward = self.dynamics(embedding, batch.action.repeat(count, 1))
+            next_embedding = self.embed(self.encode(torch.cat([next_obs, strong_next_obs])))
+        predicted_next, predicted_reward = self.dynamics(embedding, action.repeat(2, 1))
         transition = 0.5 * (predicted_next - next_embedding).pow(2).mean(-1)
-        reward = (predicted_reward - batch.reward.repeat(count, 1)).pow(2).squeeze(-1)
-        result.losses["loss_dynamics"] = self.dynamics_weight * (transition + reward)  # [views·B]: averaged per sample
-        result.metrics.update(transition_error=transition.detach().mean(), reward_error=reward.detach().mean())
-        return result
+        rewards = tensordict.get(("next", self.tensor_keys.reward)).repeat(2, 1)
+        reward = (predicted_reward - rewards).pow(2).squeeze(-1)
+        losses = {"loss_critic": loss_critic, "loss_actor": loss_actor, **self.policy.losses(log_prob, action.shape[-1]),
+                  "loss_dynamics": per_sample_mean(self.dynamics_weight * (transition + reward), views=2)}
+        metrics = {**self.policy_metrics(log_prob), "q_strong_mean": q1[size:].detach().mean(),
+                   "mask_fraction": salient.mask.float().mean(), "consistency": consistency.detach().mean(),
+                   "policy_kl": kl.detach().mean(), "transition_error": transition.detach().mean(),
+                   "reward_error": reward.detach().mean()}
+        return self.output(tensordict, target, q1[:size], q2[:size], losses, metrics)
 
-    # -- building blocks ------------------------------------------------------------------------
     def embed(self, features: Tensor) -> Tensor:
         """The online critic's embedding of encoder features (its trunk), with gradient."""
         with self.critic_params.to_module(self.critic, preserve_module_state=False):
             return self.critic.embed(features)
-
-    def optimizer_groups(self, lr: float) -> list[dict[str, Any]]:
-        """Everything but the dynamics model at ``lr``; the model at ``dynamics_lr`` (SCPL: 3e-4)."""
-        model = list(self.dynamics.parameters())
-        own = {id(parameter) for parameter in model}
-        rest = [parameter for parameter in self.parameters() if id(parameter) not in own]
-        return [{"params": rest, "lr": lr}, {"params": model, "lr": self.dynamics_lr}]

@@ -2,20 +2,20 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
-import torch
 import torch.nn.functional as F
-from torch import Tensor, nn
+from tensordict import TensorDictBase
+from tensordict.nn import dispatch
+from torch import nn
 
-from vigen.losses.base import ActorResult, Augmentations, AuxiliaryResult, CriticResult, Observations, td_error
-from vigen.losses.drqv2 import DrQv2Loss
+from vigen.losses.base import ActorCriticLoss, Augmentations, default_shift, squared_td_errors
+from vigen.losses.policies import NoisyDeterministic
 from vigen.losses.saliency import GuidedBackprop, install_guided_forward, salient_q_consistency
 from vigen.transforms import RandomOverlay
 
 
-class SGQNLoss(DrQv2Loss):
+class SGQNLoss(ActorCriticLoss):
     """SGQN on DrQ-v2 (RL-ViGen's variant): a saliency-consistency term and an attribution head.
 
     With ``s = shift(obs)``:
@@ -49,7 +49,10 @@ class SGQNLoss(DrQv2Loss):
         quantile: saliency quantile of the mask, per frame.
         consistency_weight: λ.
         attribution_augmentation: the view the head predicts from; default ``RandomOverlay()``.
-        **kwargs: the options of :class:`DrQv2Loss`.
+        policy: DrQ-v2's :class:`~vigen.losses.NoisyDeterministic` (its default).
+        augmentation: the weak view; ``"default"`` is ``RandomShift(pad=4)``.
+        **kwargs: ``input_mask``, ``channels_last``, ``reduction``, ``check_finite`` (see
+            :class:`~vigen.losses.ActorCriticLoss`).
 
     Examples:
         >>> import torch
@@ -72,7 +75,8 @@ class SGQNLoss(DrQv2Loss):
         0.07
     """
 
-    out_keys = DrQv2Loss.out_keys + ["loss_attribution", "mask_fraction", "consistency"]
+    own_out_keys = ("loss_attribution", "mask_fraction", "consistency")
+    _schedulable_buffers = frozenset({"consistency_weight"})
 
     def __init__(
         self,
@@ -81,6 +85,8 @@ class SGQNLoss(DrQv2Loss):
         critic: nn.Module,
         decoder: nn.Module,
         *,
+        policy: NoisyDeterministic | None = None,
+        augmentation: Augmentations | Literal["default"] = "default",
         quantile: float = 0.93,
         consistency_weight: float = 0.9,
         attribution_augmentation: Augmentations = None,
@@ -88,39 +94,32 @@ class SGQNLoss(DrQv2Loss):
     ) -> None:
         if not 0.0 <= quantile <= 1.0:
             raise ValueError(f"quantile must be in [0, 1], got {quantile}.")
-        super().__init__(encoder, actor, critic, **kwargs)
+        super().__init__(encoder, actor, critic, policy=NoisyDeterministic() if policy is None else policy,
+                         augmentation=default_shift(augmentation), **kwargs)
         GuidedBackprop(encoder, critic)  # fails early, with advice, when there is no nn.ReLU to guide
-        if self.channels_last:
-            decoder.to(memory_format=torch.channels_last)
         self.decoder = decoder
         self.quantile = quantile
         self.register_coeff_buffer("consistency_weight", consistency_weight)
-        if attribution_augmentation is None:
-            attribution_augmentation = RandomOverlay(alpha=0.5)
-        self.attribution_augmentation = self._augmentations(attribution_augmentation)
-
-    _schedulable_buffers = frozenset({"consistency_weight"})
+        self.attribution_augmentation = self._augmentations(
+            RandomOverlay(alpha=0.5) if attribution_augmentation is None else attribution_augmentation)
 
     prepare_compile = install_guided_forward  # a compiled update's guided pass
 
-    def critic_loss(self, batch: Observations, target: Tensor) -> SaliencyCriticResult:
-        """TD loss of ``s`` plus ``λ·`` the consistency of Q on ``s`` and on its salient pixels ``s_M``."""
-        salient = salient_q_consistency(self, batch.obs, batch.action, self.quantile)
-        loss = td_error(salient.q1, salient.q2, target) + self.consistency_weight * salient.consistency
-        metrics = {"mask_fraction": salient.mask.float().mean(), "consistency": salient.consistency.mean()}
-        return SaliencyCriticResult(loss, salient.q1, salient.q2, (salient.features,), metrics=metrics, mask=salient.mask)
-
-    def auxiliary_losses(self, batch: Observations, critic: CriticResult, actor: ActorResult) -> AuxiliaryResult:
-        """The attribution head's BCE against the mask, from an overlaid view of ``s``."""
-        assert isinstance(critic, SaliencyCriticResult)
-        overlaid = self._augment(self.attribution_augmentation, batch.obs)
+    @dispatch
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        batch = self.read_batch(tensordict)
+        obs, next_obs = self.augment(batch.pixels), self.augment(batch.next_pixels)
+        target = self.critic_target(tensordict, next_obs)
+        # the critic: TD loss of s plus λ· the consistency of Q on s and on its salient pixels s_M (mask M)
+        salient = salient_q_consistency(self, obs, batch.action, self.quantile)
+        loss_critic = squared_td_errors(salient.q1, salient.q2, target) + self.consistency_weight * salient.consistency
+        loss_actor, _ = self.actor_loss(salient.features.detach())
+        # the attribution head learns to predict M from an overlaid view of s (its gradient reaches the encoder)
+        overlaid = self.augment(obs, self.attribution_augmentation)
         logits = self.decoder(self.encode(overlaid), batch.action)
-        attribution = F.binary_cross_entropy_with_logits(logits, critic.mask.to(logits.dtype), reduction="none")
-        return AuxiliaryResult({"loss_attribution": attribution.flatten(1).mean(1)})
-
-
-@dataclass
-class SaliencyCriticResult(CriticResult):
-    """SGQN's critic result, with the saliency mask ``M`` of the weak view (boolean, like the pixels)."""
-
-    mask: Tensor | None = None
+        attribution = F.binary_cross_entropy_with_logits(logits, salient.mask.to(logits.dtype), reduction="none")
+        return self.output(tensordict, target, salient.q1, salient.q2,
+                           {"loss_critic": loss_critic, "loss_actor": loss_actor,
+                            "loss_attribution": attribution.flatten(1).mean(1)},
+                           {**self.policy_metrics(), "mask_fraction": salient.mask.float().mean(),
+                            "consistency": salient.consistency.mean()})

@@ -1,43 +1,68 @@
-"""SVEA: DrQ-v2's update with a second, strongly augmented view in the critic loss."""
+"""SVEA: a second, strongly augmented view in the critic loss, on DrQ-v2's DDPG or on DMC-GB's SAC."""
 
 from __future__ import annotations
 
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, Literal
 
-from torch import nn
+import torch
+from tensordict import TensorDictBase
+from tensordict.nn import dispatch
+from torch import Tensor, nn
 
-from vigen.losses.base import Augmentations, Observations, View
-from vigen.losses.drqv2 import DrQv2Loss
+from vigen.losses.base import ActorCriticLoss, Augmentations, Batch, default_shift, weighted_td_errors
+from vigen.losses.policies import ActingPolicy, NoisyDeterministic
 from vigen.transforms import RandomOverlay
 
 
-class SVEALoss(DrQv2Loss):
-    """SVEA on DrQ-v2 (RL-ViGen's variant): ``α·TD(weak view) + β·TD(strong view)``.
+class SVEALoss(ActorCriticLoss):
+    """SVEA: ``w·TD(weak view) + w̃·TD(strong view)`` against one target, the actor on the weak view.
 
     The weak view is ``s = shift(obs)``; the strong view ``s̃ = strong(s)`` is built on top of it.
-    Both are scored against the same target ``y`` from the weak view of the next observation:
+    Both are scored against the same target ``y`` of the next observation:
 
-        ``loss_critic = α·[MSE(Q1(s), y) + MSE(Q2(s), y)] + β·[MSE(Q1(s̃), y) + MSE(Q2(s̃), y)]``
+        ``loss_critic = w·[(Q1(s) − y)² + (Q2(s) − y)²] + w̃·[(Q1(s̃) − y)² + (Q2(s̃) − y)²]``
 
-    with α = β = 0.5. Both views go through the encoder with gradient, batched into one pass
-    (as DMC-GB concatenates them). The actor sees the weak view only.
+    per sample, with w = w̃ = 0.5 (``weak_weight``, ``strong_weight``). Both views go through the
+    encoder with gradient, batched into one pass (as DMC-GB concatenates them). The actor sees the
+    weak view only; ``q_strong_mean`` logs the strong view's mean Q1.
 
-    RL-ViGen's SVEA uses the random overlay as strong augmentation (the default here): the blend
-    ``0.5·x + 0.5·image`` of uint8 frames is rounded back to uint8 (the originals blend floats, a
-    difference of at most half a grey level). DMC-GB's
-    original uses random convolution: pass ``strong_augmentation=RandomConv()``. Either way the
-    encoder in the papers is the 11-layer :class:`~vigen.models.SharedCNN`.
+    The defaults are RL-ViGen's SVEA, on DrQ-v2's DDPG (``policy=NoisyDeterministic()``, the next
+    observation shifted, the online encoder in the target) with the random overlay as strong
+    augmentation: the blend ``0.5·x + 0.5·image`` of uint8 frames is rounded back to uint8 (the
+    originals blend floats, a difference of at most half a grey level). The SVEA paper's own code is
+    DMC-GB's SAC agent:
 
-    Paper: SVEA, https://arxiv.org/abs/2107.00644.
+        SVEALoss(encoder, actor, critic, policy=SquashedGaussian(squash_epsilon=1e-6),
+                 strong_augmentation=RandomConv(), augment_next=False, target_encoder=True)
+
+    on DMC-GB's networks (``SharedCNN(centered=False)``, :class:`~vigen.models.GaussianActor` and
+    :class:`~vigen.models.Critic` with ``feature_dim`` projections); its next observation is not
+    shifted (``sample_svea``) and its target critic scores on a target encoder. SRM, MaDi and
+    SimGRL are this loss with other defaults (registered presets of :func:`~vigen.losses.make_loss`).
+    Departures from DMC-GB: DMC-GB steps the critic, then the actor and temperature, each with its
+    own Adam and the actor every second update; here every term comes from the batch's parameters
+    and one optimizer step takes them all; ``SoftUpdate`` has one τ (DMC-GB: 0.01 for the Q heads,
+    0.05 for the encoder and the critic's projection).
+
+    Paper: SVEA, https://arxiv.org/abs/2107.00644 (code: DMC-GB,
+    https://github.com/nicklashansen/dmcontrol-generalization-benchmark; RL-ViGen,
+    https://arxiv.org/abs/2307.10224).
 
     Args:
-        encoder, actor, critic: as in :class:`DrQv2Loss`.
+        encoder, actor, critic: as in :class:`~vigen.losses.DrQv2Loss` (a SAC actor returns mean and log σ).
+        policy: :class:`~vigen.losses.NoisyDeterministic` (default, DrQ-v2's) or
+            :class:`~vigen.losses.SquashedGaussian` (DMC-GB's SAC).
+        augmentation: the weak view; ``"default"`` is ``RandomShift(pad=4)``.
         strong_augmentation: applied on top of the weak view; default ``RandomOverlay(alpha=0.5)``
             with vigen's built-in image bank (pass ``RandomOverlay(images=<Places365 folder>)``
             for the papers' images).
-        alpha: weight of the weak view's TD loss.
-        beta: weight of the strong view's TD loss.
-        **kwargs: the options of :class:`DrQv2Loss` (augmentation, std, ...).
+        weak_weight, strong_weight: w and w̃.
+        augment_next: shift the next observation too (RL-ViGen, SimGRL); ``False`` leaves it as
+            stored (DMC-GB's ``sample_svea``).
+        target_encoder: score the next action on a target copy of the encoder (DMC-GB's SAC).
+        **kwargs: ``input_mask``, ``param_groups``, ``channels_last``, ``reduction``,
+            ``check_finite`` (see :class:`~vigen.losses.ActorCriticLoss`).
 
     Examples:
         >>> import torch
@@ -60,7 +85,8 @@ class SVEALoss(DrQv2Loss):
         (True, False)
     """
 
-    out_keys = DrQv2Loss.out_keys + ["q_strong_mean"]
+    own_out_keys = ("q_strong_mean",)
+    _schedulable_buffers = frozenset({"weak_weight", "strong_weight"})
 
     def __init__(
         self,
@@ -68,25 +94,52 @@ class SVEALoss(DrQv2Loss):
         actor: nn.Module,
         critic: nn.Module,
         *,
+        policy: ActingPolicy | None = None,
+        augmentation: Augmentations | Literal["default"] = "default",
         strong_augmentation: Augmentations = None,
-        alpha: float = 0.5,
-        beta: float = 0.5,
+        weak_weight: float = 0.5,
+        strong_weight: float = 0.5,
+        augment_next: bool = True,
+        target_encoder: bool = False,
         **kwargs: Any,
     ) -> None:
-        super().__init__(encoder, actor, critic, **kwargs)
-        if strong_augmentation is None:
-            strong_augmentation = self._default_strong_augmentation()
-        self.strong_augmentation = self._augmentations(strong_augmentation)
-        self.register_coeff_buffer("alpha", alpha)
-        self.register_coeff_buffer("beta", beta)
+        super().__init__(encoder, actor, critic, policy=NoisyDeterministic() if policy is None else policy,
+                         augmentation=default_shift(augmentation), target_encoder=target_encoder, **kwargs)
+        self.strong_augmentation = self._augmentations(
+            RandomOverlay(alpha=0.5) if strong_augmentation is None else strong_augmentation)
+        self.augment_next = bool(augment_next)
+        self.register_coeff_buffer("weak_weight", weak_weight)
+        self.register_coeff_buffer("strong_weight", strong_weight)
 
-    _schedulable_buffers = frozenset({"alpha", "beta"})
+    @dispatch
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        batch = self.read_batch(tensordict)
+        critic = self.two_view_critic(tensordict, batch)
+        loss_actor, log_prob = self.actor_loss(critic.weak_features.detach())
+        return self.output(tensordict, critic.target, critic.q1[:batch.size], critic.q2[:batch.size],
+                           {"loss_critic": critic.loss, "loss_actor": loss_actor,
+                            **self.policy.losses(log_prob, batch.action.shape[-1])},
+                           {"q_strong_mean": critic.q1[batch.size:].detach().mean(), **self.policy_metrics(log_prob)})
 
-    @staticmethod
-    def _default_strong_augmentation() -> Augmentations:
-        return RandomOverlay(alpha=0.5)
+    def two_view_critic(self, tensordict: TensorDictBase, batch: Batch) -> TwoViewCritic:
+        """SVEA's critic step: the target of the (shifted) next view, then ``w·TD(s) + w̃·TD(strong(s))`` from one encoder pass."""
+        obs = self.augment(batch.pixels)
+        next_obs = self.augment(batch.next_pixels) if self.augment_next else batch.next_pixels
+        target = self.critic_target(tensordict, next_obs)
+        strong = self.augment(obs, self.strong_augmentation)
+        weak_features, strong_features = self.encode_views([obs, strong])  # one encoder pass
+        q1, q2 = self.q_values(torch.cat([weak_features, strong_features]), batch.action.repeat(2, 1))
+        loss = weighted_td_errors(q1, q2, target, [self.weak_weight, self.strong_weight])
+        return TwoViewCritic(target, q1, q2, loss, weak_features, strong_features)
 
-    def critic_views(self, batch: Observations) -> list[View]:
-        """The weak view with weight α and its strongly augmented copy with weight β."""
-        strong = self._augment(self.strong_augmentation, batch.obs)
-        return [View(batch.obs, self.alpha), View(strong, self.beta, name="strong")]
+
+@dataclass(frozen=True)
+class TwoViewCritic:
+    """SVEA's critic step: the target ``y`` ``[B, 1]``, Q of both views ``[2B, 1]`` (weak first), the per-sample loss, the features."""
+
+    target: Tensor
+    q1: Tensor
+    q2: Tensor
+    loss: Tensor
+    weak_features: Tensor
+    strong_features: Tensor

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from typing import Any
+from typing import Any, Literal
 
 import torch
 from tensordict import TensorDictBase
@@ -13,10 +13,10 @@ from tensordict.utils import NestedKey
 from torch import Tensor, nn
 from torchrl.data import TensorSpec
 
-from vigen.losses.base import ActorResult, CriticResult, Observations
-from vigen.losses.drqv2 import DrQv2Loss
-from vigen.losses.sampling import clipped_normal_sample
-from vigen.losses.schedule import LinearSchedule
+from tensordict.nn import dispatch
+
+from vigen.losses.base import BATCH_NORMS, ActorCriticLoss, Augmentations, default_shift, squared_td_errors
+from vigen.losses.policies import NoisyDeterministic
 
 ADROIT_REWARD_SCALES = {"door": 1 / 20, "hammer": 1 / 100, "pen": 1 / 50, "relocate": 1 / 30}
 """RL-ViGen's (and VRL3's) Adroit reward rescaling (``reward_rescale: true``), by task: the rewards
@@ -62,7 +62,7 @@ def pretanh_penalty(pre_tanh: Tensor, threshold: float = 5.0) -> Tensor:
     return (pre_tanh.abs() - threshold).clamp(min=0.0).pow(2).mean(-1)
 
 
-class VRL3Loss(DrQv2Loss):
+class VRL3Loss(ActorCriticLoss):
     """VRL3's stage-3 (online) update, as RL-ViGen runs it on Adroit: DrQ-v2 with a safe Q target and a pre-tanh penalty.
 
     One call computes, on a replay-buffer batch (``h = encoder(shift(obs))``,
@@ -107,14 +107,15 @@ class VRL3Loss(DrQv2Loss):
         actor: features → action mean ``tanh(u)``; for the penalty the loss reads ``u`` through
             :meth:`pre_tanh`, which takes vigen's :class:`~vigen.models.Actor` (``tanh(policy(trunk(h)))``).
         critic: (features, action) → (Q1, Q2), e.g. :class:`~vigen.models.Critic`.
-        std: the noise std, fixed (0.01) or a :class:`LinearSchedule`.
+        policy: DrQ-v2's :class:`~vigen.losses.NoisyDeterministic`; default VRL3's fixed std 0.01, clip 0.3.
+        augmentation: the weak view; ``"default"`` is ``RandomShift(pad=4)``.
         safe_q_threshold: ``c`` of the safe target (200).
         safe_q_factor: ``ρ`` in [0, 1] (0.5); 1 turns the safe target off, 0 is a hard cap at ``c + 1``.
         pretanh_threshold: ``t`` of the penalty (5).
         pretanh_penalty: ``λ`` (0.001); 0 turns the penalty off (and any actor works).
         encoder_lr_scale: the encoder's learning rate over the others' (1).
-        **kwargs: the options of :class:`DrQv2Loss` (``augmentation`` (default ``RandomShift(pad=4)``),
-            ``std_clip`` (0.3), ``input_mask``, ``channels_last``, ``reduction``, ``check_finite``).
+        **kwargs: ``input_mask``, ``channels_last``, ``reduction``, ``check_finite`` (see
+            :class:`~vigen.losses.ActorCriticLoss`).
 
     Examples:
         >>> import torch, warnings
@@ -144,7 +145,7 @@ class VRL3Loss(DrQv2Loss):
         >>> optimizer.step()
     """
 
-    out_keys = DrQv2Loss.out_keys + ["actor_pretanh_penalty", "abs_pretanh", "max_abs_pretanh"]
+    own_out_keys = ("actor_pretanh_penalty", "abs_pretanh", "max_abs_pretanh")
 
     def __init__(
         self,
@@ -152,7 +153,8 @@ class VRL3Loss(DrQv2Loss):
         actor: nn.Module,
         critic: nn.Module,
         *,
-        std: float | LinearSchedule = 0.01,
+        policy: NoisyDeterministic | None = None,
+        augmentation: Augmentations | Literal["default"] = "default",
         safe_q_threshold: float = 200.0,
         safe_q_factor: float = 0.5,
         pretanh_threshold: float = 5.0,
@@ -179,34 +181,36 @@ class VRL3Loss(DrQv2Loss):
                 f"(vigen.models.Actor); {type(actor).__name__} has no trunk and policy. Use vigen.models.Actor, "
                 "override VRL3Loss.pre_tanh() for your actor, or pass pretanh_penalty=0."
             )
-        super().__init__(encoder, actor, critic, std=std, **kwargs)
+        scale = float(encoder_lr_scale)
+        super().__init__(encoder, actor, critic, policy=NoisyDeterministic(std=0.01) if policy is None else policy,
+                         augmentation=default_shift(augmentation),
+                         param_groups=None if scale == 1 else {"encoder": {"lr": lambda lr: lr * scale}}, **kwargs)
         self.safe_q_threshold = float(safe_q_threshold)
         self.safe_q_factor = float(safe_q_factor)
         self.pretanh_threshold = float(pretanh_threshold)
         self.pretanh_penalty = float(pretanh_penalty)
         self.encoder_lr_scale = float(encoder_lr_scale)
 
-    def critic_target(self, batch: Observations, tensordict: TensorDictBase) -> Tensor:
-        """DrQ-v2's target ``y`` (:meth:`DrQv2Loss.critic_target`), made safe: :func:`safe_q_target`."""
-        return safe_q_target(super().critic_target(batch, tensordict), self.safe_q_threshold, self.safe_q_factor)
-
-    def actor_loss(self, batch: Observations, critic: CriticResult) -> ActorResult:
-        """``−min(Q1, Q2)(h̄, tanh(u) + ε)`` plus ``λ`` times :func:`pretanh_penalty` of ``u``, per sample."""
-        policy_features, critic_features = self.actor_features(batch, critic)
+    @dispatch
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        batch = self.read_batch(tensordict)
+        obs, next_obs = self.augment(batch.pixels), self.augment(batch.next_pixels)
+        target = safe_q_target(self.critic_target(tensordict, next_obs), self.safe_q_threshold, self.safe_q_factor)
+        features = self.encode(obs)
+        q1, q2 = self.q_values(features, batch.action)
+        # the actor: −min(Q1, Q2)(h̄, tanh(u) + ε) plus λ times the pre-tanh penalty of u
+        detached, metrics = features.detach(), self.policy_metrics()
         if self.pretanh_penalty > 0:
-            pre_tanh = self.pre_tanh(policy_features)
-            mean = torch.tanh(pre_tanh)
+            pre_tanh = self.pre_tanh(detached)
+            loss_actor, _ = self.actor_loss(detached, actor_output=torch.tanh(pre_tanh))
+            penalty = self.pretanh_penalty * pretanh_penalty(pre_tanh, self.pretanh_threshold)
+            loss_actor = loss_actor + penalty
+            size = pre_tanh.detach().abs()
+            metrics.update(actor_pretanh_penalty=penalty.mean(), abs_pretanh=size.mean(), max_abs_pretanh=size.max())
         else:
-            pre_tanh, mean = None, self.policy(policy_features)
-        action = clipped_normal_sample(mean, self.std(), self.std_clip)
-        q1, q2 = self.q_values(critic_features, action, frozen=True)
-        loss = -torch.min(q1, q2).squeeze(-1)
-        if pre_tanh is None:
-            return ActorResult(loss)
-        penalty = self.pretanh_penalty * pretanh_penalty(pre_tanh, self.pretanh_threshold)
-        size = pre_tanh.detach().abs()
-        metrics = {"actor_pretanh_penalty": penalty.mean(), "abs_pretanh": size.mean(), "max_abs_pretanh": size.max()}
-        return ActorResult(loss + penalty, None, metrics)
+            loss_actor, _ = self.actor_loss(detached)
+        return self.output(tensordict, target, q1, q2,
+                           {"loss_critic": squared_td_errors(q1, q2, target), "loss_actor": loss_actor}, metrics)
 
     def pre_tanh(self, features: Tensor) -> Tensor:
         """The actor's output before its final tanh: ``policy(trunk(h))`` of vigen's :class:`~vigen.models.Actor`.
@@ -216,23 +220,11 @@ class VRL3Loss(DrQv2Loss):
         with self.actor_params.to_module(self.actor, preserve_module_state=False):
             return self.actor.policy(self.actor.trunk(features))
 
-    def optimizer_groups(self, lr: float) -> list[dict[str, Any]]:
-        """Everything at ``lr`` and the encoder at ``lr · encoder_lr_scale`` (one group when the scale is 1)."""
-        if self.encoder_lr_scale == 1:
-            return super().optimizer_groups(lr)
-        encoder = list(self.encoder_params.parameters())
-        own = {id(parameter) for parameter in encoder}
-        rest = [parameter for parameter in self.parameters() if id(parameter) not in own]
-        return [{"params": rest, "lr": lr}, {"params": encoder, "lr": lr * self.encoder_lr_scale}]
-
     def make_policy(self, action_spec: TensorSpec, *, pixels_key: NestedKey = "pixels") -> TensorDictModuleBase:
         """DrQ-v2's acting policy (:meth:`DrQv2Loss.make_policy`, σ = the loss's std), BatchNorms on running statistics."""
         policy = super().make_policy(action_spec, pixels_key=pixels_key)
         policy[0].module = RunningStatistics(policy[0].module)
         return policy
-
-
-_BATCH_NORMS = (nn.BatchNorm1d, nn.BatchNorm2d, nn.BatchNorm3d, nn.SyncBatchNorm)
 
 
 class RunningStatistics(nn.Module):
@@ -256,7 +248,7 @@ class RunningStatistics(nn.Module):
         self.module = module
 
     def forward(self, *args: Any) -> Any:
-        norms = [m for m in self.module.modules() if isinstance(m, _BATCH_NORMS) and m.training]
+        norms = [m for m in self.module.modules() if isinstance(m, BATCH_NORMS) and m.training]
         for norm in norms:
             norm.train(False)
         try:

@@ -28,7 +28,7 @@ class MaDiMasker(nn.Module):
         ``out[f] = frame[f] · sigmoid(net(frame[f] / white))``
 
     Pixels follow :mod:`vigen.pixel_format`: uint8 on 0–255 or float on ``[0, max_value]``.
-    MaDi trains the masker through the critic's loss only (see :class:`~vigen.losses.MaDiLoss`,
+    MaDi trains the masker through the critic's loss only (see the ``madi`` preset of :func:`~vigen.losses.make_loss`,
     which puts it in front of the encoder for every view and for the acting policy). With the
     default sizes it has 10,433 parameters for RGB frames.
 

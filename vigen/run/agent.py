@@ -48,12 +48,7 @@ def explores_with_noise(algo: str) -> bool:
         >>> explores_with_noise("drqv2"), explores_with_noise("drq")
         (True, False)
     """
-    algorithm = ALGOS[algo]
-    if isinstance(algorithm, type):  # a registry of loss classes (before vigen.losses.Algorithm): SAC is a base class
-        from vigen.losses import SoftActorCritic
-
-        return not issubclass(algorithm, SoftActorCritic)
-    return algorithm.takes_std
+    return ALGOS[algo].takes_std
 
 
 def build_agent(
