@@ -47,7 +47,8 @@ extras_require = {
     "wandb": ["wandb>=0.17"],
     # ray: distributed collection (TorchRL's RayCollector) and evaluation fan-out; 2.60.0 installs beside the stack
     "ray": ["ray==2.60.0"],
-    "test": ["pytest>=7", "pytest-timeout>=2", "openpyxl>=3.1"],  # openpyxl: re-reads RL-ViGen's published sheet
+    # openpyxl: re-reads RL-ViGen's published sheet; xdist: scripts/test.sh runs a worker per core
+    "test": ["pytest>=7", "pytest-timeout>=2", "pytest-xdist>=3.5", "openpyxl>=3.1"],
 }
 extras_require["all"] = sorted({req for reqs in extras_require.values() for req in reqs})
 
