@@ -121,10 +121,13 @@ def test_level_options_are_checked_against_the_transforms_signatures():
         make_env("dmc/walker-walk", generalization="color_hard", level_options={"seed": 3})
     with pytest.raises(TypeError, match="level_options must be a dict"):
         make_env("dmc/walker-walk", level_options=["videos"])
-    # a valid key reaches the transforms that take it, and leaves the others (and levels without them) alone
-    env = make_env("dmc/walker-walk", generalization="camera_hard", level_options={"fov_deg": (-1.0, 1.0), "videos": None}, **FAST)
+    # a valid key reaches the transforms that take it; one the level's transforms do not take would do nothing: refused
+    env = make_env("dmc/walker-walk", generalization="camera_hard", level_options={"fov_deg": (-1.0, 1.0)}, **FAST)
     assert env.transform[0].fov_deg == (-1.0, 1.0)
-    assert make_env("dmc/walker-walk", level_options={"fov_deg": (-1.0, 1.0)}, **FAST).level.transforms == []
+    with pytest.raises(ValueError, match=r"'videos' do nothing at level 'camera_hard'"):
+        make_env("dmc/walker-walk", generalization="camera_hard", level_options={"fov_deg": (-1.0, 1.0), "videos": None}, **FAST)
+    with pytest.raises(ValueError, match=r"'fov_deg' do nothing at level 'train'.*camera_hard"):
+        make_env("dmc/walker-walk", level_options={"fov_deg": (-1.0, 1.0)}, **FAST)
 
 
 def test_unknown_env_options_and_scene_ids_are_refused_before_building():
