@@ -42,8 +42,10 @@ class Source:
 
 
 SOURCES: Mapping[str, Source] = MappingProxyType({source.name: source for source in (
-    Source("dmcgb", "Hansen & Wang 2021, Generalization in RL by Soft Data Augmentation (SODA); SVEA (Hansen et al. 2021)",
-           "https://arxiv.org/abs/2107.00644", "nicklashansen/dmcontrol-generalization-benchmark (table also in bofusun/SCPL@e77b623)",
+    Source("dmcgb", "Hansen & Wang 2021, Generalization in RL by Soft Data Augmentation (SODA), ICRA: the DMControl "
+           "Generalization Benchmark's results table (its SVEA rows: Hansen et al. 2021, https://arxiv.org/abs/2107.00644)",
+           "https://arxiv.org/abs/2011.13389",
+           "nicklashansen/dmcontrol-generalization-benchmark@ff9c0aa (the table last changed at 6861d3e; also in bofusun/SCPL@e77b623)",
            "MIT", "figures/results_table.png, transcribed by hand: random colors = color_hard, natural videos = video_easy"),
     Source("sgqn", "Bertoin et al. 2022, Look where you look! Saliency-guided Q-networks (SGQN), NeurIPS",
            "https://arxiv.org/abs/2209.09203", "SuReLI/SGQN@f383fc0", "MIT (DMC/LICENSE)",
@@ -64,10 +66,11 @@ SOURCES: Mapping[str, Source] = MappingProxyType({source.name: source for source
            "results/evaluation_score.xlsx, every literal per-seed cell, by scripts/extract_published.py",
            {name: name for name in ("drqv2", "drq", "curl", "svea", "srm", "sgqn", "pieg", "vrl3")}),
     Source("drqv2", "Yarats et al. 2021, Mastering Visual Continuous Control: Improved Data-Augmented RL (DrQ-v2)",
-           "https://arxiv.org/abs/2107.09645", "facebookresearch/drqv2 (archived)", "MIT",
+           "https://arxiv.org/abs/2107.09645", "facebookresearch/drqv2@c0c650b (archived; curves/ last changed at 061a0e5)", "MIT",
            "curves/dmc_<task>.csv: mean, sample std and median over seeds at each evaluated frame count, by scripts/extract_published.py",
            {"drqv2": "drqv2"}),
     Source("curl", "Srinivas et al. 2020, CURL: Contrastive Unsupervised Representations for RL, ICML",
-           "https://arxiv.org/abs/2004.04136", "MishaLaskin/curl", "MIT", "Table 1 of the paper, transcribed by hand"),
+           "https://arxiv.org/abs/2004.04136", "MishaLaskin/curl@8416d6e (its code; the numbers are the paper's)", "MIT",
+           "Table 1 of the paper, transcribed by hand"),
 )})
 """Source name -> :class:`Source`; each has ``vigen/results/data/<name>.csv``."""

@@ -85,7 +85,7 @@ class AugmentationChain(_Composite):
     drawn in order and stored flat (member ``i``'s ``key`` as ``"i.key"``), so a draw replays exactly. Members must keep the image size. The members are
     copies; ``seed`` seeds each member's own stream (``derive_seed(seed, index)``).
 
-    Paper: DMC-GB2 / SADA, https://arxiv.org/abs/2405.03451.
+    Paper: DMC-GB2 / SADA, https://arxiv.org/abs/2405.17416.
 
     Args:
         augmentations: the members, applied in list order.
@@ -122,7 +122,7 @@ class RandomChoice(_Composite):
     like any augmentation's; a member augments only the samples that chose it. DMC-GB2 trains SADA with its ``all`` choice of six augmentations
     (see :func:`~vigen.transforms.dmcgb2_strong_augmentation`).
 
-    Paper: DMC-GB2 / SADA, https://arxiv.org/abs/2405.03451.
+    Paper: DMC-GB2 / SADA, https://arxiv.org/abs/2405.17416.
 
     Args:
         augmentations: the members.

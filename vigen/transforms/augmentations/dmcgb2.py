@@ -40,7 +40,7 @@ def dmcgb2_strong_augmentation(*names: str, seed: int | None = None) -> ImageAug
     The overlay uses vigen's built-in image bank; pass a ``RandomChoice`` of your own with
     ``RandomOverlay(images=<Places365 folder>)`` for the paper's images.
 
-    Paper: DMC-GB2 / SADA, https://arxiv.org/abs/2405.03451.
+    Paper: DMC-GB2 / SADA, https://arxiv.org/abs/2405.17416.
 
     Examples:
         >>> from vigen.transforms import dmcgb2_strong_augmentation

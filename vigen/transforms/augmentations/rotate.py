@@ -23,7 +23,7 @@ class RandomRotate(ImageAugmentation):
     Every output pixel is a weighted mean of input pixels, so float pixels on any range work
     (``needs_scale = False``); float outputs stay within each sample's range (and ``[0, max_value]``).
 
-    Paper: DMC-GB2 / SADA, https://arxiv.org/abs/2405.03451.
+    Paper: DMC-GB2 / SADA, https://arxiv.org/abs/2405.17416.
 
     Args:
         degrees: the largest angle, in degrees, in [0, 180] (DMC-GB2: 180).
