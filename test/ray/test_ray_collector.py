@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 import importlib.util
 import json
 import math
@@ -21,6 +22,7 @@ from vigen.envs import make_env
 from vigen.losses import LinearSchedule, make_loss
 from vigen.ray_cluster import import_ray
 from vigen.rendering import RenderSettings
+from vigen.run import PRESETS
 
 ROOT = Path(__file__).resolve().parents[2]
 SPEC = importlib.util.spec_from_file_location("vigen_train_example", ROOT / "examples" / "train.py")
@@ -47,7 +49,7 @@ def agent():
 
 
 def collector(kind: str, workers: int, policy, batches: int = 1, env_seed: int = 3):
-    config = {"workers": workers, "collector": kind}
+    config = dataclasses.replace(PRESETS["cpu"], workers=workers, collector=kind)
     return train.make_collector(perturbed_env, policy, config, env_seed=env_seed, steps_per_batch=STEPS, batches=batches,
                                 random_steps=0)
 
