@@ -184,7 +184,9 @@ def test_reset_failure_in_a_worker_shows_its_exception_where_torchrl_shows_a_dea
         error, _ = raised_by(plain.reset)
         assert "dead" in str(error) and "boom" not in str(error), "TorchRL alone loses the cause"
     finally:
-        with pytest.raises(RuntimeError):  # TorchRL cannot close a ParallelEnv with a dead worker
+        # TorchRL cannot close a ParallelEnv with a dead worker: a RuntimeError, or multiprocessing's ValueError
+        # when the worker is still dying (seen on a loaded machine)
+        with pytest.raises((RuntimeError, ValueError)):
             plain.close()
 
     env = ParallelEnv(2, fails_in_worker_1("reset"))
