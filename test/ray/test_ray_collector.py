@@ -135,6 +135,7 @@ def run(*args) -> subprocess.CompletedProcess:
 
 @pytest.mark.slow
 @pytest.mark.render
+@pytest.mark.matrix  # the longest test (86 s idle, 561 s on a busy CI run, serial with the other Ray tests): -m matrix
 @pytest.mark.timeout(900)
 def test_train_and_evaluate_on_ray_write_the_run_folder_resume_and_report(tmp_path):
     run_dir = tmp_path / "ray-run"
