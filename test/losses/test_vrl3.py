@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import pickle
 import warnings
 
 import pytest
@@ -168,6 +169,7 @@ def test_encoder_learning_rate_scale():
     loss = make_loss("vrl3", encoder_lr_scale=0.01)
     groups = loss.optimizer_groups(1e-4)
     assert [group["lr"] for group in groups] == [1e-4, pytest.approx(1e-6)]
+    assert pickle.loads(pickle.dumps(loss)).optimizer_groups(1e-4)[1]["lr"] == pytest.approx(1e-6), "the scale pickles"
     encoder = {id(p) for p in loss.encoder_params.parameters()}
     assert {id(p) for p in groups[1]["params"]} == encoder
     everything = [id(p) for group in groups for p in group["params"]]

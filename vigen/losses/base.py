@@ -176,8 +176,8 @@ class ActorCriticLoss(LossModule):
             (DMC-GB's SAC, the original DrQ). ``"keys"`` keeps the copy without scoring on it
             (CURL's momentum key encoder).
         param_groups: per-module optimizer options, ``{attribute: {"lr": ..., ...}}`` for
-            :meth:`optimizer_groups` (MaDi's masker, SCPL's dynamics model); a callable value maps
-            the base learning rate (VRL3's encoder scale).
+            :meth:`optimizer_groups` (MaDi's masker, SCPL's dynamics model); ``"lr_scale"`` sets the
+            group's lr as a multiple of the base one (VRL3's encoder).
         channels_last: feed the convolutions channels-last pixels (:func:`~vigen.losses.make_loss`
             also puts vigen's networks in that layout; a loss never changes the caller's modules).
         reduction: ``"mean"``, ``"sum"`` or ``"none"`` (per-sample losses).
@@ -451,7 +451,9 @@ class ActorCriticLoss(LossModule):
             module = self.encoder_params if name == "encoder" else getattr(self, name)
             params = list(module.parameters())
             own.update(id(parameter) for parameter in params)
-            resolved = {key: value(lr) if callable(value) else value for key, value in options.items()}
+            resolved = {key: value for key, value in options.items() if key != "lr_scale"}
+            if "lr_scale" in options:  # a multiple of the base learning rate (VRL3's encoder)
+                resolved["lr"] = lr * options["lr_scale"]
             groups.append({"params": params, **resolved})
         rest = [parameter for parameter in self.parameters() if id(parameter) not in own]
         return [{"params": rest, "lr": lr}, *groups]

@@ -184,7 +184,7 @@ class VRL3Loss(ActorCriticLoss):
         scale = float(encoder_lr_scale)
         super().__init__(encoder, actor, critic, policy=NoisyDeterministic(std=0.01) if policy is None else policy,
                          augmentation=default_shift(augmentation),
-                         param_groups=None if scale == 1 else {"encoder": {"lr": lambda lr: lr * scale}}, **kwargs)
+                         param_groups=None if scale == 1 else {"encoder": {"lr_scale": scale}}, **kwargs)
         self.safe_q_threshold = float(safe_q_threshold)
         self.safe_q_factor = float(safe_q_factor)
         self.pretanh_threshold = float(pretanh_threshold)
