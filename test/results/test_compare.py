@@ -26,6 +26,15 @@ def test_a_run_under_the_protocol_sits_beside_every_source_of_it():
         "SGQN's SVEA is DMC-GB's SAC-based one; vigen's svea is RL-ViGen's DrQ-v2-based one"
 
 
+def test_rows_of_an_unverified_source_say_so_on_every_line():
+    lines = compare(rows(), source=["sgqn", "simgrl"], protocol="dmcgb")
+    notes = {line["source"]: line["notes"] for line in lines}
+    assert "unverified" not in notes["sgqn"]
+    assert "simgrl's rows are unverified: no table could be found" in notes["simgrl"]
+    assert all(not row.verified for row in published(source="simgrl"))
+    assert all(row.verified for row in published(source=["sgqn", "madi", "dmcgb", "dmcgb2"]))
+
+
 def test_an_implementation_vigen_reproduces_carries_no_note():
     line = compare(rows(method="madi"), source="madi", protocol="dmcgb")[0]
     assert (line["published"], line["notes"]) == (824.0, "")

@@ -26,6 +26,10 @@ VALUE_UNITS: Mapping[str, str] = MappingProxyType({"return": "return", "success"
 """Evaluation column -> the published unit it is compared with (``success`` rows are 0/1, shown in %)."""
 SETTINGS = ("action_repeat", "frame_stack", "image_size", "episode_length")
 """The row columns that must match the protocol (``examples/evaluate.py`` tags every row with them)."""
+CLIPPED_AT_ZERO: Mapping[str, tuple[str, ...]] = MappingProxyType({"rlvigen": ("loco/",)})
+"""Source -> env prefixes whose published scores average episode returns clipped below at 0 (RL-ViGen's
+``locoeval.py:96`` sets a negative episode return to 0 before the mean); the run's returns are clipped the same way."""
+CLIP_NOTE = "episode returns below 0 counted as 0 before averaging, as the source's evaluator does"
 
 
 class ProtocolMismatch(ValueError):
@@ -98,11 +102,17 @@ def _published_mean(members: Sequence[PublishedScore]) -> tuple[float, float | N
     return members[0].value, members[0].spread, members[0].seeds
 
 
-def _run_scores(rows: Sequence[Mapping[str, Any]], value: str) -> list[float]:
-    """One score per run (its mean over episodes and seeds), in %, for ``success``."""
+def _run_scores(rows: Sequence[Mapping[str, Any]], value: str, clip_at_zero: bool = False) -> list[float]:
+    """One score per run (its mean over episodes and seeds), in %, for ``success``; ``clip_at_zero``: each episode's ``max(0, ·)``.
+
+    Examples:
+        >>> _run_scores([{"run": 0, "return": -100.0}, {"run": 0, "return": 300.0}], "return", clip_at_zero=True)
+        [150.0]
+    """
     per_run: dict[Any, list[float]] = defaultdict(list)
     for row in rows:
-        per_run[row.get("run", 0)].append(float(row[value]) * (100.0 if value == "success" else 1.0))
+        score = float(row[value]) * (100.0 if value == "success" else 1.0)
+        per_run[row.get("run", 0)].append(max(score, 0.0) if clip_at_zero else score)
     return [float(np.mean(scores)) for scores in per_run.values()]
 
 
@@ -147,7 +157,10 @@ def compare(
         ``published_seeds``, ``published_method`` with its variant, ``source``, ``where``), both
         budgets in frames (``budget_matches`` is ``None`` where the source does not state its
         budget), ``difference`` (vigen − published) and ``notes``: what the reader must know
-        (a different budget, a budget not published, another implementation, a level vigen approximates).
+        (a different budget, a budget not published, another implementation, a level vigen approximates,
+        an unverified source, returns clipped at 0). Where the source clips each episode's return at 0 before
+        averaging (:data:`CLIPPED_AT_ZERO`: RL-ViGen's ``loco`` scores), the run's returns are clipped the same way
+        and the line's ``notes`` say so.
 
     Raises:
         ProtocolMismatch: the protocols, a setting, the budget or the unit differ (each difference listed).
@@ -217,15 +230,18 @@ def compare(
                 budget_problems[key][1][level] = None
                 continue
             mean, spread, seeds = _published_mean(cell)
-            scores = _run_scores(members, value)
+            clip = value == "return" and env.startswith(CLIPPED_AT_ZERO.get(source_name, ()))
+            scores = _run_scores(members, value, clip_at_zero=clip)
             published_frames = cell[0].frames(repeat)
-            notes = []
+            notes = [CLIP_NOTE] if clip else []
             if published_frames is None:
                 notes.append("budget not published")
             elif published_frames != run_frames:
                 notes.append(f"budget: run {run_frames or 0:,} frames, published {published_frames:,}")
             if SOURCES[source_name].reproduced_by.get(cell[0].method) != method:
                 notes.append(f"published from another implementation of {cell[0].label} than vigen's {method}")
+            if not SOURCES[source_name].verified:
+                notes.append(f"{source_name}'s rows are unverified: {SOURCES[source_name].unverified}")
             if level in protocol.level_differences:
                 notes.append(f"{level} differs: {protocol.level_differences[level]}")
             lines.append({

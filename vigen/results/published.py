@@ -66,6 +66,11 @@ class PublishedScore:
         return f"{self.suite}/{self.task}"
 
     @property
+    def verified(self) -> bool:
+        """Whether this row was checked against its source's original table or file (:attr:`Source.unverified`)."""
+        return SOURCES[self.source].verified
+
+    @property
     def label(self) -> str:
         """The method as a table names it, e.g. ``"svea (overlay)"``."""
         return f"{self.method} ({self.variant})" if self.variant else self.method

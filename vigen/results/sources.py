@@ -22,11 +22,16 @@ class Source:
             the code behind these numbers (checked by ``python -m benchmarks.parity``); a method not listed was published
             from another implementation than vigen's algorithm of that name (e.g. DMC-GB's SAC-based SVEA, where
             vigen's ``svea`` is RL-ViGen's DrQ-v2-based one).
+        unverified: empty when every row was checked against the original table or file; otherwise why the rows
+            could not be traced to one. Such rows stay in the data, and :func:`vigen.results.compare` says so on
+            every line that uses them.
 
     Examples:
         >>> from vigen.results import SOURCES
         >>> SOURCES["rlvigen"].reproduced_by["svea"], "svea" in SOURCES["sgqn"].reproduced_by
         ('svea', False)
+        >>> SOURCES["sgqn"].verified, SOURCES["simgrl"].verified
+        (True, False)
     """
 
     name: str
@@ -36,6 +41,12 @@ class Source:
     license: str
     read_from: str
     reproduced_by: Mapping[str, str] = field(default_factory=dict)
+    unverified: str = ""
+
+    @property
+    def verified(self) -> bool:
+        """Whether every row was checked against the original table or file."""
+        return not self.unverified
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "reproduced_by", MappingProxyType(dict(self.reproduced_by)))
@@ -55,8 +66,11 @@ SOURCES: Mapping[str, Source] = MappingProxyType({source.name: source for source
            "figures/results_video_hard.png, transcribed by hand (MaDi's own re-runs of every method)", {"madi": "madi"}),
     Source("simgrl", "Song et al. 2024, A Simple Framework for Generalization in Visual RL under Dynamic Scene Perturbations, NeurIPS",
            "https://w-song11.github.io/SimGRL", "W-Song11/SimGRL-Code@08722a8", "MIT",
-           "the paper's DMC-GB video_hard table (SimGRL with std; the baselines' means as SimGRL prints them)",
-           {"simgrl": "simgrl"}),
+           "the paper's DMC-GB video_hard table as first transcribed (SimGRL with std; the baselines' means as SimGRL "
+           "prints them)", {"simgrl": "simgrl"},
+           unverified="no table could be found to check these rows against: the cited repository holds no numbers and "
+                      "the paper's table was not at hand when they were checked; the baselines' rows are not SGQN's "
+                      "Table 2 either (SVEA finger-spin 335 here, 174 there), so they are not a copy of it"),
     Source("dmcgb2", "Almuzairee et al. 2024, A Recipe for Unbounded Data Augmentation in Visual RL (SADA, DMC-GB2), RLC",
            "https://arxiv.org/abs/2405.17416", "aalmuzairee/SADA@bee2fba (linked from aalmuzairee/dmcgb2's README)", "MIT",
            "Fig. 6, static/images/repo/overall_results.png, transcribed by hand; checked against the paper's 6-task means",
