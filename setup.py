@@ -60,7 +60,7 @@ setup(
     long_description_content_type="text/markdown",
     license="MIT",
     packages=find_packages(include=["vigen", "vigen.*"]),
-    package_data={"vigen.results": ["data/*.csv"]},
+    package_data={"vigen.results": ["data/*.csv"], "vigen.pretrained": ["agents/*.pt", "agents/*.json"]},
     python_requires=">=3.10",
     install_requires=install_requires,
     extras_require=extras_require,

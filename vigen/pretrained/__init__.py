@@ -1,0 +1,161 @@
+"""Trained agents that ship with vigen: their acting policies (encoder and actor only) and where they came from.
+
+Each agent is two files in ``vigen/pretrained/agents/``: ``<name>.pt``, the weights (tensors and
+plain data, loaded with ``weights_only=True``, stored in float16 to keep the wheel small and
+restored to float32), and ``<name>.json``, its provenance: the vigen commit and command that
+trained it, its algorithm, env, seed and frames, the SHA-256 of the weights file, and its
+zero-shot evaluation table, measured on these very weights. :func:`export_policy` writes both
+from a run of ``examples/train.py``.
+
+Examples:
+    >>> import tempfile, torch
+    >>> from torchrl.data import Bounded
+    >>> from vigen.pretrained import available, export_policy, load_policy
+    >>> from vigen.run import TrainConfig, build_agent
+    >>> folder, spec = tempfile.mkdtemp(), Bounded(-1.0, 1.0, shape=(1,))
+    >>> config = TrainConfig(algo="drqv2", hidden_dim=16, observation_shape=(9, 32, 32), action_dim=1)
+    >>> agent = build_agent(config, spec)
+    >>> _ = export_policy(config, agent.loss, spec, folder, "tiny", {"env": "dmc/cartpole-balance"})
+    >>> available(folder)
+    ['tiny']
+    >>> policy = load_policy("tiny", root=folder)
+    >>> policy(pixels=torch.zeros(9, 32, 32, dtype=torch.uint8)).shape
+    torch.Size([1])
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import torch
+from tensordict.nn import TensorDictModuleBase, TensorDictSequential
+from torchrl.data import Bounded, TensorSpec
+
+from vigen.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
+from vigen.io import atomic_write
+from vigen.losses import ALGOS, ActorCriticLoss, make_loss
+from vigen.run.config import TrainConfig
+
+AGENTS = Path(__file__).parent / "agents"
+"""The folder of the shipped agents."""
+FORMAT = 1
+"""The version of the weights file's layout."""
+ACTING_PARTS = ("input_mask", "encoder", "actor")
+"""The loss's modules a policy acts with (``input_mask`` only where the algorithm has one, e.g. MaDi)."""
+SHAPE_KEYS = ("algo", "observation_shape", "action_dim", "feature_dim", "hidden_dim")
+
+
+def available(root: str | Path | None = None) -> list[str]:
+    """The names of the agents in ``root`` (default: the ones vigen ships), sorted.
+
+    Examples:
+        >>> from vigen.pretrained import available
+        >>> isinstance(available(), list)
+        True
+    """
+    folder = Path(root) if root is not None else AGENTS
+    return sorted(path.stem for path in folder.glob("*.pt") if path.with_suffix(".json").is_file())
+
+
+def info(name: str, *, root: str | Path | None = None) -> dict[str, Any]:
+    """An agent's provenance: commit, command, algorithm, env, seed, frames, weights checksum and evaluation table."""
+    return json.loads(_files(name, root)[1].read_text())
+
+
+def load_policy(name: str, *, device: torch.device | str = "cpu", root: str | Path | None = None) -> TensorDictModuleBase:
+    """The acting policy of a shipped agent: a TorchRL module from ``"pixels"`` (uint8, ``(3·frames, H, W)``) to ``"action"``.
+
+    The policy acts deterministically: DrQ-v2-style agents output the actor's action with no
+    exploration noise (clamped to the env's bounds), SAC-style ones the squashed mean unless run
+    under ``ExplorationType.RANDOM``. The weights file is checked against the checksum in the
+    provenance and loaded with ``weights_only=True``.
+
+    Raises:
+        KeyError: no agent of that name (the message lists the available ones).
+        CheckpointError: the weights file is corrupt, altered, or not in this format.
+    """
+    weights, provenance = _files(name, root)
+    record = json.loads(provenance.read_text())
+    digest = hashlib.sha256(weights.read_bytes()).hexdigest()
+    if record.get("sha256") != digest:
+        raise CheckpointError(f"{weights} does not match the checksum in {provenance.name} (sha256 {digest[:12]}…, "
+                              f"recorded {str(record.get('sha256'))[:12]}…): the file was altered or truncated.")
+    state = load_checkpoint(weights)
+    if state.get("format") != FORMAT or any(key not in state for key in (*SHAPE_KEYS, "parts", "action_low", "action_high")):
+        raise CheckpointError(f"{weights} is not a vigen policy file of format {FORMAT}; write it with export_policy.")
+    algo = state["algo"]
+    options = {"std": 0.0} if ALGOS[algo].takes_std else {}
+    loss = make_loss(algo, tuple(state["observation_shape"]), state["action_dim"], feature_dim=state["feature_dim"],
+                     hidden_dim=state["hidden_dim"], **options)
+    for part, tensors in state["parts"].items():
+        module = getattr(loss, part)
+        reference = module.state_dict()
+        module.load_state_dict({key: value.to(reference[key].dtype) for key, value in tensors.items()})
+    low, high = state["action_low"], state["action_high"]
+    policy = loss.make_policy(Bounded(low, high, shape=low.shape))
+    return TensorDictSequential(policy, selected_out_keys=["action"]).to(device)
+
+
+def export_policy(
+    config: TrainConfig,
+    loss: ActorCriticLoss,
+    action_spec: TensorSpec,
+    root: str | Path,
+    name: str,
+    provenance: Mapping[str, Any],
+    *,
+    dtype: torch.dtype = torch.float16,
+    overwrite: bool = False,
+) -> tuple[Path, Path]:
+    """Write the acting part of ``loss`` (encoder, actor, input mask) as ``root/<name>.pt`` and its provenance as ``.json``.
+
+    Args:
+        config: the run's config (its algorithm and network sizes), e.g. ``vigen.run.load_agent(run).config``.
+        loss: the trained loss built from it, e.g. ``vigen.run.load_agent(run).agent.loss``.
+        action_spec: the env's action spec (its bounds are stored with the weights).
+        root: the folder to write into.
+        name: the agent's name, e.g. ``"drqv2-cartpole-balance"``.
+        provenance: what made it (commit, command, env, seed, frames, evaluation table); the
+            network sizes and the weights' SHA-256 are added.
+        dtype: the floating dtype stored (float16 halves the file; loading restores float32).
+        overwrite: replace an agent of that name; otherwise an existing one is an error.
+
+    Returns:
+        The paths of the weights and of the provenance.
+    """
+    if not isinstance(loss, ActorCriticLoss):
+        raise TypeError(f"export_policy takes a vigen loss (an ActorCriticLoss), got {type(loss).__name__}.")
+    if not name or "/" in name or name.startswith("."):
+        raise ValueError(f"export_policy: {name!r} is not a usable agent name (a file name without '/').")
+    weights, record = Path(root) / f"{name}.pt", Path(root) / f"{name}.json"
+    if not overwrite and (weights.exists() or record.exists()):
+        raise FileExistsError(f"{weights} or {record.name} exists; pass overwrite=True to replace agent {name!r}.")
+    shapes = {key: getattr(config, key) for key in SHAPE_KEYS}
+    if shapes["observation_shape"] is None or shapes["action_dim"] is None:
+        raise ValueError("export_policy: the config has no observation_shape / action_dim; pass the run's config.")
+    shapes["observation_shape"] = list(shapes["observation_shape"])
+    parts = {part: {key: value.detach().to("cpu", dtype if value.is_floating_point() else value.dtype).clone()
+                    for key, value in getattr(loss, part).state_dict().items()}
+             for part in ACTING_PARTS if getattr(loss, part, None) is not None}
+    space = action_spec.space
+    state = {"format": FORMAT, **shapes, "parts": parts,
+             "action_low": torch.as_tensor(space.low, dtype=torch.float32).cpu().clone(),
+             "action_high": torch.as_tensor(space.high, dtype=torch.float32).cpu().clone()}
+    Path(root).mkdir(parents=True, exist_ok=True)
+    save_checkpoint(weights, state)
+    digest = hashlib.sha256(weights.read_bytes()).hexdigest()
+    atomic_write(record, json.dumps({**provenance, **shapes, "sha256": digest, "dtype": str(dtype).removeprefix("torch.")},
+                                    indent=2, default=str) + "\n")
+    return weights, record
+
+
+def _files(name: str, root: str | Path | None) -> tuple[Path, Path]:
+    folder = Path(root) if root is not None else AGENTS
+    weights, record = folder / f"{name}.pt", folder / f"{name}.json"
+    if not (weights.is_file() and record.is_file()):
+        raise KeyError(f"no pretrained agent {name!r} in {folder}; available: {', '.join(available(folder)) or 'none'}.")
+    return weights, record
