@@ -3,6 +3,11 @@
     python examples/evaluate.py runs/drqv2-cartpole-balance-s0 runs/svea-cartpole-balance-s0 \\
         --levels train dmcgb --episodes 10 --out reports/cartpole
 
+``--pretrained NAME ...`` evaluates agents that ship with vigen (``vigen.pretrained.available()``)
+instead of, or beside, runs:
+
+    python examples/evaluate.py --pretrained drqv2-cartpole-balance --random --levels train color_hard
+
 Each argument is a run folder of ``examples/train.py`` (its newest checkpoint that loads is used) or
 one checkpoint file. Checkpoints load without running code (``weights_only=True``). The agent is
 built from the run's ``config.json`` as ``examples/train.py`` builds it (``vigen.run.load_agent``:
@@ -45,7 +50,9 @@ from __future__ import annotations
 import argparse
 import contextlib
 import sys
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import torch
 from tqdm import tqdm
@@ -63,7 +70,8 @@ from vigen.ray_cluster import ray_session
 from vigen.rendering import RenderSettings
 from vigen.results import SOURCES, ProtocolMismatch, compare, load, published
 from vigen.results.compare import VALUE_UNITS
-from vigen.run import TrainConfig, TrainedAgent, load_agent
+from vigen.pretrained import available, info, load_config, load_policy
+from vigen.run import TrainConfig, load_agent
 
 
 DEFAULT_GROUPS = {"dmc": "dmcgb", "robosuite": "rlvigen", "adroit": "rlvigen"}
@@ -71,7 +79,10 @@ DEFAULT_GROUPS = {"dmc": "dmcgb", "robosuite": "rlvigen", "adroit": "rlvigen"}
 
 def parse_args() -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("runs", nargs="+", type=Path, help="run folders or checkpoint files of examples/train.py")
+    parser.add_argument("runs", nargs="*", type=Path, help="run folders or checkpoint files of examples/train.py")
+    parser.add_argument("--pretrained", nargs="+", default=[], metavar="NAME",
+                        help=f"agents that ship with vigen (vigen.pretrained): {', '.join(available()) or 'none yet'}; "
+                             "or the .pt file of one written by vigen.pretrained.export_policy (its .json beside it)")
     parser.add_argument("--levels", nargs="+", default=None,
                         help="levels or groups of the runs' suite (dmc: dmcgb, rlvigen, corruptions; robosuite: rlvigen, "
                              "camera, embodiment; adroit: rlvigen, camera, light); default: train and the suite's "
@@ -105,6 +116,12 @@ def parse_args() -> argparse.Namespace:
         args.device = torch.device("cpu")  # Ray's evaluation tasks act on their own CPU
     if args.workers is not None and (args.ray is None or args.workers < 1):
         raise SystemExit(f"--workers {args.workers}: it sets the Ray jobs in flight (>= 1) and needs --ray.")
+    if not args.runs and not args.pretrained:
+        raise SystemExit("give run folders of examples/train.py, or --pretrained NAME (shipped: "
+                         f"{', '.join(available()) or 'none yet'}).")
+    unknown = [name for name in args.pretrained if name not in available() and not Path(name).with_suffix(".json").is_file()]
+    if unknown:
+        raise SystemExit(f"--pretrained {' '.join(unknown)}: not shipped; the shipped agents are {', '.join(available()) or 'none'}.")
     args.sweep = [parse_sweep(items) for items in args.sweep]
     return args
 
@@ -120,15 +137,32 @@ def parse_sweep(items: list[str]) -> list[dict[str, float]]:
         raise SystemExit(f"--sweep {' '.join(items)}: {error}") from None
 
 
-def load_run(path: Path, device: torch.device) -> TrainedAgent:
-    """The run's config and agent with the weights of ``path`` (or the run's newest checkpoint that loads), on ``device``."""
+@dataclass
+class Evaluated:
+    """What is evaluated: an acting policy, the config it was trained with, and its training frames."""
+
+    policy: Any
+    config: TrainConfig
+    frames: int
+
+
+def load_run(path: Path, device: torch.device) -> Evaluated:
+    """The run's config and policy with the weights of ``path`` (or the run's newest checkpoint that loads), on ``device``."""
     try:
         trained = load_agent(path, device=device)
     except (CheckpointError, FileNotFoundError) as error:
         raise SystemExit(f"{path}: {error}") from None
     for bad, why in trained.skipped:
         print(f"skipped checkpoint {bad}: {why}", file=sys.stderr)
-    return trained
+    return Evaluated(trained.agent.policy, trained.config, trained.frames)
+
+
+def load_shipped(name: str, device: torch.device) -> Evaluated:
+    """A shipped agent (``vigen.pretrained``), or an exported one by its file: its deterministic policy, config and frames."""
+    root = None
+    if name not in available():
+        root, name = Path(name).parent, Path(name).stem
+    return Evaluated(load_policy(name, device=device, root=root), load_config(name, root=root), info(name, root=root)["frames"])
 
 
 RUN_SETTINGS = ("action_repeat", "frame_stack", "image_size")
@@ -143,7 +177,7 @@ def run_env_options(config: TrainConfig, args: argparse.Namespace, level_options
             **{name: getattr(config, name) for name in RUN_SETTINGS if getattr(config, name) is not None}}
 
 
-def run_tags(trained: TrainedAgent, env_options: dict) -> dict:
+def run_tags(trained: Evaluated, env_options: dict) -> dict:
     """The columns every row of a run carries: method, run, frames, and the settings a protocol fixes (for --compare)."""
     config = trained.config
     channels, _, width = config.observation_shape  # uint8 [3 * frame stack, H, W]
@@ -164,7 +198,7 @@ def compare_sources(name: str) -> tuple[str, list[str]]:
 def main() -> None:
     args = parse_args()
     level_options = {"videos": args.videos} if args.videos else None
-    agents = [load_run(path, args.device) for path in args.runs]
+    agents = [load_run(path, args.device) for path in args.runs] + [load_shipped(name, args.device) for name in args.pretrained]
     protocol, sources = compare_sources(args.compare) if args.compare else (None, [])
     levels = {}  # env name -> its levels
     for env in dict.fromkeys(trained.config.env for trained in agents):
@@ -186,7 +220,7 @@ def main() -> None:
             published_lines(probe, sources, protocol, args.allow_budget_mismatch)
         except ValueError as error:  # ProtocolMismatch included
             raise SystemExit(f"--compare {args.compare}: {error}") from None
-    evaluations = [(trained.agent.policy, trained.config.env, env_options, run_tags(trained, env_options))
+    evaluations = [(trained.policy, trained.config.env, env_options, run_tags(trained, env_options))
                    for trained, env_options in zip(agents, options)]
     if args.random:  # in each env as its first run saw it
         first: dict[str, dict] = {}

@@ -10,7 +10,7 @@ from torchrl.data import Bounded
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from vigen.checkpoint import CheckpointError
-from vigen.pretrained import available, export_policy, info, load_policy
+from vigen.pretrained import available, export_policy, info, load_config, load_policy
 from vigen.run import TrainConfig, build_agent
 
 SHAPE = (9, 32, 32)
@@ -62,6 +62,7 @@ def test_provenance_records_the_network_sizes_and_the_checksum(tmp_path):
     record = info("agent", root=tmp_path)
     assert record["algo"] == "drqv2" and record["observation_shape"] == list(SHAPE) and record["hidden_dim"] == 16
     assert record["env"] == "dmc/cartpole-balance" and len(record["sha256"]) == 64 and record["dtype"] == "float16"
+    assert load_config("agent", root=tmp_path).hidden_dim == 16
 
 
 def test_an_altered_weights_file_is_refused(tmp_path):

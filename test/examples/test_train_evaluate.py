@@ -90,6 +90,23 @@ def test_evaluate_writes_the_report(trained, tmp_path):
 
 
 @pytest.mark.render
+@pytest.mark.render
+def test_an_exported_agent_evaluates_as_its_run_does(trained, tmp_path):
+    import torch
+
+    from vigen.pretrained import export_policy
+    from vigen.run import env_action_spec, load_agent
+
+    loaded = load_agent(trained)
+    export_policy(loaded.config, loaded.agent.loss, env_action_spec(loaded.config), tmp_path, "exported",
+                  {"frames": loaded.frames}, dtype=torch.float32)
+    episodes = {}
+    for name, source in (("run", [trained]), ("exported", ["--pretrained", tmp_path / "exported.pt"])):
+        run("evaluate.py", *source, "--levels", "color_hard", "--episodes", "1", "--out", tmp_path / name)
+        episodes[name] = [(r["method"], r["level"], r["frames"], r["return"]) for r in csv.DictReader((tmp_path / name / "episodes.csv").open())]
+    assert episodes["exported"] == episodes["run"], "float32 export: the same actions, so the same episodes"
+
+
 def test_evaluate_names_a_missing_checkpoint(tmp_path):
     result = subprocess.run([sys.executable, str(ROOT / "examples/evaluate.py"), str(tmp_path)],
                             capture_output=True, text=True)

@@ -66,6 +66,11 @@ def info(name: str, *, root: str | Path | None = None) -> dict[str, Any]:
     return json.loads(_files(name, root)[1].read_text())
 
 
+def load_config(name: str, *, root: str | Path | None = None) -> TrainConfig:
+    """The training config of an agent (its env, action repeat, frame stack, image size, algorithm, seed)."""
+    return TrainConfig.from_json(info(name, root=root)["config"])
+
+
 def load_policy(name: str, *, device: torch.device | str = "cpu", root: str | Path | None = None) -> TensorDictModuleBase:
     """The acting policy of a shipped agent: a TorchRL module from ``"pixels"`` (uint8, ``(3·frames, H, W)``) to ``"action"``.
 
@@ -120,7 +125,7 @@ def export_policy(
         root: the folder to write into.
         name: the agent's name, e.g. ``"drqv2-cartpole-balance"``.
         provenance: what made it (commit, command, env, seed, frames, evaluation table); the
-            network sizes and the weights' SHA-256 are added.
+            network sizes, the run's whole config (``config``) and the weights' SHA-256 are added.
         dtype: the floating dtype stored (float16 halves the file; loading restores float32).
         overwrite: replace an agent of that name; otherwise an existing one is an error.
 
@@ -148,7 +153,8 @@ def export_policy(
     Path(root).mkdir(parents=True, exist_ok=True)
     save_checkpoint(weights, state)
     digest = hashlib.sha256(weights.read_bytes()).hexdigest()
-    atomic_write(record, json.dumps({**provenance, **shapes, "sha256": digest, "dtype": str(dtype).removeprefix("torch.")},
+    atomic_write(record, json.dumps({**provenance, **shapes, "config": config.to_json(), "sha256": digest,
+                                     "dtype": str(dtype).removeprefix("torch.")},
                                     indent=2, default=str) + "\n")
     return weights, record
 
