@@ -84,7 +84,7 @@ def test_presets_cycle_one_per_reset_in_the_source_order():
         shuffled = list(range(100))
         np.random.RandomState(seed).shuffle(shuffled)
         assert preset_order(seed).tolist() == shuffled
-        camera = DMCGB2Camera("rotate", "easy", seed=seed)
+        camera = DMCGB2Camera("rotate", "easy", source_seed=seed)
         drawn = []
         for _ in range(102):
             camera.params = camera.sample(camera.generator(), {})
@@ -94,7 +94,7 @@ def test_presets_cycle_one_per_reset_in_the_source_order():
 
 def test_the_camera_turns_by_the_preset_in_place():
     for mode, episodes in (("rotate", 1), ("shift", 1), ("rotate_shift", 2)):
-        camera = DMCGB2Camera(mode, "hard", domain="walker", seed=3)
+        camera = DMCGB2Camera(mode, "hard", domain="walker", source_seed=3)
         env = build(transforms=[camera])
         model = env.base_env.scene.model  # before the first reset: unedited; walker's camera 0 is trackcom
         start_position, start = model.cam_poscom0[0].copy(), model.cam_mat0[0].reshape(3, 3).copy()

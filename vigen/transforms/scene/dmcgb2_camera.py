@@ -13,6 +13,7 @@ from types import MappingProxyType
 import numpy as np
 
 from vigen.transforms.scene.base import Defaults, SceneHandle, SceneParams, ScenePerturbation
+from vigen.transforms.scene.dmcgb2_seed import NUM_PRESETS, check_source_seed, resolve_source_seed
 from vigen.transforms.scene.distracting import (
     CAMERA_FIELDS,
     camera_frame,
@@ -25,7 +26,6 @@ from vigen.transforms.scene.distracting import (
 
 MODES = ("rotate", "shift", "rotate_shift")
 DIFFICULTIES = ("easy", "hard")
-NUM_PRESETS = 100  # _num_starting_rots / _num_starting_shifts
 # ShiftWrapper._get_corner_coordinates: cam_edges, degrees, as (max_roll, min_roll, max_pitch, min_pitch). The source
 # then unpacks each preset as (yaw, pitch, roll): the "roll" pair turns the camera about its own y axis (left / right),
 # the "pitch" pair about its own x axis (up / down).
@@ -109,9 +109,13 @@ class DMCGB2Camera(ScenePerturbation):
       image's edges and corners (:func:`shift_presets`);
     * rotate_shift: both, preset ``i`` of each list together (DMC-GB2 shuffles both lists with the same seed).
 
-    The presets are shuffled once with ``np.random.RandomState(seed).shuffle`` and episode ``k``
-    plays preset ``order[k mod 100]``, as DMC-GB2 does with its env seed (:func:`preset_order`);
-    without a seed the shuffle's seed is drawn from the transform's generator.
+    The presets are shuffled once with ``np.random.RandomState(s).shuffle`` and episode ``k``
+    plays preset ``order[k mod 100]``, as DMC-GB2 does with its env seed ``s`` (:func:`preset_order`;
+    ``dmcgb_geometric.py:15, 25, 125, 130``). ``s`` is the seed of the vigen env the transform sits in
+    (``make_env(..., seed=s)`` or ``env.set_seed(s)``), recovered from the transform's own seed
+    (:func:`~vigen.transforms.scene.dmcgb2_seed.env_seed_of`), so a vigen env and a DMC-GB2 env with the
+    same seed show the same presets in the same order; ``source_seed`` sets ``s`` directly. Without
+    any seed, ``s`` is drawn from the transform's generator.
 
     DMC-GB2 overwrites the data's ``cam_xmat[0]`` after each step; vigen writes the same rotation
     into the model field the camera's mode reads (``cam_quat`` fixed, ``cam_mat0`` track /
@@ -126,7 +130,9 @@ class DMCGB2Camera(ScenePerturbation):
         domain: dm_control domain, for the shift limits (needed by ``shift`` modes): one of
             :data:`CAM_EDGES` (``"cup"`` means ``"ball_in_cup"``).
         camera: camera id or name (DMC-GB2: camera 0).
-        seed: see :class:`~vigen.transforms.scene.ScenePerturbation`; also DMC-GB2's shuffle seed.
+        source_seed: DMC-GB2's env seed, which seeds the shuffle; ``None``: the seed of the vigen env
+            this transform sits in (``seed // 1_000_003``, see above).
+        seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
 
     Examples:
         >>> from vigen.envs import make_env
@@ -143,6 +149,7 @@ class DMCGB2Camera(ScenePerturbation):
         difficulty: str = "hard",
         domain: str | None = None,
         camera: int | str = 0,
+        source_seed: int | None = None,
         seed: int | None = None,
     ) -> None:
         if mode not in MODES:
@@ -154,7 +161,9 @@ class DMCGB2Camera(ScenePerturbation):
             raise TypeError(f"DMCGB2Camera: domain is a dm_control domain name, got {domain!r}.")
         if not isinstance(camera, (int, str)) or isinstance(camera, bool):
             raise TypeError(f"DMCGB2Camera: camera is a camera id (int) or name (str), got {camera!r}.")
+        source_seed = check_source_seed(source_seed, "DMCGB2Camera")
         super().__init__(seed=seed)
+        self.source_seed = source_seed
         self.mode, self.difficulty, self.domain, self.camera = mode, difficulty, domain, camera
 
     def rotations(self) -> np.ndarray:
@@ -179,7 +188,7 @@ class DMCGB2Camera(ScenePerturbation):
         if self.params is not None and "order_seed" in self.params:
             order_seed, episode = self.params["order_seed"], self.params["episode"] + 1
         else:
-            order_seed = self.seed if self.seed is not None else int(rng.integers(2**31))
+            order_seed = resolve_source_seed(self.source_seed, self.seed, rng)
             episode = 0
         preset = int(preset_order(order_seed)[episode % NUM_PRESETS])
         return {"order_seed": order_seed, "episode": episode, "preset": preset}
@@ -199,4 +208,5 @@ class DMCGB2Camera(ScenePerturbation):
     def extra_repr(self) -> str:
         domain = "" if self.domain is None else f", domain={self.domain!r}"
         camera = "" if self.camera == 0 else f", camera={self.camera!r}"
-        return f"mode={self.mode!r}, difficulty={self.difficulty!r}{domain}{camera}"
+        source = "" if self.source_seed is None else f", source_seed={self.source_seed}"
+        return f"mode={self.mode!r}, difficulty={self.difficulty!r}{domain}{camera}{source}"
