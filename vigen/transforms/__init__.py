@@ -49,6 +49,7 @@ from vigen.transforms.augmentations import (
 )
 from vigen.transforms.corruptions import PixelCorruption
 from vigen.transforms.scene import DistractingCamera, DistractingColors, DMCGB2Camera
+from vigen.transforms.scene import DMCGB2VideoBackground
 from vigen.transforms.scene import (
     RandomCamera,
     RandomLighting,
@@ -63,6 +64,7 @@ from vigen.transforms.scene import (
 
 __all__ = [
     "DMCGB2Camera", "DistractingCamera", "DistractingColors",
+    "DMCGB2VideoBackground",
     "AugmentationChain",
     "CenterCrop",
     "DMCGB2_AUGMENTATIONS",

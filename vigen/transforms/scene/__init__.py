@@ -12,6 +12,7 @@ from vigen.transforms.scene.camera import RandomCamera
 from vigen.transforms.scene.colors import RandomSceneColors
 from vigen.transforms.scene.distracting import DistractingCamera, DistractingColors
 from vigen.transforms.scene.dmcgb2_camera import DMCGB2Camera
+from vigen.transforms.scene.dmcgb2_video import DMCGB2VideoBackground
 from vigen.transforms.scene.lighting import RandomLighting
 from vigen.transforms.scene.material_colors import RandomMaterialColors
 from vigen.transforms.scene.textures import RandomTextures
@@ -19,6 +20,7 @@ from vigen.transforms.scene.video import VideoBackground
 
 __all__ = [
     "DMCGB2Camera", "DistractingCamera", "DistractingColors",
+    "DMCGB2VideoBackground",
     "RandomCamera",
     "RandomLighting",
     "RandomMaterialColors",
