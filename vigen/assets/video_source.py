@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from vigen.assets.davis import davis_split_folders
 from vigen.assets.image_bank import IMAGE_SUFFIXES
 from vigen.assets.procedural import procedural_video
 from vigen.seeding import derive_seed
@@ -67,14 +68,21 @@ class VideoSource:
         return cls(None, count=count, max_frames=max_frames, seed=seed, name=f"procedural({count})")
 
     @classmethod
-    def from_folder(cls, root: str | os.PathLike, max_frames: int = 500) -> VideoSource:
-        """Every video file and every folder of frames under ``root`` (recursively), in sorted order, each checked."""
+    def from_folder(cls, root: str | os.PathLike, max_frames: int = 500, split: str | None = None) -> VideoSource:
+        """Every video file and every folder of frames under ``root`` (recursively), in sorted order, each checked.
+
+        With ``split`` (``"train"`` or ``"val"``), ``root`` is a DAVIS 2017 folder and the source
+        holds that split's frame folders, in name order (the Distracting Control Suite's videos;
+        see :func:`~vigen.assets.davis.davis_split_folders`).
+        """
         root = Path(root).expanduser()
         if not root.is_dir():
             raise FileNotFoundError(
                 f"Video folder {root} does not exist. Pass a folder of videos (e.g. DMC-GB's "
                 "src/env/data/video_hard) or of frame folders (e.g. DAVIS/JPEGImages/480p)."
             )
+        if split is not None:
+            return cls(davis_split_folders(root, split), max_frames=max_frames, name=f"{root} ({split})")
         videos = [p for p in root.rglob("*") if p.suffix.lower() in VIDEO_SUFFIXES]
         frame_dirs = {p.parent for p in root.rglob("*") if p.suffix.lower() in IMAGE_SUFFIXES}
         paths = sorted(videos + list(frame_dirs))
