@@ -213,12 +213,14 @@ def test_video_background_bounce_turns_at_the_ends_as_dcs():
     # distracting_control/background.py step(): i += d; i <= 0 -> i = 0, d = +1; i >= n -> i = n - 1, d = -1
     video = VideoBackground(VideoSource.procedural(count=2, max_frames=3), playback="bounce")
     video.params = {"video": 0, "frame": None, "start": 0.5, "direction": 1}
-    assert [video.next_frame(3) for _ in range(9)] == [1, 2, 2, 1, 0, 1, 2, 2, 1]
+    assert [video.frame_after(3, 0)] + [video.frame_after(3, 1) for _ in range(8)] == [1, 2, 2, 1, 0, 1, 2, 2, 1]
     video.params = {"video": 0, "frame": None, "start": 0.0, "direction": -1}
-    assert [video.next_frame(3) for _ in range(4)] == [0, 0, 1, 2]
+    assert [video.frame_after(3, 0)] + [video.frame_after(3, 1) for _ in range(3)] == [0, 0, 1, 2]
+    video.params = {"video": 0, "frame": None, "start": 0.5, "direction": 1}
+    assert [video.frame_after(3, 0), video.frame_after(3, 3), video.frame_after(3, 2)] == [1, 1, 1]  # 2, 2, 1 | 0, 1
     static = VideoBackground(VideoSource.procedural(count=2, max_frames=3), playback="static")
     static.params = {"video": 1, "frame": None, "start": 0.99, "direction": 1}
-    assert [static.next_frame(3) for _ in range(3)] == [2, 2, 2]
+    assert [static.frame_after(3, 0)] + [static.frame_after(3, 1) for _ in range(2)] == [2, 2, 2]
 
 
 def test_video_background_dcs_draws_a_random_video_of_the_first_n():

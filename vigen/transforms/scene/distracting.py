@@ -15,7 +15,10 @@ from types import MappingProxyType
 import mujoco
 import numpy as np
 
+from tensordict import TensorDictBase
+
 from vigen.transforms.scene.base import Defaults, SceneHandle, SceneParams, ScenePerturbation
+from vigen.transforms.scene.schedule import action_repeat_of, check_update_every, updates_due
 
 # distracting_control/suite_utils.py: DIFFICULTY_SCALE and DIFFICULTY_NUM_VIDEOS (None: every video of the split)
 DCS_DIFFICULTY_SCALE = MappingProxyType({"easy": 0.1, "medium": 0.2, "hard": 0.3})
@@ -45,11 +48,15 @@ def dcs_ground_plane_alpha(domain: str) -> float:
     return DCS_GROUND_PLANE_ALPHA.get(domain, DCS_DEFAULT_GROUND_PLANE_ALPHA)
 
 
-def _check_common(name: str, scale: float, walk_steps: int) -> None:
+def _check_common(name: str, scale: float, walk_steps: int, update_every: int | None) -> None:
     if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not 0.0 <= scale <= 1.0:
         raise ValueError(f"{name}: scale is the suite's intensity s in [0, 1] (DCS_SCALES lists DMC-GB's), got {scale!r}.")
     if isinstance(walk_steps, bool) or not isinstance(walk_steps, int) or walk_steps < 1:
         raise ValueError(f"{name}: walk_steps is the number of random-walk steps per env step, an int >= 1; got {walk_steps!r}.")
+    check_update_every(name, update_every)
+    if update_every is not None and walk_steps != 1:
+        raise ValueError(f"{name}: walk_steps={walk_steps} and update_every={update_every} both set the walks per env step; "
+                         "pass update_every (walks counted in simulator steps, as DCS) or walk_steps, not both.")
 
 
 # -- spherical coordinates and look-at rotations (distracting_control/camera.py's conventions) ------------------------
@@ -152,7 +159,75 @@ def resolve_camera(model: mujoco.MjModel, camera: int | str) -> int:
     return int(camera)
 
 
-class DistractingCamera(ScenePerturbation):
+class DistractionWalk(ScenePerturbation):
+    """Base of the Distracting Control Suite's drifting distractions: how often the random walk steps, and when it shows.
+
+    Subclasses write :meth:`walk` (one random-walk step of ``params``, in place) besides the
+    :class:`~vigen.transforms.scene.ScenePerturbation` methods. With ``dynamic``, each env step
+    walks ``walk_steps`` times, or, with ``update_every`` set, once per ``update_every``
+    simulator steps counted from the reset (:func:`~vigen.transforms.scene.schedule.updates_due`;
+    the env's ``action_repeat`` simulator steps make one env step). The walks happen before the
+    env steps (TorchRL's ``inv`` pass runs before the base env steps and renders), so the frame of
+    an env step shows them, as in DCS, whose wrappers move after each simulator step and whose
+    pixel wrapper renders after the last one of the action repeat.
+
+    Args:
+        scale: the suite's scale ``s`` in [0, 1].
+        dynamic: walk every step.
+        walk_steps: random-walk steps per env step, with ``update_every=None``.
+        update_every: simulator steps per walk step (DMC-GB's copy of DCS: 2, the original: 1), or
+            ``None`` for ``walk_steps`` per env step whatever the action repeat.
+        seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
+
+    Paper: https://arxiv.org/abs/2101.02722.
+
+    Examples:
+        >>> colors = DistractingColors(0.1, dynamic=True, update_every=2)  # DMC-GB: every 2nd simulator step
+        >>> params = {}
+        >>> isinstance(colors, DistractionWalk), [updates_due(params, colors.update_every, 4) for _ in range(2)]
+        (True, [2, 2])
+    """
+
+    def __init__(self, scale: float, dynamic: bool, walk_steps: int = 1, update_every: int | None = None,
+                 seed: int | None = None) -> None:
+        _check_common(type(self).__name__, scale, walk_steps, update_every)
+        super().__init__(seed=seed)
+        self.scale, self.dynamic, self.walk_steps, self.update_every = float(scale), bool(dynamic), walk_steps, update_every
+
+    def walk(self, rng: np.random.Generator, defaults: Defaults, params: SceneParams) -> None:
+        raise NotImplementedError
+
+    def walks_due(self, params: SceneParams) -> int:
+        """Random-walk steps of the coming env step (counts the simulator steps in ``params`` with ``update_every``)."""
+        if self.update_every is None:
+            return self.walk_steps
+        return updates_due(params, self.update_every, action_repeat_of(self))
+
+    def advance(self, scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
+        """One env step's drift: the walk steps due, then the result written into the model."""
+        if not self.dynamic:
+            return
+        rng = self.generator()
+        for _ in range(self.walks_due(params)):
+            self.walk(rng, defaults, params)
+        self.apply(scene, defaults, params)
+
+    def _inv_call(self, tensordict: TensorDictBase) -> TensorDictBase:
+        # runs before the base env steps: the walk shows in this step's frame
+        if self.params is not None:
+            scene = self.scene
+            self.advance(scene, self.defaults(scene), self.params)
+        return tensordict
+
+    def _step(self, tensordict: TensorDictBase, next_tensordict: TensorDictBase) -> TensorDictBase:
+        return next_tensordict
+
+    def schedule_repr(self) -> str:
+        walk = f", walk_steps={self.walk_steps}" if self.walk_steps != 1 else ""
+        return walk + ("" if self.update_every is None else f", update_every={self.update_every}")
+
+
+class DistractingCamera(DistractionWalk):
     """The Distracting Control Suite's camera distraction at scale ``s``: a new viewpoint each episode, drifting if dynamic.
 
     The camera's start position ``p0`` is taken in spherical coordinates ``(r0, h0, v0)`` (azimuth
@@ -177,13 +252,18 @@ class DistractingCamera(ScenePerturbation):
     the velocity set to the move actually made (the same for roll). The walk state lives in
     ``params`` and restarts each episode; every draw comes from ``seed``.
 
+    When it walks: see :class:`DistractionWalk`. ``update_every=2`` walks on the even simulator
+    steps as DMC-GB's copy does (``camera.py:283-292``), ``update_every=1`` on every one as the
+    original does; ``None`` (the default) ``walk_steps`` times per env step. The walk steps before
+    the env step, so the step's frame shows it, and DCS's one walk at reset is kept.
+
     Departures from the source, on purpose: DCS overwrites the data's camera after each physics
     step, vigen writes the pose into the model fields the camera's mode reads (``cam_pos`` /
     ``cam_quat``, ``cam_pos0`` / ``cam_mat0``, ``cam_poscom0`` / ``cam_mat0``), so every renderer
-    sees it; ``d`` is measured at the model's reference pose (``qpos0``), not at the episode's
-    first state; the per-step walk happens after each env step (its frame shows at the next step),
-    ``walk_steps`` times (DMC-GB walks every 2nd simulator step: ``walk_steps = action_repeat // 2``,
-    1 at vigen's default repeat of 2; the original suite every simulator step: ``action_repeat``);
+    sees it (with an odd action repeat, DMC-GB's copy renders the undisturbed camera after every
+    env step that ends on an odd simulator step, since the physics step rewrites the data's camera
+    and its wrapper writes it back only on even ones; vigen always shows the walked camera);
+    ``d`` is measured at the model's reference pose (``qpos0``), not at the episode's first state;
     scale 0 leaves the camera exactly as it was. Target-body camera modes are refused.
 
     Source: google-research/google-research ``distracting_control/camera.py`` and ``suite_utils.py``
@@ -195,7 +275,8 @@ class DistractingCamera(ScenePerturbation):
         dynamic: drift the camera every step.
         camera: camera id or name (DCS: the render camera, 0; quadruped 2).
         limit_to_upper_quadrant: keep the camera above the ground and on the -y side (DCS: every domain but reacher).
-        walk_steps: random-walk steps per env step (dynamic only).
+        walk_steps: random-walk steps per env step (dynamic only, with ``update_every=None``).
+        update_every: simulator steps per walk step (DMC-GB: 2, the original: 1), or ``None``.
         seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
 
     Examples:
@@ -213,14 +294,13 @@ class DistractingCamera(ScenePerturbation):
         camera: int | str = 0,
         limit_to_upper_quadrant: bool = True,
         walk_steps: int = 1,
+        update_every: int | None = None,
         seed: int | None = None,
     ) -> None:
-        _check_common("DistractingCamera", scale, walk_steps)
         if not isinstance(camera, (int, str)) or isinstance(camera, bool):
             raise TypeError(f"DistractingCamera: camera is a camera id (int) or name (str), got {camera!r}.")
-        super().__init__(seed=seed)
-        self.scale, self.dynamic, self.camera = float(scale), bool(dynamic), camera
-        self.limit_to_upper_quadrant, self.walk_steps = bool(limit_to_upper_quadrant), walk_steps
+        super().__init__(scale, dynamic, walk_steps, update_every, seed)
+        self.camera, self.limit_to_upper_quadrant = camera, bool(limit_to_upper_quadrant)
 
     def read_defaults(self, scene: SceneHandle) -> Defaults:
         model = scene.model
@@ -260,6 +340,8 @@ class DistractingCamera(ScenePerturbation):
 
     def walk(self, rng: np.random.Generator, defaults: Defaults, params: SceneParams) -> None:
         """One step of DCS's random walk of the camera (position velocity and roll velocity), in place."""
+        if params["sphere"] is None:  # scale 0: the camera stays as it was
+            return
         s = self.scale if self.dynamic else 0.0
         k = float(defaults["velocity_scale"])
         velocity = params["velocity"] + rng.standard_normal(3) * 0.1 * s * k
@@ -290,21 +372,12 @@ class DistractingCamera(ScenePerturbation):
             return
         write_camera(model, camera, int(defaults["mode"]), *self.pose(defaults, params))
 
-    def advance(self, scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
-        if not self.dynamic or params["sphere"] is None:
-            return
-        rng = self.generator()
-        for _ in range(self.walk_steps):
-            self.walk(rng, defaults, params)
-        self.apply(scene, defaults, params)
-
     def extra_repr(self) -> str:
         quadrant = "" if self.limit_to_upper_quadrant else ", limit_to_upper_quadrant=False"
-        walk = f", walk_steps={self.walk_steps}" if self.walk_steps != 1 else ""
-        return f"scale={self.scale}, dynamic={self.dynamic}, camera={self.camera!r}{quadrant}{walk}"
+        return f"scale={self.scale}, dynamic={self.dynamic}, camera={self.camera!r}{quadrant}{self.schedule_repr()}"
 
 
-class DistractingColors(ScenePerturbation):
+class DistractingColors(DistractionWalk):
     """The Distracting Control Suite's colour distraction at scale ``s``: every material recoloured, drifting if dynamic.
 
     With ``c0`` a material's default RGB and the box ``[lo, hi] = [clip(c0 - s, 0, 1), clip(c0 + s, 0, 1)]``,
@@ -313,10 +386,11 @@ class DistractingColors(ScenePerturbation):
     every material and no texture: dm_control's floor is tinted through its ``grid`` material
     (a material's colour multiplies its texture), the skybox (a texture, no material) keeps its colours.
 
-    Departures from the source: the walk happens after each env step, ``walk_steps`` times (DMC-GB
-    walks on every 2nd simulator step, i.e. ``action_repeat // 2``, 1 at vigen's default repeat
-    of 2; the original suite on every simulator step); draws come from ``seed`` (the original
-    ``color.py`` ignores its seed).
+    When it walks: see :class:`DistractionWalk` (``update_every=2``: DMC-GB's ``color.py:75-89``,
+    which adds no change on odd simulator steps; ``1``: the original, every simulator step;
+    ``None``: ``walk_steps`` per env step). The reset draws no walk step, as in the source.
+
+    Departure from the source: draws come from ``seed`` (the original ``color.py`` ignores its seed).
 
     Source: google-research/google-research ``distracting_control/color.py`` (0c1bbe5f); DMC-GB's
     ``src/env/distracting_control/color.py`` (ff9c0aa8). Paper: https://arxiv.org/abs/2101.02722.
@@ -325,7 +399,8 @@ class DistractingColors(ScenePerturbation):
         scale: the suite's scale ``s`` in [0, 1] (the colour box half-width).
         dynamic: walk the colours every step.
         parts: name prefixes of the materials to recolour; ``None`` (DCS) recolours every material.
-        walk_steps: random-walk steps per env step (dynamic only).
+        walk_steps: random-walk steps per env step (dynamic only, with ``update_every=None``).
+        update_every: simulator steps per walk step (DMC-GB: 2, the original: 1), or ``None``.
         seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
 
     Examples:
@@ -342,13 +417,12 @@ class DistractingColors(ScenePerturbation):
         dynamic: bool = False,
         parts: Sequence[str] | None = None,
         walk_steps: int = 1,
+        update_every: int | None = None,
         seed: int | None = None,
     ) -> None:
-        _check_common("DistractingColors", scale, walk_steps)
         if isinstance(parts, str) or (parts is not None and not all(isinstance(p, str) for p in parts)):
             raise TypeError(f"DistractingColors: parts is a sequence of material name prefixes or None, got {parts!r}.")
-        super().__init__(seed=seed)
-        self.scale, self.dynamic, self.walk_steps = float(scale), bool(dynamic), walk_steps
+        super().__init__(scale, dynamic, walk_steps, update_every, seed)
         self.parts = tuple(parts) if parts is not None else None
 
     def read_defaults(self, scene: SceneHandle) -> Defaults:
@@ -372,16 +446,11 @@ class DistractingColors(ScenePerturbation):
     def apply(self, scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
         scene.model.mat_rgba[defaults["materials"], :3] = params["rgb"]
 
-    def advance(self, scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
-        if not self.dynamic:
-            return
-        rng, rgb = self.generator(), params["rgb"]
-        for _ in range(self.walk_steps):
-            rgb = np.clip(rgb + rng.standard_normal(rgb.shape) * 0.03 * self.scale, defaults["low"], defaults["high"])
-        params["rgb"] = rgb
-        self.apply(scene, defaults, params)
+    def walk(self, rng: np.random.Generator, defaults: Defaults, params: SceneParams) -> None:
+        """One step of DCS's colour walk, ``c ← clip(c + N(0, (0.03·s)²), lo, hi)``, in place."""
+        rgb = params["rgb"]
+        params["rgb"] = np.clip(rgb + rng.standard_normal(rgb.shape) * 0.03 * self.scale, defaults["low"], defaults["high"])
 
     def extra_repr(self) -> str:
         parts = "" if self.parts is None else f", parts={self.parts}"
-        walk = f", walk_steps={self.walk_steps}" if self.walk_steps != 1 else ""
-        return f"scale={self.scale}, dynamic={self.dynamic}{parts}{walk}"
+        return f"scale={self.scale}, dynamic={self.dynamic}{parts}{self.schedule_repr()}"
