@@ -6,14 +6,20 @@ the A1, see :mod:`vigen.envs.robot_models`; ``model_dir=`` loads Menagerie's), w
 frames (84×84, a stack of 3, action repeat 2, 10 s episodes) and its generalization knobs as
 levels:
 
-* ``color_*``: floor and sky (DMC-GB's colour noise) and the robot shifted by one colour offset
-  (RL-ViGen's Menagerie materials); ``objects_color_*``: the robot (and the Franka's box) only;
+* ``color_*``: floor and sky (DMC-GB's colour noise), as RL-ViGen's ``background`` colour, which
+  leaves the robot alone (``dmcvgb/wrappers.py:45–56``); ``objects_color_*``: the robot shifted by
+  one colour offset (RL-ViGen's Menagerie materials). On ``franka-push`` RL-ViGen also recolours the
+  box's material, which the box's own ``rgba`` overrides (``scene_push.xml``): its box never changes
+  colour, and vigen's does not either (the ``object_color`` factor recolours it);
 * ``video_*``: the sky (easy) or sky and floor (hard) replaced by a video;
 * ``light_position_*``, ``light_color_*``, ``moving_light_*``: RL-ViGen's light offsets and motion;
-* ``camera_*``: the camera moved by U(±0.08) or U(±0.15) per axis (RL-ViGen's ``cam_pos``);
+* ``camera_*``: RL-ViGen's ``cam_pos``: every camera's world position pinned at its start plus one
+  U(±0.08) or U(±0.15) offset per axis, drawn once per seed; a camera on the trunk then stays where
+  the robot started while turning with it (the env option ``camera_offset``);
 * ``texture_*``: one of 10 textures per level on the Unitree's ground or the Franka's table
   (RL-ViGen's ``table_texture``): photographs (easy) or generated patterns (hard);
-* ``easy`` / ``hard``: all of the appearance and lighting knobs at once. RL-ViGen's results sheet
+* ``easy`` / ``hard``: all of the appearance and lighting knobs at once (colours of the background
+  and the robot, texture, lights). RL-ViGen's results sheet
   reports Unitree scores at "Easy" and "Hard" without defining them in code; these are vigen's
   reading, not RL-ViGen's definition;
 * ``robot_go2`` / ``robot_aliengo``: cross-embodiment, a policy trained on the Go1 run on another
@@ -57,7 +63,7 @@ ROBOT_PARTS = ("robot",)
 """Name prefix of the robot's materials (every visible robot geom has one, see :mod:`vigen.envs.loco_scene`)."""
 
 OBJECT_PARTS = {task: ("robot", "object") if task == "franka-push" else ("robot",) for task in TASKS}
-"""What ``objects_color`` recolours per task: the robot, and the Franka's box."""
+"""What the ``object_color`` factor recolours per task: the robot, and the Franka's box (which RL-ViGen's level leaves red)."""
 
 CROSS_EMBODIMENT = ("go2", "aliengo")
 """Unitree quadrupeds a Go1 policy can drive: the same 12 leg joints, in the same order (lightest first)."""
@@ -66,7 +72,7 @@ COLOR_SCALE = {"easy": 0.1, "hard": 0.2}
 """DMC-GB's colour noise, which RL-ViGen's ``background`` and ``objects_color`` presets reuse."""
 
 CAMERA_POSITION = {"easy": 0.08, "hard": 0.15}
-"""RL-ViGen's ``cam_pos``: U(±0.08) or U(±0.15) per coordinate (position only, as in its DMC code)."""
+"""RL-ViGen's ``cam_pos``: U(±0.08) or U(±0.15) per coordinate of the world position (``dmc2gym/wrappers.py:98–106``)."""
 
 NO_LIGHT_SHIFT = {"position_offset": None, "diffuse_offset": None}
 
@@ -114,7 +120,7 @@ def lighting(difficulty: str) -> Step:
 
 
 def combined(difficulty: str) -> tuple[Step, ...]:
-    """``easy`` / ``hard``: floor, sky and robot colours, ground or table texture, and the lights, at one difficulty."""
+    """``easy`` / ``hard``: floor and sky colours (``color``), robot colours (``objects_color``), texture and lights, at one difficulty."""
     return (Step(RandomSceneColors, {"scale": COLOR_SCALE[difficulty], "parts": ("grid", "skybox")}), robot_colors(difficulty),
             textures(difficulty), lighting(difficulty))
 
@@ -122,14 +128,14 @@ def combined(difficulty: str) -> tuple[Step, ...]:
 LEVELS: dict[str, Level] = {
     "train": Level("the clean training scene", "all"),
     **{
-        f"color_{d}": Level(f"floor and sky colours default + N(0, {s}²) per channel; robot colours shifted by one N(0, {s}²) offset",
-                            f"RL-ViGen background color {d} (DMC-GB's colour statistics)",
-                            (Step(RandomSceneColors, {"scale": s, "parts": ("grid", "skybox")}), robot_colors(d)))
+        f"color_{d}": Level(f"floor and sky colours default + N(0, {s}²) per channel (the robot keeps its colours)",
+                            f"RL-ViGen background color {d} (DMC-GB's colour statistics; dmcvgb/wrappers.py:45-56)",
+                            (Step(RandomSceneColors, {"scale": s, "parts": ("grid", "skybox")}),))
         for d, s in COLOR_SCALE.items()
     },
     **{
-        f"objects_color_{d}": Level(f"robot (and the push box) shifted by one N(0, {s}²) colour offset",
-                                    f"RL-ViGen objects_color {d}", (robot_colors(d, ByTask(OBJECT_PARTS)),))
+        f"objects_color_{d}": Level(f"robot shifted by one N(0, {s}²) colour offset (the push box stays red, as in RL-ViGen)",
+                                    f"RL-ViGen objects_color {d}", (robot_colors(d),))
         for d, s in COLOR_SCALE.items()
     },
     "video_easy": Level("sky replaced by a video, new frame every step", "RL-ViGen video easy (procedural videos unless a folder is given)",
@@ -157,12 +163,14 @@ LEVELS: dict[str, Level] = {
         for d, step, span in (("easy", 0.01, 5.0), ("hard", 0.05, 10.0))
     },
     **{
-        f"camera_{d}": Level(f"camera moved by U(±{p}) per axis", f"RL-ViGen cam_pos {d}", (Step(RandomCamera, {"position": p}),))
+        f"camera_{d}": Level(f"cameras pinned at their start world position + U(±{p}) per axis (drawn once per seed); "
+                             "a trunk camera turns with the robot but does not follow it",
+                             f"RL-ViGen cam_pos {d} (dmc2gym/wrappers.py:98-106, 203-204)", env_options={"camera_offset": p})
         for d, p in CAMERA_POSITION.items()
     },
-    "easy": Level("color_easy + texture_easy + RL-ViGen's easy lights (position {3, 4}, diffuse ± 0.2, moving 0.01/step)",
+    "easy": Level("color_easy + objects_color_easy + texture_easy + RL-ViGen's easy lights (position {3, 4}, diffuse ± 0.2, moving 0.01/step)",
                   "vigen's reading of RL-ViGen's locomotion Easy (its knobs at easy; the sheet does not define it)", combined("easy")),
-    "hard": Level("color_hard + texture_hard + RL-ViGen's hard lights (position {9, 10}, diffuse ± 10, moving 0.05/step)",
+    "hard": Level("color_hard + objects_color_hard + texture_hard + RL-ViGen's hard lights (position {9, 10}, diffuse ± 10, moving 0.05/step)",
                   "vigen's reading of RL-ViGen's locomotion Hard (its knobs at hard; the sheet does not define it)", combined("hard")),
     **{
         f"robot_{robot}": Level(f"the Unitree {robot.capitalize()} instead of the Go1, same joints and servos",
@@ -182,15 +190,14 @@ GROUPS: dict[str, list[str]] = {
 
 FACTORS: dict[str, Factor] = {
     "background_color": Factor((Step(RandomSceneColors, {"scale": Scaled(1.0), "parts": ("grid", "skybox")}),)),
-    "object_color": Factor((Step(RandomMaterialColors, {"mix": 0.0, "shift": Scaled(1.0), "shared": True, "include": ByTask(OBJECT_PARTS)}),),
-                           points={"objects_color_easy": 0.1, "objects_color_hard": 0.2}),
+    "object_color": Factor((Step(RandomMaterialColors, {"mix": 0.0, "shift": Scaled(1.0), "shared": True, "include": ByTask(OBJECT_PARTS)}),)),
     "floor_texture": Factor((Step(RandomTextures, {"textures": ("grid",), "blend": Scaled(1.0)}),)),
     "table_texture": Factor((Step(RandomTextures, {"textures": Surface(), "blend": Scaled(1.0)}),)),
     "video_background": Factor((Step(VideoBackground, {"alpha": Scaled(1.0)}),)),
     "light_position": Factor((Step(RandomLighting, {**NO_LIGHT_SHIFT, "position_jitter": Scaled((10.0, 10.0, 10.0))}),)),
     "light_color": LIGHT_COLOR,
     "moving_light": Factor((Step(RandomLighting, {**NO_LIGHT_SHIFT, "moving_step": Scaled(0.05), "moving_range": 10.0}),)),
-    "camera_position": Factor((Step(RandomCamera, {"position": Scaled(0.3)}),), points={"camera_easy": 0.08 / 0.3, "camera_hard": 0.5}),
+    "camera_position": Factor((Step(RandomCamera, {"position": Scaled(0.3)}),)),
     "camera_rotation": CAMERA_ROTATION,
     "camera_fov": CAMERA_FOV,
     "dynamic_camera": Factor((Step(DistractingCamera, {"scale": Scaled(1.0), "dynamic": True, "camera": MainCamera(),
@@ -200,7 +207,11 @@ FACTORS: dict[str, Factor] = {
                          points={f"robot_{robot}": (index + 1) / len(CROSS_EMBODIMENT) for index, robot in enumerate(CROSS_EMBODIMENT)}),
     **pixel_corruption_factors(),
 }
-"""Factor name -> its transforms at intensity ``x`` (``embodiment``: the Unitree tasks only)."""
+"""Factor name -> its transforms at intensity ``x`` (``embodiment``: the Unitree tasks only).
+
+``object_color`` and ``camera_position`` vary what ``objects_color_*`` and ``camera_*`` vary, the sensible way
+rather than the source's: the first recolours the push box too, the second moves each camera in its body's
+frame once per episode (a trunk camera follows the robot). So those levels are not points on them."""
 
 
 def build_loco_base(task: str, *, seed: int | None = None, **options: Any) -> EnvBase:
@@ -221,7 +232,8 @@ LOCO = Suite(
     factors=FACTORS,
     example_task="unitree-stand",
     env_options={"robot": None, "model_dir": None, "max_mesh_faces": MAX_MESH_FACES, "action_repeat": 2, "image_size": 84, "camera_id": 0,
-                 "episode_length": 1000, "render_settings": None, "device": "cpu"},
+                 "episode_length": 1000, "render_settings": None, "action_mapping": "scaled", "time_limit_as": "truncated",
+                 "camera_offset": 0.0, "start_clearance": None, "device": "cpu"},
     extra_transforms=lambda: (DoubleToFloat(),),
     install='pip install -e ".[loco]"',
 )

@@ -5,19 +5,82 @@ environment comes from :func:`~vigen.envs.loco_scene.build_scene` and
 :func:`~vigen.envs.loco_tasks.make_control_env` instead of ``suite.load``: the same action
 repeat (2), 84×84 frames, episodes of 1000 control steps (10 s) ending as truncations, seeding,
 and :class:`~vigen.envs.dmc_env.DMCScene` handle for the scene perturbations.
+
+Where RL-ViGen's training differs from that, an option reproduces it: ``action_mapping="rlvigen_train"``
+(raw actions, clipped by the simulator), ``time_limit_as="terminated"`` (its ``Gym2DMC`` gives discount 0
+at the time limit, ``loco_wrapper.py:37–39``) and ``start_clearance=-0.02`` (its ``stand`` start, sunk into
+the floor).
 """
 
 from __future__ import annotations
 
 import os
+from typing import Any
 
+import dm_env
 import torch
 
 from vigen.envs.dmc_env import DMCPixelEnv
 from vigen.envs.loco_scene import MAX_MESH_FACES, build_scene
-from vigen.envs.loco_tasks import make_control_env
+from vigen.envs.loco_tasks import ACTION_MAPPINGS, make_control_env, pinned_camera_positions
 from vigen.envs.pixels import check_env_arguments
 from vigen.rendering import RenderSettings
+
+TIME_LIMITS = ("truncated", "terminated")
+"""How an episode that reaches ``episode_length`` ends: a truncation (discount 1, vigen) or RL-ViGen's termination (discount 0)."""
+
+
+class TerminalTimeLimit(dm_env.Environment):
+    """Ends episodes at ``episode_length`` control steps with discount 0, as RL-ViGen's training wrapper does.
+
+    RL-ViGen's ``Gym2DMC`` (``wrappers/loco_wrapper.py:37–39``) turns every ``done``, the 10 s time
+    limit included, into discount 0, so its agents never bootstrap past the last step. TorchRL reads
+    discount 0 as ``terminated``.
+
+    Examples:
+        >>> from vigen.envs.loco_scene import build_scene
+        >>> env = TerminalTimeLimit(make_control_env(build_scene("franka-reach"), seed=0), episode_length=2)
+        >>> _ = env.reset()
+        >>> [(step.last(), step.discount) for step in (env.step([0.0] * 8), env.step([0.0] * 8))]
+        [(False, 1.0), (True, 0.0)]
+    """
+
+    def __init__(self, env: Any, episode_length: int) -> None:
+        self._env, self._episode_length, self._elapsed = env, episode_length, 0
+
+    @property
+    def physics(self) -> Any:
+        return self._env.physics
+
+    @property
+    def task(self) -> Any:
+        return self._env.task
+
+    def reset(self) -> dm_env.TimeStep:
+        self._elapsed = 0
+        return self._env.reset()
+
+    def step(self, action: Any) -> dm_env.TimeStep:
+        time_step = self._env.step(action)
+        self._elapsed += 1
+        if self._elapsed >= self._episode_length:
+            return dm_env.TimeStep(dm_env.StepType.LAST, time_step.reward, 0.0, time_step.observation)
+        return time_step
+
+    def observation_spec(self) -> Any:
+        return self._env.observation_spec()
+
+    def action_spec(self) -> Any:
+        return self._env.action_spec()
+
+    def reward_spec(self) -> Any:
+        return self._env.reward_spec()
+
+    def discount_spec(self) -> Any:
+        return self._env.discount_spec()
+
+    def close(self) -> None:
+        self._env.close()
 
 
 class LocoPixelEnv(DMCPixelEnv):
@@ -37,6 +100,16 @@ class LocoPixelEnv(DMCPixelEnv):
             another camera of the scene (Unitree: 1 ``side``, 2 ``side_low``; Franka: 1 ``above_table``).
         episode_length: control steps (0.01 s) per episode.
         render_settings: MuJoCo render quality; ``None`` keeps dm_control's defaults.
+        action_mapping: ``"scaled"`` ([-1, 1] mapped onto the servo ranges, RL-ViGen's evaluator) or
+            ``"rlvigen_train"`` (RL-ViGen's training: raw actions, clipped to the ranges); see
+            :func:`~vigen.envs.loco_tasks.source_command`.
+        time_limit_as: ``"truncated"`` (discount 1 at ``episode_length``: agents bootstrap) or ``"terminated"``
+            (RL-ViGen's training: discount 0).
+        camera_offset: RL-ViGen's ``cam_pos`` level, 0 (off), 0.08 (easy) or 0.15 (hard): every camera's world
+            position pinned at its start plus U(±offset) per axis, drawn once per seed
+            (:func:`~vigen.envs.loco_tasks.pinned_camera_positions`).
+        start_clearance: quadrupeds: metres from the lowest collision geom to the floor at the start;
+            ``None``: 5 mm (stand) or 1 cm (walk); ``-0.02`` is RL-ViGen's sunk ``stand`` start.
         seed: seed of the task's random state (targets and object placement).
         device: device of the returned tensors.
 
@@ -60,6 +133,10 @@ class LocoPixelEnv(DMCPixelEnv):
         camera_id: int = 0,
         episode_length: int = 1000,
         render_settings: RenderSettings | None = None,
+        action_mapping: str = "scaled",
+        time_limit_as: str = "truncated",
+        camera_offset: float = 0.0,
+        start_clearance: float | None = None,
         seed: int | None = None,
         device: torch.device | str = "cpu",
     ) -> None:
@@ -71,14 +148,38 @@ class LocoPixelEnv(DMCPixelEnv):
             raise TypeError(f"model_dir must be a folder path (str or os.PathLike) or None, got {type(model_dir).__name__}.")
         if max_mesh_faces is not None:
             check_env_arguments(max_mesh_faces=max_mesh_faces)
-        scene = build_scene(task, robot, model_dir, max_mesh_faces)
-        self._wrap(make_control_env(scene, seed), f"loco/{task}", action_repeat=action_repeat, image_size=image_size,
+        if action_mapping not in ACTION_MAPPINGS:
+            raise ValueError(f"action_mapping must be one of {', '.join(map(repr, ACTION_MAPPINGS))}, got {action_mapping!r}.")
+        if time_limit_as not in TIME_LIMITS:
+            raise ValueError(f"time_limit_as must be one of {', '.join(map(repr, TIME_LIMITS))}, got {time_limit_as!r}.")
+        if isinstance(camera_offset, bool) or not isinstance(camera_offset, (int, float)) or not camera_offset >= 0:
+            raise ValueError(f"camera_offset must be metres >= 0 (RL-ViGen's cam_pos: 0.08 easy, 0.15 hard), got {camera_offset!r}.")
+        scene = build_scene(task, robot, model_dir, max_mesh_faces, start_clearance)
+        control_env = make_control_env(scene, seed, action_mapping)
+        if time_limit_as == "terminated":
+            control_env = TerminalTimeLimit(control_env, episode_length)
+        self._wrap(control_env, f"loco/{task}", action_repeat=action_repeat, image_size=image_size,
                    camera_id=camera_id, episode_length=episode_length, render_settings=render_settings, device=device)
         self.domain_name, self.task_name = task.partition("-")[0], task.partition("-")[2]
-        self.robot, self.model_dir = scene.robot, model_dir
+        self.robot, self.model_dir, self.scene_spec = scene.robot, model_dir, scene
+        self.action_mapping, self.time_limit_as, self.camera_offset = action_mapping, time_limit_as, float(camera_offset)
+        self._pin_cameras(seed)
+
+    def _pin_cameras(self, seed: int | None) -> None:
+        if getattr(self, "camera_offset", 0.0) > 0:
+            self._env._env.task.camera_positions = pinned_camera_positions(self.scene_spec, self.camera_offset, seed)
+
+    def _set_seed(self, seed: int | None) -> None:
+        """Seed the task, and redraw RL-ViGen's once-per-env camera offset from the same seed."""
+        super()._set_seed(seed)
+        if seed is not None:
+            self._pin_cameras(seed)
 
     def __repr__(self) -> str:
+        source = {"action_mapping": (self.action_mapping, "scaled"), "time_limit_as": (self.time_limit_as, "truncated"),
+                  "camera_offset": (self.camera_offset, 0.0)}
+        changed = "".join(f", {name}={value!r}" for name, (value, default) in source.items() if value != default)
         return (
             f"{type(self).__name__}({self.domain_name}-{self.task_name}, robot={self.robot}, camera_id={self.camera_id}, "
-            f"image_size={self.image_size}, action_repeat={self.action_repeat}, episode_length={self.episode_length})"
+            f"image_size={self.image_size}, action_repeat={self.action_repeat}, episode_length={self.episode_length}{changed})"
         )

@@ -13,7 +13,13 @@ actuation, whatever its source file had:
   sub-tree linear velocity and angular velocity (RL-ViGen's ``trunk_subtreelinvel``, ``trunk_frameangvel``).
 * the Panda: Menagerie's joint servos (kp 4500/3500/2000, damping kv = kp/10, torque limits 87 / 12 N·m),
   and for ``reach`` one gripper servo on the mean finger opening (0 … 4 cm); ``push`` has fixed
-  fingers, as RL-ViGen's ``panda_push.xml``.
+  fingers, as RL-ViGen's ``panda_push.xml``. The finger joints get RL-ViGen's (Menagerie's) damping 1
+  and armature 0.1, whatever the source model had (robosuite's gripper: damping 100, armature 1,
+  friction loss 1).
+
+The simulator options are RL-ViGen's too, not the source model's (:data:`SOURCE_OPTIONS`): the A1's
+elliptic friction cones with ``impratio`` 100 and Euler integration (``a1_{stand,walk}.xml:4``), the
+Panda's implicit integrator (``panda_{reach,push}.xml:4``).
 
 Every visible robot part gets a material named ``robot_*`` (a model's own material, renamed, or one
 made from the geom's colour), so the colour levels can find the robot in any source model.
@@ -59,7 +65,14 @@ STAND_HEIGHT_FRACTION = 0.9
 """RL-ViGen's stand height 0.36 m is 0.9 of the A1's leg (thigh 0.2 + calf 0.2); vigen keeps the fraction per robot."""
 
 START_CLEARANCE = {"unitree-stand": 0.005, "unitree-walk": 0.01}
-"""Gap between the lowest collision geom and the floor at the start (the A1 walks from 0.43 m: leg 0.4 + foot 0.02 + 0.01)."""
+"""Gap between the lowest collision geom and the floor at the start (the A1 walks from 0.43 m: leg 0.4 + foot 0.02 + 0.01).
+
+RL-ViGen's ``a1_stand.xml`` starts the folded A1's trunk at 0.096 m, which sinks its lowest geom
+2 cm into the floor (:data:`RLVIGEN_STAND_CLEARANCE`); vigen starts it 5 mm above, so that the first
+steps do not pop the robot out of the floor. ``build_scene(start_clearance=...)`` sets either."""
+
+RLVIGEN_STAND_CLEARANCE = -0.02
+"""RL-ViGen's ``unitree_stand`` start: the folded A1's lowest collision geom 2 cm below the floor (trunk at 0.096 m)."""
 
 ARM_JOINTS = tuple(f"joint{i}" for i in range(1, 8))
 ARM_SERVOS = {"kp": (4500, 4500, 3500, 3500, 2000, 2000, 2000), "force": (87, 87, 87, 87, 12, 12, 12)}
@@ -67,6 +80,19 @@ ARM_SERVOS = {"kp": (4500, 4500, 3500, 3500, 2000, 2000, 2000), "force": (87, 87
 
 GRIPPER_SERVO = {"kp": 100.0, "kv": 10.0, "force": 100.0, "range": (0.0, 0.04)}
 """Menagerie Panda's finger servo, in metres of mean opening (RL-ViGen's 0 … 255 is the same range rescaled)."""
+
+GRIPPER_SOURCE_RANGE = (0.0, 255.0)
+"""RL-ViGen's gripper control range (``panda_reach.xml``'s ``actuator8``: 0 … 255 for 0 … 4 cm, gain 0.04·100/255)."""
+
+FINGER_JOINT = {"damping": 1.0, "armature": 0.1, "frictionloss": 0.0}
+"""RL-ViGen's (Menagerie's) finger joints: the ``panda`` class's damping and armature, no friction loss."""
+
+SOURCE_OPTIONS = {
+    "quadruped": {"cone": mujoco.mjtCone.mjCONE_ELLIPTIC, "impratio": 100.0, "integrator": mujoco.mjtIntegrator.mjINT_EULER},
+    "arm": {"cone": mujoco.mjtCone.mjCONE_PYRAMIDAL, "impratio": 1.0, "integrator": mujoco.mjtIntegrator.mjINT_IMPLICIT},
+}
+"""RL-ViGen's simulator options per robot kind: ``a1_{stand,walk}.xml:4`` (``cone="elliptic" impratio="100"``) and
+``panda_{reach,push}.xml:4`` (``integrator="implicit"``); what they leave out is MuJoCo's default."""
 
 MAX_MESH_FACES = 3000
 """Default face budget per mesh. The source meshes are far finer than an 84×84 frame shows (Go1: 206k faces, 700k
@@ -106,6 +132,7 @@ class LocoScene:
         base_body: quadrupeds: the free-floating base (``"trunk"`` or ``"base"``).
         stand_height: quadrupeds: the height the stand term asks of the base.
         finger_bodies: arms: (left, right) finger bodies (RL-ViGen's reach measures between them).
+        source_ctrl_scale: per actuator, vigen's control units per RL-ViGen's (1 but for the gripper: 0.04 m / 255).
     """
 
     model: mujoco.MjModel
@@ -115,13 +142,25 @@ class LocoScene:
     base_body: str = ""
     stand_height: float = 0.0
     finger_bodies: tuple[str, str] = ("", "")
+    source_ctrl_scale: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.source_ctrl_scale is None:
+            self.source_ctrl_scale = np.ones(self.model.nu)
+
+    @property
+    def source_ctrlrange(self) -> np.ndarray:
+        """``[nu, 2]`` control ranges in RL-ViGen's units (its actuators' ``ctrlrange``: the gripper's is 0 … 255)."""
+        return self.model.actuator_ctrlrange / self.source_ctrl_scale[:, None]
 
 
 def build_scene(task: str, robot: str | None = None, model_dir: str | os.PathLike | None = None,
-                max_mesh_faces: int | None = MAX_MESH_FACES) -> LocoScene:
+                max_mesh_faces: int | None = MAX_MESH_FACES, start_clearance: float | None = None) -> LocoScene:
     """Build and compile the scene of ``task`` around ``robot`` (default: ``a1`` with ``model_dir``, else ``go1``; ``panda``).
 
     ``max_mesh_faces`` simplifies larger meshes to that many faces (:func:`simplify_meshes`); ``None`` keeps them.
+    ``start_clearance`` (quadrupeds): metres between the lowest collision geom and the floor at the start;
+    ``None`` is :data:`START_CLEARANCE`, :data:`RLVIGEN_STAND_CLEARANCE` is RL-ViGen's sunk ``stand`` start.
 
     Errors (unknown task, a robot of the wrong kind, a missing package or file) are raised before
     anything is compiled.
@@ -129,6 +168,12 @@ def build_scene(task: str, robot: str | None = None, model_dir: str | os.PathLik
     if task not in TASK_ROBOT_KIND:
         raise ValueError(f"Unknown loco task {task!r}. Tasks: {', '.join(TASK_ROBOT_KIND)}.")
     kind = TASK_ROBOT_KIND[task]
+    if start_clearance is not None and (isinstance(start_clearance, bool) or not isinstance(start_clearance, (int, float))
+                                        or not -0.1 <= start_clearance <= 0.1):
+        raise ValueError(f"start_clearance must be metres in [-0.1, 0.1] (RL-ViGen's stand: {RLVIGEN_STAND_CLEARANCE}) "
+                         f"or None, got {start_clearance!r}.")
+    if start_clearance is not None and kind != "quadruped":
+        raise ValueError(f"start_clearance places a quadruped above the floor; loco/{task} has an arm fixed to the world.")
     robot = robot if robot is not None else default_robot(task, model_dir)
     record = robot_model(robot)
     if record.kind != kind:
@@ -139,7 +184,8 @@ def build_scene(task: str, robot: str | None = None, model_dir: str | os.PathLik
     path = robot_model_path(robot, model_dir)
     gripper = gripper_model_path(robot, model_dir)
     if kind == "quadruped":
-        return _quadruped_scene(task, robot, path, max_mesh_faces)
+        clearance = START_CLEARANCE[task] if start_clearance is None else float(start_clearance)
+        return _quadruped_scene(task, robot, path, max_mesh_faces, clearance)
     return _arm_scene(task, robot, path, gripper, "menagerie" if model_dir is not None else "robosuite", max_mesh_faces)
 
 
@@ -170,13 +216,15 @@ def _world(task: str) -> mujoco.MjSpec:
     return mujoco.MjSpec.from_string(ET.tostring(root, encoding="unicode"))
 
 
-def _attach(world: mujoco.MjSpec, robot_file: Path, pos: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> tuple[mujoco.MjSpec, object]:
-    """Attach the first body of ``robot_file`` to the world at ``pos``; returns the source spec and the attached body."""
+def _attach(world: mujoco.MjSpec, robot_file: Path, kind: str, pos: tuple[float, float, float] = (0.0, 0.0, 0.0)
+            ) -> tuple[mujoco.MjSpec, object]:
+    """Attach the first body of ``robot_file`` to the world at ``pos`` under RL-ViGen's simulator options for ``kind``;
+    returns the source spec and the attached body."""
     robot = mujoco.MjSpec.from_file(str(robot_file))
     frame = world.worldbody.add_frame(pos=list(pos))
     body = frame.attach_body(robot.worldbody.first_body(), "", "")
-    world.option.cone = robot.option.cone
-    world.option.impratio = robot.option.impratio
+    for name, value in SOURCE_OPTIONS[kind].items():
+        setattr(world.option, name, value)
     return robot, body
 
 
@@ -257,12 +305,12 @@ def simplify_meshes(world: mujoco.MjSpec, max_faces: int) -> None:
 
 
 # -- quadrupeds ----------------------------------------------------------------------------------
-def _quadruped_scene(task: str, robot: str, path: Path, max_mesh_faces: int | None) -> LocoScene:
+def _quadruped_scene(task: str, robot: str, path: Path, max_mesh_faces: int | None, start_clearance: float) -> LocoScene:
     world = _world(task)
     world.stat.center = [0.0, 0.0, 0.1]
     world.stat.extent = 0.8
     world.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05], material="grid")
-    source, base = _attach(world, path)
+    source, base = _attach(world, path, "quadruped")
     _drop_source_elements(world)
     world.worldbody.add_light(name="spotlight", mode=mujoco.mjtCamLight.mjCAMLIGHT_TARGETBODYCOM, targetbody=base.name,
                               pos=[0, -1, 2], diffuse=[0.7, 0.7, 0.7], specular=[0.3, 0.3, 0.3])
@@ -310,7 +358,7 @@ def _quadruped_scene(task: str, robot: str, path: Path, max_mesh_faces: int | No
     data.qpos[address:address + 7] = [0, 0, 1.0, 1, 0, 0, 0]
     mujoco.mj_forward(model, data)
     lowest = _floor_clearance(model, data, base.name)
-    data.qpos[address + 2] = 1.0 - lowest + START_CLEARANCE[task]
+    data.qpos[address + 2] = 1.0 - lowest + start_clearance
     return LocoScene(model, task, robot, data.qpos.copy(), base_body=base.name,
                      stand_height=STAND_HEIGHT_FRACTION * _leg_length(model, "FR"))
 
@@ -359,7 +407,7 @@ def _arm_scene(task: str, robot: str, path: Path, gripper: Path | None, source: 
     world.stat.extent = 1.0
     world.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[2, 2, 0.05], material="grid")
     world.worldbody.add_light(name="top", pos=[0, 0, 2], mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM)
-    _, arm = _attach(world, path, pos=(0.0, 0.0, 0.02))
+    _, arm = _attach(world, path, "arm", pos=(0.0, 0.0, 0.02))
     if gripper is not None:
         hand = next((body for body in _subtree(arm) if body.name == "right_hand"), None)
         if hand is None:
@@ -407,6 +455,9 @@ def _arm_scene(task: str, robot: str, path: Path, gripper: Path | None, source: 
             raise ValueError(f"Robot {robot!r} has no finger body {finger!r}.")
         bodies[finger].add_site(name=site, pos=[0, 0, FINGER_SITE_OFFSET], size=[0.005, 0, 0], rgba=[0, 1, 0, 0])
     finger_joints = [joint for joint in world.joints if joint.name in ("finger_joint1", "finger_joint2")]
+    for joint in finger_joints:
+        joint.damping = np.array([FINGER_JOINT["damping"], 0.0, 0.0])
+        joint.armature, joint.frictionloss = FINGER_JOINT["armature"], FINGER_JOINT["frictionloss"]
     if task == "franka-push":
         for joint in finger_joints:
             world.delete(joint)
@@ -427,4 +478,7 @@ def _arm_scene(task: str, robot: str, path: Path, gripper: Path | None, source: 
     if max_mesh_faces is not None:
         simplify_meshes(world, max_mesh_faces)
     model = world.compile()
-    return LocoScene(model, task, robot, model.qpos0.copy(), finger_bodies=(left, right))
+    scale = np.ones(model.nu)
+    if task == "franka-reach":
+        scale[model.actuator("gripper").id] = GRIPPER_SERVO["range"][1] / GRIPPER_SOURCE_RANGE[1]
+    return LocoScene(model, task, robot, model.qpos0.copy(), finger_bodies=(left, right), source_ctrl_scale=scale)

@@ -2,9 +2,22 @@
 
 The rewards are pure functions of named physical readings, so each term can be checked by hand;
 :class:`QuadrupedTask` and :class:`FrankaTask` (dm_control ``base.Task`` subclasses) read those
-values from the physics and call them. Both tasks take actions in [-1, 1] and map them linearly
-onto the actuators' control ranges, as RL-ViGen's ``action_scale`` wrapper does; RL-ViGen's
-``current_action`` (in control units) is that mapped action.
+values from the physics and call them.
+
+Actions lie in [-1, 1]. RL-ViGen treats them two ways (:data:`ACTION_MAPPINGS`):
+
+* ``"scaled"`` (vigen's default): mapped linearly onto the actuators' control ranges, as RL-ViGen's
+  standalone evaluator does (``locoeval.py:113`` wraps the env in dm_control's ``action_scale``);
+* ``"rlvigen_train"``: RL-ViGen's training path, which sends the action unscaled (``_convert_action``
+  is commented out at ``dmc2gym/wrappers.py:177``; ``loco_wrapper.py:127``'s ``action_scale`` maps
+  [-1, 1] onto the [-1, 1] spec it is given, a no-op), so MuJoCo clips it to each control range: an
+  A1 knee (−2.697 … −0.916 rad) can only reach −1 … −0.916, the gripper (0 … 255) opens at most
+  1/255 of its 4 cm, and the action penalty reads the raw action as a position in the control
+  range (the stand reward of an idle A1 loses 0.119). This is a bug of the source that shaped its
+  published numbers; it is offered by name to reproduce them.
+
+RL-ViGen's ``current_action`` (what its rewards read) is the mapped control under ``"scaled"`` and
+the raw action under ``"rlvigen_train"``, in RL-ViGen's control units (the gripper's 0 … 255).
 
 Read differently from RL-ViGen, with the same result on its robot: RL-ViGen's orientation terms
 use the ``framexaxis`` / ``framezaxis`` sensors of the trunk *body*, which MuJoCo reports in the
@@ -30,6 +43,7 @@ from __future__ import annotations
 import collections
 from typing import Any
 
+import mujoco
 import numpy as np
 from dm_control.mujoco import Physics, wrapper
 from dm_control.rl import control
@@ -38,6 +52,9 @@ from dm_control.utils import rewards
 from dm_env import specs
 
 from vigen.envs.loco_scene import LEGS, LEG_JOINTS, LocoScene
+
+ACTION_MAPPINGS = ("scaled", "rlvigen_train")
+"""How an action in [-1, 1] becomes the servo targets: scaled onto the control ranges, or RL-ViGen's training path (raw, clipped)."""
 
 CONTROL_TIMESTEP = 0.01
 """Seconds per control step (RL-ViGen's unitree and franka: 0.01 s; 1000 steps = 10 s)."""
@@ -110,43 +127,112 @@ def push_reward(left_to_box: float, right_to_box: float, box_to_goal: float, act
     return float((left + right + 2 * goal) / 4) - 0.01 * float(np.mean(np.square(action)))
 
 
+def source_command(action: np.ndarray, source_ctrlrange: np.ndarray, mapping: str = "scaled") -> tuple[np.ndarray, np.ndarray]:
+    """RL-ViGen's ``current_action`` for ``action`` in [-1, 1], and the servo targets it sets, both in RL-ViGen's control units.
+
+    ``"scaled"`` maps [-1, 1] linearly onto ``source_ctrlrange`` (``[n, 2]``); ``"rlvigen_train"`` keeps the
+    raw action, which the simulator clips to the range.
+
+    Examples:
+        >>> knee = np.array([[-2.69653, -0.916298]])  # RL-ViGen's A1 knee
+        >>> [np.round(source_command(np.array([a]), knee, "rlvigen_train")[1], 3).item() for a in (-1.0, 0.0, 1.0)]
+        [-1.0, -0.916, -0.916]
+        >>> np.round(source_command(np.array([0.0]), knee)[1], 3).item()  # scaled: the middle of the range
+        -1.806
+    """
+    action = np.clip(np.asarray(action, dtype=np.float64), -1.0, 1.0)
+    low, high = np.asarray(source_ctrlrange, dtype=np.float64).T
+    if mapping == "rlvigen_train":
+        return action, np.clip(action, low, high)
+    current = low + (action + 1.0) / 2.0 * (high - low)
+    return current, current
+
+
+def normalized_action(current_action: np.ndarray, source_ctrlrange: np.ndarray) -> np.ndarray:
+    """The action RL-ViGen's stand, reach and push penalties square: ``current_action`` mapped from the control range onto [-1, 1].
+
+    ``unitree.py`` and ``franka.py``: ``-1 + 2·(current_action − min) / (max − min)``. Under ``"scaled"``
+    that is the agent's action; under ``"rlvigen_train"`` a raw 0 on the A1's knee reads as 2.03.
+
+    Examples:
+        >>> np.round(normalized_action(np.zeros(3), np.array([[-0.802851, 0.802851], [-1.0472, 4.18879], [-2.69653, -0.916298]])), 3)
+        array([ 0.   , -0.6  ,  2.029])
+    """
+    low, high = np.asarray(source_ctrlrange, dtype=np.float64).T
+    return -1.0 + 2.0 * (np.asarray(current_action, dtype=np.float64) - low) / (high - low)
+
+
+def pinned_camera_positions(scene: LocoScene, offset: float, seed: int | None) -> np.ndarray:
+    """RL-ViGen's ``cam_pos`` level: ``[ncam, 3]`` world camera positions, the start state's plus U(±``offset``) each.
+
+    As ``dmc2gym/wrappers.py:98–106``: the offsets are drawn once, by a ``RandomState(seed)`` of their own,
+    and added to ``cam_xpos`` as the env is made (its bodies in the start pose).
+
+    Examples:
+        >>> from vigen.envs.loco_scene import build_scene
+        >>> scene = build_scene("franka-reach")
+        >>> start = pinned_camera_positions(scene, 0.0, seed=0)
+        >>> moved = pinned_camera_positions(scene, 0.08, seed=0)
+        >>> bool(np.abs(moved - start).max() <= 0.08), np.array_equal(moved, pinned_camera_positions(scene, 0.08, seed=0))
+        (True, True)
+    """
+    data = mujoco.MjData(scene.model)
+    data.qpos[:] = scene.start_qpos
+    mujoco.mj_forward(scene.model, data)
+    return data.cam_xpos + np.random.RandomState(seed).uniform(-offset, offset, size=data.cam_xpos.shape)
+
+
 # -- tasks ---------------------------------------------------------------------------------------
 class ScaledActionTask(base.Task):
-    """A task whose actions lie in [-1, 1] and are mapped linearly onto the actuators' control ranges (RL-ViGen's ``action_scale``).
+    """A task whose actions lie in [-1, 1], turned into servo targets by ``action_mapping`` (:func:`source_command`).
+
+    :attr:`camera_positions` (``[ncam, 3]``, or ``None``) is RL-ViGen's ``cam_pos`` level
+    (``dmc2gym/wrappers.py:203–204``): written into the world ``cam_xpos`` before every frame, so a camera on
+    the trunk stays where it was while its orientation follows the trunk (:func:`pinned_camera_positions`).
 
     Subclasses place their objects (:meth:`place_objects`) and define the reward.
     """
 
-    def __init__(self, scene: LocoScene, random: Any = None) -> None:
+    def __init__(self, scene: LocoScene, random: Any = None, action_mapping: str = "scaled") -> None:
+        if action_mapping not in ACTION_MAPPINGS:
+            raise ValueError(f"action_mapping must be one of {', '.join(map(repr, ACTION_MAPPINGS))}, got {action_mapping!r}.")
         super().__init__(random=random)
-        self.scene = scene
-        self._command(np.zeros(scene.model.nu), scene.model.actuator_ctrlrange)
+        self.scene, self.action_mapping = scene, action_mapping
+        self.source_ctrlrange = scene.source_ctrlrange
+        self.camera_positions: np.ndarray | None = None
+        self._command(np.zeros(scene.model.nu))
 
     def action_spec(self, physics: Physics) -> specs.BoundedArray:
         return specs.BoundedArray((physics.model.nu,), np.float64, -1.0, 1.0, name="action")
 
-    def _command(self, action: np.ndarray, ctrlrange: np.ndarray) -> None:
-        """Keep ``action`` (clipped to [-1, 1]) and the control it maps to: RL-ViGen's rewards read one or the other."""
-        self.action = np.clip(np.asarray(action, dtype=np.float64), -1.0, 1.0)
-        low, high = ctrlrange.T
-        self.control = low + (self.action + 1.0) / 2.0 * (high - low)
+    def _command(self, action: np.ndarray) -> None:
+        """Keep what RL-ViGen's rewards read: ``action`` (the normalized action), ``control`` (its ``current_action``), and the targets."""
+        self.control, targets = source_command(action, self.source_ctrlrange, self.action_mapping)
+        self.targets = targets * self.scene.source_ctrl_scale
+        if self.action_mapping == "scaled":
+            self.action = np.clip(np.asarray(action, dtype=np.float64), -1.0, 1.0)
+        else:
+            self.action = normalized_action(self.control, self.source_ctrlrange)
 
     def before_step(self, action: np.ndarray, physics: Physics) -> None:
-        self._command(action, physics.model.actuator_ctrlrange)
-        physics.set_control(self.control)
+        self._command(action)
+        physics.set_control(self.targets)
 
     def initialize_episode(self, physics: Physics) -> None:
         physics.reset()
         with physics.reset_context():
             physics.data.qpos[:] = self.scene.start_qpos
             self.place_objects(physics)
-        self._command(np.zeros(physics.model.nu), physics.model.actuator_ctrlrange)
+        self._command(np.zeros(physics.model.nu))
         super().initialize_episode(physics)
 
     def place_objects(self, physics: Physics) -> None:
         """Draw the episode's targets and objects (none by default)."""
 
     def get_observation(self, physics: Physics) -> collections.OrderedDict:
+        # the last call after every reset and step, before the frame is rendered: where RL-ViGen's render() pins the cameras
+        if self.camera_positions is not None:
+            physics.data.cam_xpos[:] = self.camera_positions
         return collections.OrderedDict(position=physics.data.qpos.copy(), velocity=physics.data.qvel.copy())
 
 
@@ -161,8 +247,8 @@ class QuadrupedTask(ScaledActionTask):
         (0.129, (12,))
     """
 
-    def __init__(self, scene: LocoScene, walk: bool, random: Any = None) -> None:
-        super().__init__(scene, random=random)
+    def __init__(self, scene: LocoScene, walk: bool, random: Any = None, **options: Any) -> None:
+        super().__init__(scene, random=random, **options)
         self.walk = walk
         self.stable_control = np.array([WALK_STABLE_POSE["front" if leg[0] == "F" else "rear"][i]
                                         for leg in LEGS for i, _ in enumerate(LEG_JOINTS)])
@@ -200,8 +286,8 @@ class FrankaTask(ScaledActionTask):
         (['box_to_goal', 'fingers_to_target', 'left_to_box', 'right_to_box'], (7,))
     """
 
-    def __init__(self, scene: LocoScene, push: bool, random: Any = None) -> None:
-        super().__init__(scene, random=random)
+    def __init__(self, scene: LocoScene, push: bool, random: Any = None, **options: Any) -> None:
+        super().__init__(scene, random=random, **options)
         self.push = push
 
     def place_objects(self, physics: Physics) -> None:
@@ -230,11 +316,15 @@ class FrankaTask(ScaledActionTask):
         return push_reward(r["left_to_box"], r["right_to_box"], r["box_to_goal"], self.action)
 
 
-def make_control_env(scene: LocoScene, seed: int | None = None) -> control.Environment:
-    """The dm_control environment of a built scene: its task, 0.01 s control steps, no time limit (the env wrapper cuts episodes)."""
+def make_control_env(scene: LocoScene, seed: int | None = None, action_mapping: str = "scaled") -> control.Environment:
+    """The dm_control environment of a built scene: its task, 0.01 s control steps, no time limit (the env wrapper cuts episodes).
+
+    ``action_mapping``: see :func:`source_command`.
+    """
     physics = Physics.from_model(wrapper.MjModel(scene.model))
+    options = {"random": seed, "action_mapping": action_mapping}
     if scene.task.startswith("unitree"):
-        task: base.Task = QuadrupedTask(scene, walk=scene.task == "unitree-walk", random=seed)
+        task: base.Task = QuadrupedTask(scene, walk=scene.task == "unitree-walk", **options)
     else:
-        task = FrankaTask(scene, push=scene.task == "franka-push", random=seed)
+        task = FrankaTask(scene, push=scene.task == "franka-push", **options)
     return control.Environment(physics, task, time_limit=float("inf"), control_timestep=CONTROL_TIMESTEP)
