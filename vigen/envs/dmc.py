@@ -6,7 +6,7 @@ imports dm_control when the first env is built), the level table, groups and fac
 Examples:
     >>> from vigen.envs.dmc import DMC
     >>> DMC.levels["color_hard"].steps
-    (RandomSceneColors(scale=0.2),)
+    (RandomSceneColors(scale=0.2, rebuild_textures=True, dmcgb2_file='color_hard.pt'),)
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ from vigen.transforms import (
     DistractingCamera,
     DistractingColors,
     DMCGB2Camera,
+    DMCGB2VideoBackground,
     PixelCorruption,
     RandomCamera,
     RandomLighting,
@@ -117,14 +118,16 @@ def dmcgb2_level(mode: str, difficulty: str) -> Level:
 LEVELS: dict[str, Level] = {
     "train": Level("the clean training scene", "all"),
     "color_easy": Level(
-        "floor, sky and agent colours: default + N(0, 0.1²) per channel",
-        "DMC-GB color_easy (statistics of its presets)",
-        (Step(RandomSceneColors, {"scale": 0.1}),),
+        "floor, sky and agent colours: default + N(0, 0.1²) per channel (DMC-GB2's presets in its order with "
+        "level_options={'dmcgb2_colors': <DMC-GB2's envs/dmcgb/data>})",
+        "DMC-GB color_easy (statistics of its presets); DMC-GB2 color_easy",
+        (Step(RandomSceneColors, {"scale": 0.1, "rebuild_textures": True, "dmcgb2_file": "color_easy.pt"}),),
     ),
     "color_hard": Level(
-        "floor, sky and agent colours: default + N(0, 0.2²) per channel",
-        "DMC-GB color_hard (statistics of its presets)",
-        (Step(RandomSceneColors, {"scale": 0.2}),),
+        "floor, sky and agent colours: default + N(0, 0.2²) per channel (DMC-GB2's presets in its order with "
+        "level_options={'dmcgb2_colors': <DMC-GB2's envs/dmcgb/data>})",
+        "DMC-GB color_hard (statistics of its presets); DMC-GB2 color_hard",
+        (Step(RandomSceneColors, {"scale": 0.2, "rebuild_textures": True, "dmcgb2_file": "color_hard.pt"}),),
     ),
     "objects_color_easy": Level(
         "agent colour only: default + N(0, 0.1²)",
@@ -175,9 +178,11 @@ LEVELS: dict[str, Level] = {
        for difficulty in ("easy", "hard")},
     **{
         f"color_video_{difficulty}": Level(
-            f"color_{difficulty} and video_{difficulty} together",
-            "DMC-GB2 color_video (its video is an in-simulation back cube; vigen keys by segmentation)",
-            (Step(RandomSceneColors, {"scale": scale}), Step(VideoBackground, {"floor": difficulty == "hard"})),
+            f"color_{difficulty} and a sky video together (the floor stays, recoloured); colours and videos start from "
+            "one seeded index; DMC-GB2's in-scene video screen with level_options={'screen': True}",
+            "DMC-GB2 color_video (its video is on an in-scene screen box; vigen composites by segmentation unless screen=True)",
+            (Step(RandomSceneColors, {"scale": scale, "rebuild_textures": True, "dmcgb2_file": f"color_{difficulty}.pt"}),
+             Step(DMCGB2VideoBackground, {"floor": False, "domain": Domain()})),
         )
         for difficulty, scale in (("easy", 0.1), ("hard", 0.2))
     },
