@@ -110,7 +110,7 @@ def dcs_level(scale: float, dynamic: bool) -> Level:
 def dmcgb2_level(mode: str, difficulty: str) -> Level:
     what = {"rotate": "camera turned about its view axis", "shift": "camera panned and tilted towards the image corners",
             "rotate_shift": "camera panned, tilted and turned"}[mode]
-    return Level(f"{what} ({difficulty}), one of 100 presets per episode", DMCGB2_SOURCE,
+    return Level(f"{what} ({difficulty}), one of 100 presets per episode, in DMC-GB2's order for the env seed", DMCGB2_SOURCE,
                  (Step(DMCGB2Camera, {"mode": mode, "difficulty": difficulty, "domain": Domain()}),))
 
 
