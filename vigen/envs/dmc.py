@@ -79,7 +79,7 @@ class ByDomain(Derived):
 
 @dataclass(frozen=True, repr=False)
 class GroundPlaneAlpha(Derived):
-    """DCS's ground-plane alpha of the task's domain (reacher 0, walker and cheetah 1, others 0.3)."""
+    """DCS's ground-plane alpha of the task's domain, the ``grid`` material's (reacher 0, walker and cheetah 1, others 0.3)."""
 
     def __call__(self, context: LevelContext) -> float:
         return dcs_ground_plane_alpha(context.task.partition("-")[0])
@@ -93,17 +93,26 @@ DCS_CAMERA = {"camera": ByDomain({"quadruped": 2}, 0), "limit_to_upper_quadrant"
 
 
 def dcs_level(scale: float, dynamic: bool) -> Level:
-    """DMC-GB's Distracting Control Suite setting at intensity ``scale``: camera, colours and background video together."""
+    """DMC-GB's Distracting Control Suite setting at intensity ``scale``: camera, colours and background video together.
+
+    The dynamic levels move camera, colours and video on every 2nd simulator step, counted from the
+    reset, as DMC-GB's copy does (``update_every=2``; the original suite moves on every one:
+    ``level_options={"update_every": 1}``). A video folder is read as DAVIS 2017 and its ``train``
+    split played, as DCS does (``level_options={"split": None}``: every video under the folder).
+    ``level_options={"skybox": True}`` draws the video into the sky texture as DCS does.
+    """
     videos = DCS_NUM_VIDEOS[scale]
-    motion = "drifting every step" if dynamic else "drawn per episode"
+    motion = "drifting every 2nd simulator step" if dynamic else "drawn per episode"
+    every = {"update_every": 2} if dynamic else {}
+    clips = f"the first {videos} DAVIS train videos" if videos else "every DAVIS train video"
     return Level(
-        f"DCS at intensity {scale}: camera pose and every material colour {motion}, "
-        f"background video ({videos or 'all'} videos, {'playing back and forth' if dynamic else 'one still frame'})",
+        f"DCS at intensity {scale}: camera pose and every material colour {motion}, background video "
+        f"({clips}, procedural without a DAVIS folder; {'playing back and forth' if dynamic else 'one still frame'})",
         DCS_SOURCE + ("" if dynamic else ", static variant"),
-        (Step(DistractingCamera, {"scale": scale, "dynamic": dynamic, **DCS_CAMERA}),
-         Step(DistractingColors, {"scale": scale, "dynamic": dynamic}),
-         Step(VideoBackground, {"playback": "bounce" if dynamic else "static", "num_videos": videos,
-                                "ground_plane_alpha": GroundPlaneAlpha()})),
+        (Step(DistractingCamera, {"scale": scale, "dynamic": dynamic, **DCS_CAMERA, **every}),
+         Step(DistractingColors, {"scale": scale, "dynamic": dynamic, **every}),
+         Step(VideoBackground, {"playback": "bounce" if dynamic else "static", "num_videos": videos, "split": "train",
+                                "ground_plane_alpha": GroundPlaneAlpha(), **every})),
     )
 
 
