@@ -20,7 +20,7 @@ from typing import Any
 import dm_env
 import torch
 
-from vigen.envs.dmc_env import DMCPixelEnv
+from vigen.envs.dmc_env import ActionRepeat, DMCPixelEnv
 from vigen.envs.loco_scene import MAX_MESH_FACES, build_scene
 from vigen.envs.loco_tasks import ACTION_MAPPINGS, make_control_env, pinned_camera_positions
 from vigen.envs.pixels import check_env_arguments
@@ -30,12 +30,13 @@ TIME_LIMITS = ("truncated", "terminated")
 """How an episode that reaches ``episode_length`` ends: a truncation (discount 1, vigen) or RL-ViGen's termination (discount 0)."""
 
 
-class TerminalTimeLimit(dm_env.Environment):
+class TerminalTimeLimit(ActionRepeat):
     """Ends episodes at ``episode_length`` control steps with discount 0, as RL-ViGen's training wrapper does.
 
     RL-ViGen's ``Gym2DMC`` (``wrappers/loco_wrapper.py:37–39``) turns every ``done``, the 10 s time
     limit included, into discount 0, so its agents never bootstrap past the last step. TorchRL reads
-    discount 0 as ``terminated``.
+    discount 0 as ``terminated``. (An :class:`~vigen.envs.dmc_env.ActionRepeat` of one step whose last
+    step has discount 0.)
 
     Examples:
         >>> from vigen.envs.loco_scene import build_scene
@@ -46,41 +47,11 @@ class TerminalTimeLimit(dm_env.Environment):
     """
 
     def __init__(self, env: Any, episode_length: int) -> None:
-        self._env, self._episode_length, self._elapsed = env, episode_length, 0
-
-    @property
-    def physics(self) -> Any:
-        return self._env.physics
-
-    @property
-    def task(self) -> Any:
-        return self._env.task
-
-    def reset(self) -> dm_env.TimeStep:
-        self._elapsed = 0
-        return self._env.reset()
+        super().__init__(env, 1, episode_length)
 
     def step(self, action: Any) -> dm_env.TimeStep:
-        time_step = self._env.step(action)
-        self._elapsed += 1
-        if self._elapsed >= self._episode_length:
-            return dm_env.TimeStep(dm_env.StepType.LAST, time_step.reward, 0.0, time_step.observation)
-        return time_step
-
-    def observation_spec(self) -> Any:
-        return self._env.observation_spec()
-
-    def action_spec(self) -> Any:
-        return self._env.action_spec()
-
-    def reward_spec(self) -> Any:
-        return self._env.reward_spec()
-
-    def discount_spec(self) -> Any:
-        return self._env.discount_spec()
-
-    def close(self) -> None:
-        self._env.close()
+        time_step = super().step(action)
+        return time_step._replace(discount=0.0) if time_step.last() else time_step
 
 
 class LocoPixelEnv(DMCPixelEnv):
