@@ -62,7 +62,7 @@ def test_relative_links_resolve():
         for target, anchor in re.findall(r"\]\(([^)#\s]*)(?:#([^)\s]*))?\)", text):
             if re.match(r"[a-z]+://", target):
                 continue
-            path = ((ROOT / page).parent / target).resolve()
+            path = ((ROOT / page).parent / target).resolve() if target else (ROOT / page).resolve()  # '#x': this page
             assert path.exists(), f"{page} links to {target}, which does not exist"
             assert not anchor or anchor in anchors.get(path, set()), f"{page} links to {target}#{anchor}: no such heading"
 
