@@ -10,6 +10,33 @@ collect_ignore = [] if importlib.util.find_spec("ray") else ["vigen/ray_cluster.
 
 RAY_PATHS = ("test/ray/", "vigen/ray_cluster.py", "vigen/evaluation/ray_backend.py")
 
+CI_SAMPLE: dict[str, tuple[str, ...]] = {
+    # test function -> the parameter ids the default run keeps; the others (and a whole test mapped to ()) run with
+    # -m matrix. Each family keeps the cases that exercise a different code path; the rest repeat them on other levels,
+    # robots or tasks. Chosen by CPU seconds per test (2026-11-27 profile), to keep .ci/run under 20 minutes.
+    "test/envs/test_seeds.py::test_parallel_env_set_seed_reproduces_and_workers_differ": ("video_hard",),
+    "test/envs/test_loco.py::test_rising_scores_above_lying_folded_and_lying_above_flailing": ("unitree-stand",),
+    "test/envs/test_loco.py::test_each_level_changes_the_unitree_frame": ("hard", "video_hard", "robot_go2", "camera_hard"),
+    "test/envs/test_loco.py::test_twenty_resets_do_not_drift_and_restore_to_train": ("hard",),
+    "test/envs/test_loco.py::test_moving_lights_change_the_frame_as_they_move": ("moving_light_hard",),
+    "test/envs/test_loco.py::test_cross_embodiment_keeps_the_action_space": ("robot_go2-go2",),
+    "test/envs/test_loco.py::test_random_arm_policy_earns_little": ("franka-push",),
+    "test/envs/test_loco.py::test_levels_change_the_franka_frame": ("hard-1.0", "camera_hard-1.0"),
+    "test/envs/test_robosuite.py::test_each_level_changes_the_first_frame": ("hard", "robot_iiwa"),
+    "test/envs/test_robosuite.py::test_twenty_resets_do_not_drift": ("hard",),
+    "test/envs/test_robosuite.py::test_set_seed_equals_seed_at_build_scene_included": ("hard",),
+    "test/envs/test_robosuite.py::test_check_env_specs": ("two-arm-peg-in-hole",),
+    "test/envs/test_adroit.py::test_each_level_changes_the_first_frame": ("color_hard", "video_hard", "camera_hard"),
+    "test/envs/test_suites.py::test_every_manipulation_factor_changes_the_frames": ("adroit/door",),
+    "test/envs/test_suites.py::test_every_dm_control_factor_changes_the_frames": (
+        "background_color", "video_background", "light_color", "camera_rotation", "dynamic_camera", "dynamic_color",
+        "jpeg_compression"),
+    "test/envs/test_levels.py::test_each_level_changes_the_first_frame_and_passes_specs": (
+        "color_hard", "objects_color_hard", "floor_texture", "video_hard", "light_hard", "camera_hard", "gaussian_blur_1"),
+    "test/examples/test_train_evaluate.py::test_train_every_algorithm": ("svea",),
+    "test/examples/test_gallery.py::test_factor_gallery_grid": (),
+}
+
 
 def pytest_configure(config: pytest.Config) -> None:
     """Each xdist worker gets its share of the cores for torch's intra-op threads (two 2-thread workers on 2 cores crawl)."""
@@ -20,8 +47,20 @@ def pytest_configure(config: pytest.Config) -> None:
         torch.set_num_threads(max(1, (os.cpu_count() or 1) // workers))
 
 
+@pytest.hookimpl(tryfirst=True)  # before pytest's -m deselection reads the markers
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Tests that start a Ray cluster run in one worker, one after another (``--dist loadgroup``)."""
+    """The CI sample (:data:`CI_SAMPLE`); tests that start a Ray cluster in one worker, one after another (``--dist loadgroup``)."""
+    found: dict[str, set[str]] = {name: set() for name in CI_SAMPLE}
+    for item in items:
+        function, _, param = item.nodeid.partition("[")
+        if function in CI_SAMPLE:
+            found[function].add(param[:-1])
+            if param[:-1] not in CI_SAMPLE[function]:
+                item.add_marker(pytest.mark.matrix)
+    collected = {name: ids for name, ids in found.items() if ids}  # a file not collected in this run is not checked
+    stale = {name: sorted(set(CI_SAMPLE[name]) - ids) for name, ids in collected.items() if set(CI_SAMPLE[name]) - ids}
+    if stale:
+        raise pytest.UsageError(f"CI_SAMPLE in conftest.py keeps parameter ids that no longer exist: {stale}")
     for item in items:
         path = item.nodeid.split("::")[0]
         words = item.name.replace("[", "_").replace("-", "_").lower().split("_")
