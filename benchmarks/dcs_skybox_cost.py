@@ -21,14 +21,12 @@ Reproduce (about two minutes on 2 CPU cores):
 from __future__ import annotations
 
 import argparse
-import statistics
 import tempfile
-import time
 from pathlib import Path
 
 import vigen  # noqa: F401  (selects the EGL backend before mujoco is imported)
 import numpy as np
-from level_speed import step_ms  # benchmarks/level_speed.py, beside this script
+from level_speed import median_step_ms  # benchmarks/level_speed.py, beside this script
 from vigen.envs import make_env
 
 
@@ -70,16 +68,7 @@ def main() -> None:
             builds[f"skybox, sky_size={args.sky_size}"] = dict(
                 generalization=args.level, level_options={"videos": videos, "skybox": True, "sky_size": args.sky_size})
         envs = {name: make_env(args.task, seed=0, image_size=args.image_size, **kwargs) for name, kwargs in builds.items()}
-        states, resets, times = {}, {}, {name: [] for name in envs}
-        for name, env in envs.items():
-            start = time.perf_counter()
-            states[name] = env.reset()
-            resets[name] = (time.perf_counter() - start) * 1e3
-        for _ in range(args.repeats):
-            for name, env in envs.items():
-                ms, states[name] = step_ms(env, states[name], args.steps)
-                times[name].append(ms)
-        medians = {name: statistics.median(values) for name, values in times.items()}
+        medians, resets = median_step_ms(envs, args.steps, args.repeats)
         print(f"{args.task} {args.level}, {args.image_size}px, default rendering, median of {args.repeats} blocks of "
               f"{args.steps} steps (action repeat 2)")
         print("| variant | ms/step | vs train | first reset (ms) |")

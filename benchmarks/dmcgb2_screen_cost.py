@@ -17,11 +17,9 @@ Reproduce (a few minutes on 2 CPU cores):
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
 
 import vigen  # noqa: F401  (selects the EGL backend before mujoco is imported)
-from level_speed import step_ms  # benchmarks/level_speed.py, beside this script
+from level_speed import median_step_ms  # benchmarks/level_speed.py, beside this script
 from vigen.envs import make_env
 
 
@@ -35,19 +33,9 @@ def main() -> None:
     args = parser.parse_args()
 
     variants = {"composite (default)": None, "screen (DMC-GB2)": {"screen": True}}
-    envs, states, resets = {}, {}, {}
-    for name, options in variants.items():
-        envs[name] = make_env(args.task, generalization=args.level, seed=0, level_options=options)
-        start = time.perf_counter()
-        states[name] = envs[name].reset()
-        resets[name] = (time.perf_counter() - start) * 1e3
-        _, states[name] = step_ms(envs[name], states[name], args.warmup)
-    times: dict[str, list[float]] = {name: [] for name in variants}
-    for _ in range(args.repeats):
-        for name in variants:
-            ms, states[name] = step_ms(envs[name], states[name], args.steps)
-            times[name].append(ms)
-    medians = {name: statistics.median(values) for name, values in times.items()}
+    envs = {name: make_env(args.task, generalization=args.level, seed=0, level_options=options)
+            for name, options in variants.items()}
+    medians, resets = median_step_ms(envs, args.steps, args.repeats, warmup=args.warmup)
     base = medians["composite (default)"]
     print(f"{args.task} {args.level}: median ms per agent step over {args.repeats} blocks of {args.steps}")
     print("| variant | ms/step | vs default | first reset (ms) |\n|---|---|---|---|")

@@ -62,6 +62,23 @@ def step_ms(env, state, steps: int):
     return (time.perf_counter() - start) / steps * 1e3, state
 
 
+def median_step_ms(envs: dict, steps: int, repeats: int, warmup: int = 0) -> tuple[dict[str, float], dict[str, float]]:
+    """Median ms per agent step of each env over ``repeats`` blocks of ``steps``, timed in alternation, and the ms of
+    each first reset (taken apart), after ``warmup`` untimed steps."""
+    states, resets, times = {}, {}, {name: [] for name in envs}
+    for name, env in envs.items():
+        start = time.perf_counter()
+        states[name] = env.reset()
+        resets[name] = (time.perf_counter() - start) * 1e3
+        if warmup:
+            _, states[name] = step_ms(env, states[name], warmup)
+    for _ in range(repeats):
+        for name, env in envs.items():
+            ms, states[name] = step_ms(env, states[name], steps)
+            times[name].append(ms)
+    return {name: statistics.median(values) for name, values in times.items()}, resets
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--task", default="dmc/walker-walk")
@@ -105,16 +122,8 @@ def main() -> None:
         label = level_label(level)
         envs = {"train": make_env(args.task, generalization="train", seed=0, render_settings=settings),
                 label: make_env(args.task, generalization=level, seed=0, render_settings=settings)}
-        states, times, resets = {}, {name: [] for name in envs}, {}
-        for name, env in envs.items():
-            start = time.perf_counter()
-            states[name] = env.reset()
-            resets[name] = (time.perf_counter() - start) * 1e3
-        for _ in range(args.repeats):
-            for name, env in envs.items():
-                ms, states[name] = step_ms(env, states[name], args.steps)
-                times[name].append(ms)
-        train, ours = statistics.median(times["train"]), statistics.median(times[label])
+        medians, resets = median_step_ms(envs, args.steps, args.repeats)
+        train, ours = medians["train"], medians[label]
         overheads[label] = ours / train - 1
         print(f"| {label} | {train:.1f} | {ours:.1f} | {overheads[label]:+.0%} | {resets[label]:.0f} |", flush=True)
         for env in envs.values():
