@@ -70,7 +70,7 @@ from vigen.ray_cluster import ray_session
 from vigen.rendering import RenderSettings
 from vigen.results import SOURCES, ProtocolMismatch, compare, load, published
 from vigen.results.compare import VALUE_UNITS
-from vigen.pretrained import available, info, load_config, load_policy
+from vigen.pretrained import available, info, load_policy
 from vigen.run import TrainConfig, load_agent
 
 
@@ -119,9 +119,11 @@ def parse_args() -> argparse.Namespace:
     if not args.runs and not args.pretrained:
         raise SystemExit("give run folders of examples/train.py, or --pretrained NAME (shipped: "
                          f"{', '.join(available()) or 'none yet'}).")
-    unknown = [name for name in args.pretrained if name not in available() and not Path(name).with_suffix(".json").is_file()]
-    if unknown:
-        raise SystemExit(f"--pretrained {' '.join(unknown)}: not shipped; the shipped agents are {', '.join(available()) or 'none'}.")
+    for name in args.pretrained:
+        try:
+            info(name)
+        except KeyError as error:
+            raise SystemExit(f"--pretrained {name}: {error.args[0]}") from None
     args.sweep = [parse_sweep(items) for items in args.sweep]
     return args
 
@@ -159,10 +161,8 @@ def load_run(path: Path, device: torch.device) -> Evaluated:
 
 def load_shipped(name: str, device: torch.device) -> Evaluated:
     """A shipped agent (``vigen.pretrained``), or an exported one by its file: its deterministic policy, config and frames."""
-    root = None
-    if name not in available():
-        root, name = Path(name).parent, Path(name).stem
-    return Evaluated(load_policy(name, device=device, root=root), load_config(name, root=root), info(name, root=root)["frames"])
+    record = info(name)
+    return Evaluated(load_policy(name, device=device), TrainConfig.from_json(record["config"]), record["frames"])
 
 
 RUN_SETTINGS = ("action_repeat", "frame_stack", "image_size")

@@ -73,6 +73,17 @@ def test_an_altered_weights_file_is_refused(tmp_path):
         load_policy("agent", root=tmp_path)
 
 
+def test_an_agent_loads_by_its_weights_file_too(tmp_path, monkeypatch):
+    exported(tmp_path, name="mine")
+    by_file = load_policy(str(tmp_path / "mine.pt"))
+    assert torch.equal(by_file(pixels=pixels()), load_policy("mine", root=tmp_path)(pixels=pixels()))
+    assert info(str(tmp_path / "mine.pt"))["sha256"] == info("mine", root=tmp_path)["sha256"]
+    with pytest.raises(KeyError, match="with its .json beside it"):
+        info(str(tmp_path / "other.pt"))
+    monkeypatch.chdir(tmp_path)
+    assert info("mine.pt")["sha256"] == info("mine", root=tmp_path)["sha256"], "a relative file is read from the working directory"
+
+
 def test_unknown_names_list_the_available_agents(tmp_path):
     exported(tmp_path, name="known")
     with pytest.raises(KeyError, match="available: known"):

@@ -62,7 +62,11 @@ def available(root: str | Path | None = None) -> list[str]:
 
 
 def info(name: str, *, root: str | Path | None = None) -> dict[str, Any]:
-    """An agent's provenance: commit, command, algorithm, env, seed, frames, weights checksum and evaluation table."""
+    """An agent's provenance: commit, command, algorithm, env, seed, frames, weights checksum and evaluation table.
+
+    ``name`` is a shipped agent's name (:func:`available`), or the path of a ``.pt`` file written by
+    :func:`export_policy` (its ``.json`` beside it); so in :func:`load_config` and :func:`load_policy`.
+    """
     return json.loads(_files(name, root)[1].read_text())
 
 
@@ -160,8 +164,14 @@ def export_policy(
 
 
 def _files(name: str, root: str | Path | None) -> tuple[Path, Path]:
+    """The weights and provenance of agent ``name`` in ``root`` (default: the shipped ones), or of the ``.pt`` file ``name``."""
     folder = Path(root) if root is not None else AGENTS
-    weights, record = folder / f"{name}.pt", folder / f"{name}.json"
+    if name.endswith(".pt"):  # a file: relative to root when one is given, else to the working directory
+        weights = Path(root) / name if root is not None else Path(name)
+    else:
+        weights = folder / f"{name}.pt"
+    record = weights.with_suffix(".json")
     if not (weights.is_file() and record.is_file()):
-        raise KeyError(f"no pretrained agent {name!r} in {folder}; available: {', '.join(available(folder)) or 'none'}.")
+        where = f"{weights} with its .json beside it" if name.endswith(".pt") else f"{name!r} in {folder}"
+        raise KeyError(f"no pretrained agent {where}; available: {', '.join(available(folder)) or 'none'}.")
     return weights, record
