@@ -178,13 +178,14 @@ def run_env_options(config: TrainConfig, args: argparse.Namespace, level_options
 
 
 def run_tags(trained: Evaluated, env_options: dict) -> dict:
-    """The columns every row of a run carries: method, run, frames, and the settings a protocol fixes (for --compare)."""
+    """The columns every row of a run carries: method, run, frames, its training batch and the settings a protocol fixes (for --compare)."""
     config = trained.config
     channels, _, width = config.observation_shape  # uint8 [3 * frame stack, H, W]
     defaults = get_suite(config.env).env_options
     settings = {"action_repeat": config.action_repeat or defaults.get("action_repeat"), "frame_stack": channels // 3,
                 "image_size": width, "episode_length": env_options.get("episode_length", defaults.get("episode_length"))}
     return {"method": config.algo, "run": config.seed, "frames": trained.frames, "protocol": config.protocol or "",
+            "batch_size": config.batch_size,
             **{name: value for name, value in settings.items() if value is not None}}
 
 

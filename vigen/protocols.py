@@ -80,6 +80,8 @@ class Protocol:
         seeds: seeds per method in the papers' tables.
         statistic: what the tables print, in words.
         notes: what else a reader must know (caveats, known deviations between the papers that use it).
+        batch_size: the training batch of the source's code (its default config), so that a run trained with
+            another one is marked beside the published numbers; ``None`` where the source does not fix one.
 
     Examples:
         >>> from vigen.protocols import PROTOCOLS
@@ -106,6 +108,7 @@ class Protocol:
     episode_length: Mapping[str, int] = field(default_factory=lambda: {"dmc": 1000})
     level_differences: Mapping[str, str] = field(default_factory=dict)
     notes: str = ""
+    batch_size: int | None = None
 
     def __post_init__(self) -> None:
         if self.budget_unit not in BUDGET_UNITS:
@@ -230,6 +233,7 @@ PROTOCOLS: Mapping[str, Protocol] = _frozen({protocol.name: protocol for protoco
         seeds=5, statistic="mean ± std over seeds of each seed's mean episode return",
         notes="train_steps counts agent steps, so its '500k' is 2M frames at action repeat 4 (RL-ViGen #11 confused "
               "the two); RAD, CURL, PAD and SODA render 100x100 and crop to 84.",
+        batch_size=128,  # src/arguments.py --batch_size
     ),
     Protocol(
         name="dmcgb2",
@@ -245,6 +249,7 @@ PROTOCOLS: Mapping[str, Protocol] = _frozen({protocol.name: protocol for protoco
                            for level in ("video_easy", "video_hard", "color_video_easy", "color_video_hard")},
         notes="DMC-GB2's video levels show the video on an in-simulation back cube and video_hard also drops the floor "
               "and rails: they are not DMC-GB's video levels.",
+        batch_size=256,  # cfgs/config.yaml
     ),
     Protocol(
         name="rlvigen",
@@ -266,6 +271,7 @@ PROTOCOLS: Mapping[str, Protocol] = _frozen({protocol.name: protocol for protoco
               "0.7M) and its results sheet does not say which produced the scores, so vigen.results leaves those "
               "budgets blank; robosuite runs at 20 Hz control without action repeat and evaluates 10 scenes x 10 trials per "
               "level; the paper's figures show 95 % CIs, its results sheet mean ± std.",
+        batch_size=256,  # cfgs/config.yaml and every algorithm's config
     ),
     Protocol(
         name="drqv2",
@@ -279,6 +285,7 @@ PROTOCOLS: Mapping[str, Protocol] = _frozen({protocol.name: protocol for protoco
         seeds=10, statistic="mean over seeds of the evaluation return at each frame count (curves)",
         notes="its configs train 0.1M frames longer (1.1M/3.1M/30.1M, drqv2 #25); the published curves evaluate every "
               "20k frames (100k for humanoid) on the training scene only.",
+        batch_size=256,  # cfgs/config.yaml
     ),
     Protocol(
         name="planet",

@@ -35,6 +35,15 @@ def test_rows_of_an_unverified_source_say_so_on_every_line():
     assert all(row.verified for row in published(source=["sgqn", "madi", "dmcgb", "dmcgb2"]))
 
 
+def test_a_run_trained_with_another_batch_is_marked():
+    at_cpu_batch = compare(rows(method="madi", batch_size=64), source="madi", protocol="dmcgb")[0]
+    assert at_cpu_batch["notes"] == "batch: run 64, dmcgb's code 128", "DMC-GB's arguments.py trains with batch 128"
+    assert compare(rows(method="madi", batch_size=128), source="madi", protocol="dmcgb")[0]["notes"] == ""
+    assert compare(rows(method="madi"), source="madi", protocol="dmcgb")[0]["notes"] == "", "rows without the column"
+    drqv2 = [dict(row, level="train", frames=40_000, action_repeat=2, batch_size=256) for row in rows(method="drqv2")]
+    assert compare(drqv2, source="drqv2", protocol="drqv2")[0]["notes"] == ""
+
+
 def test_an_implementation_vigen_reproduces_carries_no_note():
     line = compare(rows(method="madi"), source="madi", protocol="dmcgb")[0]
     assert (line["published"], line["notes"]) == (824.0, "")

@@ -157,8 +157,9 @@ def compare(
         ``published_seeds``, ``published_method`` with its variant, ``source``, ``where``), both
         budgets in frames (``budget_matches`` is ``None`` where the source does not state its
         budget), ``difference`` (vigen − published) and ``notes``: what the reader must know
-        (a different budget, a budget not published, another implementation, a level vigen approximates,
-        an unverified source, returns clipped at 0). Where the source clips each episode's return at 0 before
+        (a different budget, a budget not published, a training batch other than the source's where the rows
+        carry ``batch_size``, another implementation, a level vigen approximates, an unverified source, returns
+        clipped at 0). Where the source clips each episode's return at 0 before
         averaging (:data:`CLIPPED_AT_ZERO`: RL-ViGen's ``loco`` scores), the run's returns are clipped the same way
         and the line's ``notes`` say so.
 
@@ -238,6 +239,9 @@ def compare(
                 notes.append("budget not published")
             elif published_frames != run_frames:
                 notes.append(f"budget: run {run_frames or 0:,} frames, published {published_frames:,}")
+            batches = {row.get("batch_size") for row in members} - {None, ""}
+            if protocol.batch_size is not None and batches and batches != {protocol.batch_size}:
+                notes.append(f"batch: run {', '.join(map(str, sorted(batches)))}, {protocol.name}'s code {protocol.batch_size}")
             if SOURCES[source_name].reproduced_by.get(cell[0].method) != method:
                 notes.append(f"published from another implementation of {cell[0].label} than vigen's {method}")
             if not SOURCES[source_name].verified:
