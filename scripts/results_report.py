@@ -1,0 +1,199 @@
+"""Rebuild a committed results folder's summary, statistics, plots and report from its per-episode rows.
+
+A results folder (``docs/results/<task>/``) holds what was measured: ``episodes.csv`` (one row per
+zero-shot episode, as ``examples/evaluate.py`` writes them) and ``training.csv`` (each run's
+evaluation return during training, from its ``logs/scalars/eval/train_return.csv``). Everything
+else in it is derived here, deterministically (the bootstrap draws are seeded), so that a test can
+recompute it and find the same numbers:
+
+- ``summary.csv``: per method and level, the IQM and mean over runs with 95 % stratified-bootstrap
+  intervals (rliable's), and RL-ViGen's mean ± std over runs;
+- ``gaps.csv``: per method and test level, the generalization gap (test / train return of the same
+  runs) with its 95 % interval;
+- ``improvements.csv``: per level, P(X > Y) for every pair of methods with its 95 % interval;
+- ``published.csv``: the train-level rows beside the published numbers (``vigen.results.compare``);
+- ``levels.png`` (IQM per level) and ``robustness.png`` (the gap per level);
+- ``report.md``: the tables above and, per test level, whether the second method's advantage over
+  the first in P(X > Y) is resolved by its interval.
+
+    python scripts/results_report.py docs/results/cartpole-balance --compare drqv2 --methods drqv2 svea
+
+Existing derived files are replaced only with ``--overwrite`` (the rows never are).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vigen.evaluation import generalization_gaps, improvements, markdown_table, plot_levels, summarize, write_csv
+from vigen.evaluation.aggregate import percentile_interval, resample_runs, stratified_picks
+from vigen.evaluation.summary import score_matrix
+from vigen.io import atomic_write
+from vigen.results import compare, published
+
+INTEGER_COLUMNS = ("run", "seed", "episode", "length", "frames", "batch_size", "action_repeat", "frame_stack", "image_size", "episode_length")
+FLOAT_COLUMNS = ("return",)
+DERIVED = ("summary.csv", "gaps.csv", "gap_differences.csv", "improvements.csv", "published.csv", "levels.png", "robustness.png", "report.md")
+
+
+def read_rows(path: str | Path) -> list[dict[str, Any]]:
+    """The rows of an ``episodes.csv`` with numbers as numbers (empty cells stay ``""``, as the random baseline's are)."""
+    rows = []
+    with open(path, newline="") as file:
+        for row in csv.DictReader(file):
+            for column in INTEGER_COLUMNS:
+                if row.get(column, "") != "":
+                    row[column] = int(row[column])
+            for column in FLOAT_COLUMNS:
+                row[column] = float(row[column])
+            rows.append(row)
+    if not rows:
+        raise ValueError(f"{path}: no rows.")
+    return rows
+
+
+def derive(rows: Sequence[Mapping[str, Any]], *, compare_with: str | None = None, methods: Sequence[str] | None = None) -> dict[str, list[dict[str, Any]]]:
+    """Every derived table of a results folder, from its per-episode rows (``methods``: the baseline and the method compared)."""
+    trained = [row for row in rows if row["method"] != "random"]
+    tables = {"summary": summarize(rows), "gaps": generalization_gaps(trained), "improvements": improvements(rows)}
+    if methods is not None:
+        tables["gap_differences"] = gap_differences(trained, methods[1], methods[0])
+    if compare_with is not None:
+        at_train = [row for row in trained if row["level"] == "train"]
+        tables["published"] = compare(at_train, source=compare_with, protocol=compare_with, allow_budget_mismatch=True)
+    return tables
+
+
+def gap_differences(rows: Sequence[Mapping[str, Any]], method: str, over: str, *, reps: int = 2000, seed: int = 0
+                    ) -> list[dict[str, Any]]:
+    """Per test level, gap(method) − gap(over) with a 95 % interval: each method's runs resampled apart, each run paired with itself.
+
+    A positive difference means ``method`` keeps more of its own training return under the shift.
+    """
+    rng = np.random.default_rng(seed)
+    lines = []
+    levels = [level for level in dict.fromkeys(row["level"] for row in rows) if level != "train"]
+    for level in levels:
+        draws, point = [], []
+        for name in (method, over):
+            mine = [row for row in rows if row["method"] == name]
+            train = score_matrix([row for row in mine if row["level"] == "train"])
+            test = score_matrix([row for row in mine if row["level"] == level])
+            picks = stratified_picks(rng, reps, *train.shape)
+            draws.append(resample_runs(test, picks).mean(axis=(1, 2)) / resample_runs(train, picks).mean(axis=(1, 2)))
+            point.append(test.mean() / train.mean())
+        low, high = percentile_interval(draws[0] - draws[1], 0.95)
+        lines.append({"level": level, "method": method, "over": over, "difference": float(point[0] - point[1]),
+                      "low": float(low), "high": float(high)})
+    return lines
+
+
+def direction(lines: Sequence[Mapping[str, Any]], method: str, over: str) -> list[dict[str, Any]]:
+    """Per level, P(method > over) with its interval and what the interval resolves: above 0.5, below it, or neither."""
+    verdicts = []
+    for line in lines:
+        if line["method"] != method or line["over"] != over:
+            continue
+        if line["low"] > 0.5:
+            word = f"{method} better"
+        elif line["high"] < 0.5:
+            word = f"{over} better"
+        else:
+            word = "not resolved"
+        verdicts.append({"level": line["level"], "probability": line["probability"], "low": line["low"],
+                         "high": line["high"], "verdict": word})
+    return verdicts
+
+
+def write(folder: Path, rows: Sequence[Mapping[str, Any]], tables: Mapping[str, list[dict[str, Any]]],
+          methods: Sequence[str]) -> list[Path]:
+    """Write the derived files of ``folder`` (the caller checked they may be replaced)."""
+    written = [write_csv(tables[name], folder / f"{name}.csv") for name in ("summary", "gaps", "gap_differences", "improvements",
+                                                                           "published") if name in tables]
+    task = ", ".join(dict.fromkeys(row["env"] for row in rows))
+    written.append(plot_levels(tables["summary"], folder / "levels.png", title=f"{task}: zero-shot IQM per level (95 % CI)"))
+    as_bars = [{"method": line["method"], "level": line["level"], "iqm": line["gap"], "iqm_low": line["gap_low"],
+                "iqm_high": line["gap_high"]} for line in tables["gaps"]]
+    written.append(plot_levels(as_bars, folder / "robustness.png", ylabel="test / train return (same runs)",
+                               title=f"{task}: return kept under each shift (95 % CI)"))
+    report = [f"# Zero-shot evaluation: {task}", "",
+              "Derived by `scripts/results_report.py` from `episodes.csv`; see README.md for how the rows were made.", "",
+              "## Episode return", "", markdown_table(tables["summary"]), "",
+              "## Generalization gap (test / train return of the same runs, 95 % CI)", "",
+              markdown_table(tables["gaps"], cell=lambda line: f"{line['gap']:.2f} [{line['gap_low']:.2f}, {line['gap_high']:.2f}]"),
+              "", "![robustness.png](robustness.png)", ""]
+    if len(methods) == 2:
+        first, second = methods
+        verdicts = direction(tables["improvements"], second, first)
+        report += [f"## P({second} > {first}) per level (95 % CI)", "",
+                   "| level | P | 95 % CI | resolved |", "|---|---|---|---|"]
+        report += [f"| {line['level']} | {line['probability']:.2f} | [{line['low']:.2f}, {line['high']:.2f}] | {line['verdict']} |"
+                   for line in verdicts]
+        report += ["", f"## Return kept under shift: gap({second}) − gap({first}) per level (95 % CI)", "",
+                   f"Positive: {second} keeps more of its own training return than {first} does.", "",
+                   "| level | difference | 95 % CI | resolved |", "|---|---|---|---|"]
+        for line in tables["gap_differences"]:
+            word = (f"{second} keeps more" if line["low"] > 0 else f"{first} keeps more" if line["high"] < 0 else "not resolved")
+            report.append(f"| {line['level']} | {line['difference']:+.2f} | [{line['low']:+.2f}, {line['high']:+.2f}] | {word} |")
+        report += [""]
+    if "published" in tables:
+        report += ["## Beside the published numbers (train level)", "",
+                   "| method | frames | vigen mean ± std over runs | published | published frames | notes |", "|---|---|---|---|---|---|"]
+        for line in tables["published"]:
+            spread = "" if math.isnan(line["std"]) else f" ± {line['std']:.1f}"
+            report.append(f"| {line['method']} | {line['frames']:,} | {line['mean']:.1f}{spread} ({line['runs']} runs) | "
+                          f"{line['published']:.1f} ({line['published_seeds']} seeds) | {line['published_frames']:,} | "
+                          f"{line['notes']} |")
+        for line in tables["published"]:
+            others = published(source=line["source"], method=line["method"],
+                               suite=line["env"].split("/")[0], task=line["env"].split("/", 1)[1], level=line["level"],
+                               statistic="mean", unit="return")
+            around = sorted((row.frames(2), row.value) for row in others
+                            if row.frames(2) is not None and abs(row.frames(2) - line["frames"]) <= 20_000)
+            if len(around) > 1:
+                report.append("")
+                report.append(f"{line['source']} publishes {line['method']} on {line['env']} at "
+                              + ", ".join(f"{value:.1f} ({frames:,} frames)" for frames, value in around) + ".")
+        report += [""]
+    report += ["## Probability of improvement P(row beats column), per level (95 % CI)", ""]
+    for level in dict.fromkeys(line["level"] for line in tables["improvements"]):
+        report += [f"{level}:", "", markdown_table([line for line in tables["improvements"] if line["level"] == level],
+                                                   rows="method", columns="over",
+                                                   cell=lambda line: f"{line['probability']:.2f} [{line['low']:.2f}, {line['high']:.2f}]"), ""]
+    report += ["![levels.png](levels.png)", ""]
+    atomic_write(folder / "report.md", "\n".join(report))
+    return [*written, folder / "report.md"]
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("folder", type=Path, help="the results folder (holding episodes.csv)")
+    parser.add_argument("--compare", default=None, help="a source of vigen.results to put the train level beside")
+    parser.add_argument("--methods", nargs=2, default=None, metavar=("BASELINE", "METHOD"),
+                        help="the pair whose P(METHOD > BASELINE) the report resolves per level")
+    parser.add_argument("--overwrite", action="store_true", help="replace derived files that exist")
+    args = parser.parse_args(argv)
+    episodes = args.folder / "episodes.csv"
+    if not episodes.is_file():
+        raise SystemExit(f"{episodes}: not found; pass a results folder holding the rows of examples/evaluate.py.")
+    existing = [name for name in DERIVED if (args.folder / name).exists()]
+    if existing and not args.overwrite:
+        raise SystemExit(f"{args.folder} already holds {', '.join(existing)}; pass --overwrite to rebuild them.")
+    rows = read_rows(episodes)
+    methods = args.methods or []
+    missing = [method for method in methods if method not in {row["method"] for row in rows}]
+    if missing:
+        raise SystemExit(f"--methods {' '.join(missing)}: not in the rows' methods.")
+    written = write(args.folder, rows, derive(rows, compare_with=args.compare, methods=args.methods), methods)
+    print("wrote " + ", ".join(path.name for path in written))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,71 @@
+"""The committed results (docs/results/<task>/) are what their per-episode rows say: every derived table recomputed."""
+
+from __future__ import annotations
+
+import csv
+import importlib.util
+import math
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+FOLDERS = sorted(path.parent for path in (ROOT / "docs" / "results").glob("*/episodes.csv"))
+SPEC = importlib.util.spec_from_file_location("results_report", ROOT / "scripts" / "results_report.py")
+results_report = importlib.util.module_from_spec(SPEC)
+SPEC.loader.exec_module(results_report)
+
+
+def read_csv(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="") as file:
+        return list(csv.DictReader(file))
+
+
+def same_cell(committed: str, recomputed: object) -> bool:
+    if isinstance(recomputed, float) or isinstance(recomputed, int) and not isinstance(recomputed, bool):
+        if committed in ("", "nan"):
+            return math.isnan(float(recomputed))
+        return math.isclose(float(committed), float(recomputed), rel_tol=1e-9, abs_tol=1e-9)
+    return committed == ("" if recomputed is None else str(recomputed))
+
+
+def test_there_are_results_to_check():
+    assert [folder.name for folder in FOLDERS] == ["cartpole-balance"]
+
+
+@pytest.mark.parametrize("folder", FOLDERS, ids=lambda folder: folder.name)
+def test_derived_tables_recompute_from_the_rows(folder):
+    rows = results_report.read_rows(folder / "episodes.csv")
+    settings = (folder / "report_settings.txt").read_text().split()
+    compare_with = settings[settings.index("--compare") + 1] if "--compare" in settings else None
+    methods = settings[settings.index("--methods") + 1:settings.index("--methods") + 3] if "--methods" in settings else None
+    tables = results_report.derive(rows, compare_with=compare_with, methods=methods)
+    for name, lines in tables.items():
+        committed = read_csv(folder / f"{name}.csv")
+        assert len(committed) == len(lines), name
+        for saved, line in zip(committed, lines):
+            assert set(saved) == {key for key in line}, name
+            wrong = {key: (saved[key], line[key]) for key in saved if not same_cell(saved[key], line[key])}
+            assert not wrong, f"{folder.name}/{name}.csv differs from its rows: {wrong}"
+
+
+@pytest.mark.parametrize("folder", FOLDERS, ids=lambda folder: folder.name)
+def test_rows_cover_every_run_level_and_episode(folder):
+    rows = results_report.read_rows(folder / "episodes.csv")
+    levels = list(dict.fromkeys(row["level"] for row in rows))
+    counts = {}
+    for row in rows:
+        key = (row["method"], row["run"], row["level"])
+        counts[key] = counts.get(key, 0) + 1
+    agents = {key[:2] for key in counts}
+    assert all(counts.get((*agent, level)) == 10 for agent in agents for level in levels), "10 episodes per run and level"
+    assert sum(method != "random" for method, _ in agents) >= 6 and ("random", 0) in agents
+
+
+def test_a_changed_row_changes_the_summary():
+    folder = FOLDERS[0]
+    rows = results_report.read_rows(folder / "episodes.csv")
+    before = results_report.summarize(rows, reps=100)
+    rows[0] = dict(rows[0], **{"return": rows[0]["return"] + 500.0})
+    after = results_report.summarize(rows, reps=100)
+    assert before[0]["mean"] != after[0]["mean"]
