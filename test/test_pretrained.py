@@ -98,7 +98,14 @@ def test_an_agent_is_not_overwritten_by_default(tmp_path):
     assert (tmp_path / "agent.json").read_text() == before
 
 
-@pytest.mark.parametrize("name", available())
+SHIPPED = ["drqv2-cartpole-balance", "svea-cartpole-balance"]
+
+
+def test_the_shipped_agents_are_the_expected_ones():
+    assert available() == SHIPPED
+
+
+@pytest.mark.parametrize("name", SHIPPED)
 def test_each_shipped_agent_loads_and_acts_within_its_bounds(name):
     record = info(name)
     assert {"commit", "command", "frames", "seed", "env", "evaluation"} <= set(record), f"{name}: provenance incomplete"
@@ -109,6 +116,9 @@ def test_each_shipped_agent_loads_and_acts_within_its_bounds(name):
     weights = torch.load(f"{policy_file(name)}", weights_only=True)
     assert action.shape == (8, record["action_dim"])
     assert (action >= weights["action_low"]).all() and (action <= weights["action_high"]).all()
+    assert action.std(0).max() > 0, f"{name} acts the same on every observation"
+    evaluated = {row["level"] for row in record["evaluation"]}
+    assert {"train", "color_hard", "video_hard"} <= evaluated and all(len(row["returns"]) == 10 for row in record["evaluation"])
 
 
 def policy_file(name):

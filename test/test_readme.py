@@ -24,6 +24,7 @@ EXAMPLES = {
     "published": ("docs/published.md", 'for row in published(method="svea"'),
     "manipulation": ("docs/suites.md", 'rows = evaluate(None, "robosuite/lift"'),
     "loco": ("docs/loco.md", 'env = make_env("loco/unitree-stand"'),
+    "pretrained": ("docs/pretrained.md", 'policy = load_policy("svea-cartpole-balance"'),
 }
 
 
@@ -44,7 +45,7 @@ def run_example(code: str, tmp_path: Path) -> str:
 
 def test_every_example_is_checked():
     blocks = [(page, block) for page, found in BLOCKS.items() for block in found]
-    assert len(blocks) == 9
+    assert len(blocks) == 10
     checked = {(EXAMPLES[name][0], example(name)) for name in EXAMPLES}
     assert set(blocks) == checked, f"python blocks no test runs: {[page for page in set(blocks) - checked]}"
     # ```py marks a snippet that cannot run here: loco.md's needs a clone of MuJoCo Menagerie.
@@ -106,6 +107,12 @@ def test_published_results_example_runs(tmp_path):
     out = run_example(example("published"), tmp_path)
     assert "sgqn dmcgb 747.0 43.0 500,000 agent_steps" in out and "dmcgb2 dmcgb2 429.0" in out
     assert "'mean_std': '304.8 ± 22.0'" in out
+
+
+def test_pretrained_example_runs(tmp_path):
+    out = run_example(example("pretrained"), tmp_path)
+    assert "['drqv2-cartpole-balance', 'svea-cartpole-balance']" in out
+    assert "torch.Size([1]) 30000 [('train', 953), ('color_easy', 942), ('color_hard', 791)]" in out
 
 
 @pytest.mark.render

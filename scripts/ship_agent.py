@@ -1,0 +1,70 @@
+"""Add an exported agent to the ones vigen ships, with its zero-shot evaluation table in its provenance.
+
+The agent is a ``.pt`` written by ``vigen.pretrained.export_policy`` (its ``.json`` beside it); the
+table is read from the rows of ``examples/evaluate.py`` (``episodes.csv``) that evaluated that very
+file: the rows of ``--method`` and ``--run``. The weights are copied unchanged (their SHA-256 is
+checked against the provenance), and the provenance gains ``name``, ``evaluation`` (per level: the
+episodes' returns, their mean and sample std) and ``evaluation_command``.
+
+    python scripts/ship_agent.py runs/gpu/drqv2-s0.pt docs/results/cartpole-balance/episodes.csv \\
+        --method drqv2 --run 0 --name drqv2-cartpole-balance --evaluation-command "python examples/evaluate.py ..."
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import hashlib
+import json
+import statistics
+from pathlib import Path
+
+from vigen.io import atomic_write
+from vigen.pretrained import AGENTS
+
+
+def evaluation_table(episodes: Path, method: str, run: int) -> list[dict]:
+    """Per level, in the rows' order: the returns of ``method``'s run ``run``, their mean and sample std."""
+    returns: dict[str, list[float]] = {}
+    with open(episodes, newline="") as file:
+        for row in csv.DictReader(file):
+            if row["method"] == method and row["run"] == str(run):
+                returns.setdefault(row["level"], []).append(float(row["return"]))
+    if not returns:
+        raise SystemExit(f"{episodes}: no rows of method {method!r}, run {run}.")
+    return [{"level": level, "episodes": len(values), "mean": statistics.fmean(values),
+             "std": statistics.stdev(values) if len(values) > 1 else 0.0, "returns": values}
+            for level, values in returns.items()]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("weights", type=Path, help="the exported .pt (its .json beside it)")
+    parser.add_argument("episodes", type=Path, help="episodes.csv of the evaluation of that file")
+    parser.add_argument("--method", required=True)
+    parser.add_argument("--run", type=int, required=True)
+    parser.add_argument("--name", required=True, help="the shipped agent's name")
+    parser.add_argument("--evaluation-command", required=True, help="the command that wrote the rows")
+    parser.add_argument("--into", type=Path, default=AGENTS, help="the agents folder (default: vigen's)")
+    args = parser.parse_args()
+    record_path = args.weights.with_suffix(".json")
+    if not record_path.is_file():
+        raise SystemExit(f"{record_path}: not found; an exported agent's provenance sits beside its weights.")
+    record = json.loads(record_path.read_text())
+    if hashlib.sha256(args.weights.read_bytes()).hexdigest() != record["sha256"]:
+        raise SystemExit(f"{args.weights}: does not match the checksum in {record_path.name}.")
+    if record["algo"] != args.method or record["seed"] != args.run:
+        raise SystemExit(f"{args.weights} is {record['algo']} seed {record['seed']}, not --method {args.method} --run {args.run}.")
+    target = args.into / f"{args.name}.pt"
+    if target.exists() or target.with_suffix(".json").exists():
+        raise SystemExit(f"{target} (or its .json) exists; remove it first to replace agent {args.name!r}.")
+    record = {"name": args.name, **record, "evaluation": evaluation_table(args.episodes, args.method, args.run),
+              "evaluation_command": args.evaluation_command}
+    args.into.mkdir(parents=True, exist_ok=True)
+    atomic_write(target, args.weights.read_bytes())
+    atomic_write(target.with_suffix(".json"), json.dumps(record, indent=2) + "\n")
+    print(f"shipped {args.name}: {target} ({target.stat().st_size / 1e6:.1f} MB)")
+
+
+if __name__ == "__main__":
+    main()
