@@ -2,7 +2,7 @@
 # The main job, end to end on a CPU: set up .venv, then evaluate the agents that ship with vigen (DrQ-v2 and SVEA,
 # trained on cartpole-balance; vigen.pretrained) and a random policy zero-shot on the training level and on unseen
 # visual levels, and write the report (per-episode CSV, markdown tables, plots) under outputs/demo-<time>/report/.
-#   bash scripts/demo.sh                    about 6 minutes on 2 cores once .venv exists
+#   bash scripts/demo.sh                    about 3.5 minutes on 2 cores once .venv exists
 #   bash scripts/demo.sh --train [FRAMES]   first trains a fresh DrQ-v2 agent here (default 6000 frames: minutes, far
 #                                           too few to balance the pole; docs/results/cartpole-balance/ says what
 #                                           learns, and how long it takes) and evaluates it beside the shipped ones
