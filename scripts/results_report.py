@@ -26,6 +26,9 @@ from __future__ import annotations
 import argparse
 import csv
 import math
+import os
+import shutil
+import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -191,7 +194,15 @@ def main(argv: Sequence[str] | None = None) -> None:
     missing = [method for method in methods if method not in {row["method"] for row in rows}]
     if missing:
         raise SystemExit(f"--methods {' '.join(missing)}: not in the rows' methods.")
-    written = write(args.folder, rows, derive(rows, compare_with=args.compare, methods=args.methods), methods)
+    tables = derive(rows, compare_with=args.compare, methods=args.methods)
+    # written beside, then moved over the old files one by one (vigen's writers never replace a file)
+    staging = Path(tempfile.mkdtemp(prefix=".rebuild-", dir=args.folder))
+    try:
+        written = write(staging, rows, tables, methods)
+        for path in written:
+            os.replace(path, args.folder / path.name)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
     print("wrote " + ", ".join(path.name for path in written))
 
 

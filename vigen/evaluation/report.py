@@ -70,6 +70,8 @@ IQM_LEGEND = "Cells: IQM [95 % stratified-bootstrap CI] · RL-ViGen mean ± std 
 
 
 def _iqm_cell(line: Mapping[str, Any]) -> str:
+    if line.get("runs") == 1:  # a bootstrap over one run has no spread to show
+        return f"{line['iqm']:.1f} (1 run: no interval)"
     std = "" if math.isnan(line["rlvigen_std"]) else f" ± {line['rlvigen_std']:.1f}"
     return f"{line['iqm']:.1f} [{line['iqm_low']:.1f}, {line['iqm_high']:.1f}] · {line['rlvigen_mean']:.1f}{std}"
 
@@ -84,8 +86,9 @@ def markdown_table(
 ) -> str:
     """A ``rows`` × ``columns`` markdown table; by default levels × methods of ``IQM [95 % CI]`` and RL-ViGen's ``mean ± std``.
 
-    ``cell`` formats one line as its cell (default: the IQM cell, with its legend below the table);
-    a missing cell shows "—". ``legend`` is a line printed below the table.
+    ``cell`` formats one line as its cell (default: the IQM cell, with its legend below the table;
+    a method evaluated as one run shows its score and "1 run: no interval", since a bootstrap over
+    runs has nothing to resample); a missing cell shows "—". ``legend`` is a line printed below the table.
 
     Examples:
         >>> from vigen.evaluation import markdown_table
@@ -97,6 +100,8 @@ def markdown_table(
         | train | 800.0 [780.0, 820.0] · 801.0 ± 12.0 |
         <BLANKLINE>
         Cells: IQM [95 % stratified-bootstrap CI] · RL-ViGen mean ± std over runs.
+        >>> print(markdown_table([dict(line, method="random", runs=1)]).splitlines()[2])
+        | train | 800.0 (1 run: no interval) |
         >>> print(markdown_table([{"level": "video_hard", "method": "svea", "gap": 0.4}], cell=lambda line: f"{line['gap']:.2f}"))
         | level | svea |
         |---|---|
