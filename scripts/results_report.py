@@ -36,9 +36,11 @@ from typing import Any
 import numpy as np
 
 from vigen.evaluation import generalization_gaps, improvements, markdown_table, plot_levels, summarize, write_csv
-from vigen.evaluation.aggregate import percentile_interval, resample_runs, stratified_picks
+from vigen.evaluation.aggregate import percentile_interval, stratified_picks
+from vigen.evaluation.statistics import gap_resamples, generalization_gap
 from vigen.evaluation.summary import score_matrix
 from vigen.io import atomic_write
+from vigen.protocols import get_protocol
 from vigen.results import compare, published
 
 INTEGER_COLUMNS = ("run", "seed", "episode", "length", "frames", "batch_size", "action_repeat", "frame_stack", "image_size", "episode_length")
@@ -89,13 +91,18 @@ def gap_differences(rows: Sequence[Mapping[str, Any]], method: str, over: str, *
             mine = [row for row in rows if row["method"] == name]
             train = score_matrix([row for row in mine if row["level"] == "train"])
             test = score_matrix([row for row in mine if row["level"] == level])
-            picks = stratified_picks(rng, reps, *train.shape)
-            draws.append(resample_runs(test, picks).mean(axis=(1, 2)) / resample_runs(train, picks).mean(axis=(1, 2)))
-            point.append(test.mean() / train.mean())
-        low, high = percentile_interval(draws[0] - draws[1], 0.95)
+            draws.append(gap_resamples(test, train, stratified_picks(rng, reps, *train.shape)))
+            point.append(generalization_gap(test, train))
+        differences = draws[0] - draws[1]
+        low, high = percentile_interval(differences[np.isfinite(differences)], 0.95)
         lines.append({"level": level, "method": method, "over": over, "difference": float(point[0] - point[1]),
                       "low": float(low), "high": float(high)})
     return lines
+
+
+def resolved(line: Mapping[str, Any], threshold: float, above: str, below: str) -> str:
+    """What an interval (``low``, ``high``) resolves about ``threshold``: ``above``, ``below``, or "not resolved"."""
+    return above if line["low"] > threshold else below if line["high"] < threshold else "not resolved"
 
 
 def direction(lines: Sequence[Mapping[str, Any]], method: str, over: str) -> list[dict[str, Any]]:
@@ -104,14 +111,8 @@ def direction(lines: Sequence[Mapping[str, Any]], method: str, over: str) -> lis
     for line in lines:
         if line["method"] != method or line["over"] != over:
             continue
-        if line["low"] > 0.5:
-            word = f"{method} better"
-        elif line["high"] < 0.5:
-            word = f"{over} better"
-        else:
-            word = "not resolved"
         verdicts.append({"level": line["level"], "probability": line["probability"], "low": line["low"],
-                         "high": line["high"], "verdict": word})
+                         "high": line["high"], "verdict": resolved(line, 0.5, f"{method} better", f"{over} better")})
     return verdicts
 
 
@@ -143,7 +144,7 @@ def write(folder: Path, rows: Sequence[Mapping[str, Any]], tables: Mapping[str, 
                    f"Positive: {second} keeps more of its own training return than {first} does.", "",
                    "| level | difference | 95 % CI | resolved |", "|---|---|---|---|"]
         for line in tables["gap_differences"]:
-            word = (f"{second} keeps more" if line["low"] > 0 else f"{first} keeps more" if line["high"] < 0 else "not resolved")
+            word = resolved(line, 0.0, f"{second} keeps more", f"{first} keeps more")
             report.append(f"| {line['level']} | {line['difference']:+.2f} | [{line['low']:+.2f}, {line['high']:+.2f}] | {word} |")
         report += [""]
     if "published" in tables:
@@ -158,8 +159,9 @@ def write(folder: Path, rows: Sequence[Mapping[str, Any]], tables: Mapping[str, 
             others = published(source=line["source"], method=line["method"],
                                suite=line["env"].split("/")[0], task=line["env"].split("/", 1)[1], level=line["level"],
                                statistic="mean", unit="return")
-            around = sorted((row.frames(2), row.value) for row in others
-                            if row.frames(2) is not None and abs(row.frames(2) - line["frames"]) <= 20_000)
+            budgets = [(row.frames(get_protocol(row.protocol).action_repeat_for(line["env"])), row.value) for row in others]
+            around = sorted((frames, value) for frames, value in budgets
+                            if frames is not None and abs(frames - line["frames"]) <= 20_000)
             if len(around) > 1:
                 report.append("")
                 report.append(f"{line['source']} publishes {line['method']} on {line['env']} at "

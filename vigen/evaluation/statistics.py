@@ -130,6 +130,23 @@ def generalization_gap(test: np.ndarray | list, train: np.ndarray | list) -> flo
     return float(test.mean() / reference)
 
 
+def gap_resamples(test: np.ndarray, train: np.ndarray, picks: np.ndarray) -> np.ndarray:
+    """The generalization gap of each bootstrap resample ``picks`` (:func:`~vigen.evaluation.aggregate.stratified_picks`).
+
+    The same picks resample both levels, so each run stays paired with itself; a resample whose
+    training mean is not positive gives NaN.
+
+    Examples:
+        >>> import numpy as np
+        >>> from vigen.evaluation.statistics import gap_resamples
+        >>> picks = np.array([[[0], [0]], [[1], [1]]])  # two resamples of 2 runs x 1 task: run 0 twice, run 1 twice
+        >>> gap_resamples(np.array([[400.0], [300.0]]), np.array([[800.0], [600.0]]), picks).tolist()
+        [0.5, 0.5]
+    """
+    train_means = resample_runs(train, picks).mean(axis=(1, 2))
+    return resample_runs(test, picks).mean(axis=(1, 2)) / np.where(train_means > 0, train_means, np.nan)
+
+
 def generalization_gap_ci(
     test: np.ndarray | list, train: np.ndarray | list, *, confidence: float = 0.95, reps: int = 2000, seed: int = 0,
 ) -> tuple[float, float]:
@@ -144,8 +161,6 @@ def generalization_gap_ci(
     test, train = as_scores(test), as_scores(train)
     generalization_gap(test, train)  # checks shapes and the training score
     check_confidence(confidence)
-    picks = stratified_picks(np.random.default_rng(seed), reps, *test.shape)  # one draw for both: each run stays paired
-    train_means = resample_runs(train, picks).mean(axis=(1, 2))
-    ratios = resample_runs(test, picks).mean(axis=(1, 2)) / np.where(train_means > 0, train_means, np.nan)
+    ratios = gap_resamples(test, train, stratified_picks(np.random.default_rng(seed), reps, *test.shape))
     low, high = percentile_interval(ratios[np.isfinite(ratios)], confidence)
     return float(low), float(high)
