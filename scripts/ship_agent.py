@@ -2,9 +2,10 @@
 
 The agent is a ``.pt`` written by ``vigen.pretrained.export_policy`` (its ``.json`` beside it); the
 table is read from the rows of ``examples/evaluate.py`` (``episodes.csv``) that evaluated that very
-file: the rows of ``--method`` and ``--run``. The weights are copied unchanged (their SHA-256 is
-checked against the provenance), and the provenance gains ``name``, ``evaluation`` (per level: the
-episodes' returns, their mean and sample std) and ``evaluation_command``.
+file: the rows of ``--method`` and ``--run``. The weights are copied unchanged, once
+``vigen.pretrained`` has loaded them (their SHA-256 checked against the provenance); the
+provenance gains ``name``, ``evaluation`` (per level: the episodes' returns, their mean and
+sample std) and ``evaluation_command``.
 
     python scripts/ship_agent.py runs/gpu/drqv2-s0.pt docs/results/cartpole-balance/episodes.csv \\
         --method drqv2 --run 0 --name drqv2-cartpole-balance --evaluation-command "python examples/evaluate.py ..."
@@ -14,13 +15,13 @@ from __future__ import annotations
 
 import argparse
 import csv
-import hashlib
 import json
 import statistics
 from pathlib import Path
 
+from vigen.checkpoint import CheckpointError
 from vigen.io import atomic_write
-from vigen.pretrained import AGENTS
+from vigen.pretrained import AGENTS, info, load_policy
 
 
 def evaluation_table(episodes: Path, method: str, run: int) -> list[dict]:
@@ -47,12 +48,13 @@ def main() -> None:
     parser.add_argument("--evaluation-command", required=True, help="the command that wrote the rows")
     parser.add_argument("--into", type=Path, default=AGENTS, help="the agents folder (default: vigen's)")
     args = parser.parse_args()
-    record_path = args.weights.with_suffix(".json")
-    if not record_path.is_file():
-        raise SystemExit(f"{record_path}: not found; an exported agent's provenance sits beside its weights.")
-    record = json.loads(record_path.read_text())
-    if hashlib.sha256(args.weights.read_bytes()).hexdigest() != record["sha256"]:
-        raise SystemExit(f"{args.weights}: does not match the checksum in {record_path.name}.")
+    if args.weights.suffix != ".pt":
+        raise SystemExit(f"{args.weights}: not a .pt file; pass the weights that export_policy wrote.")
+    try:  # vigen.pretrained's own checks: the .json beside it, the checksum, the file's format
+        load_policy(str(args.weights))
+        record = info(str(args.weights))
+    except (KeyError, CheckpointError) as error:
+        raise SystemExit(f"{args.weights}: {error.args[0]}") from None
     if record["algo"] != args.method or record["seed"] != args.run:
         raise SystemExit(f"{args.weights} is {record['algo']} seed {record['seed']}, not --method {args.method} --run {args.run}.")
     target = args.into / f"{args.name}.pt"
