@@ -26,9 +26,7 @@ for run in sorted(p for p in runs.iterdir() if p.is_dir()):
         print(f"{run.name}: no checkpoint ({error})", flush=True)
         continue
     config = trained.config
-    command = (f"python examples/train.py --algo {config.algo} --env {config.env} --preset paper --buffer-size "
-               f"{config.buffer_size} --seed {config.seed} --frames 40000 --eval-every {config.eval_every} "
-               f"--eval-episodes {config.eval_episodes} --threads 2 --device cuda")
+    command = (runs / f"{run.name}.command").read_text().strip()  # written by start_runs.sh as it started the run
     provenance = {"commit": commit, "command": command, "algo": config.algo, "env": config.env, "seed": config.seed,
                   "frames": trained.frames, "checkpoint": trained.checkpoint.name,
                   "trained_on": f"{torch.cuda.get_device_name(0) if torch.cuda.is_available() else 'cpu'}, torch {torch.__version__}"}
