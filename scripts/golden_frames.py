@@ -7,6 +7,7 @@ per-channel means (for a readable report when the hash changes).
 
     python scripts/golden_frames.py --out test/data/golden_frames.json               # every suite
     python scripts/golden_frames.py --out /tmp/after.json --frames /tmp/after.npz    # also the full frames
+    python scripts/golden_frames.py --out test/data/golden_frames.json --only 'dmc/*:color_*'  # re-record these, keep the rest
 
 ``test/envs/test_golden_frames.py`` renders the same frames and compares them with the file, so
 a change of any level's pixels is caught. Regenerate it only when a level is meant to change.
@@ -15,6 +16,7 @@ a change of any level's pixels is caught. Regenerate it only when a level is mea
 from __future__ import annotations
 
 import argparse
+import fnmatch
 import hashlib
 import json
 from pathlib import Path
@@ -71,16 +73,26 @@ def main() -> None:
     parser.add_argument("--out", type=Path, required=True, help="JSON file to write (replaced atomically)")
     parser.add_argument("--frames", type=Path, help="also save every full frame to this .npz file")
     parser.add_argument("--suites", nargs="+", help="only these suites (dmc, robosuite, adroit, loco)")
+    parser.add_argument("--only", nargs="+", metavar="PATTERN",
+                        help="only the entries 'env:level' matching one of these shell patterns; the other entries of an "
+                             "existing --out file are kept as they are")
     args = parser.parse_args()
 
+    kept = {}
+    if args.only and args.out.exists():
+        kept = json.loads(args.out.read_text())["levels"]
     results, full = {}, {}
     for env_name, level in cases():
         if args.suites and env_name.split("/")[0] not in args.suites:
+            continue
+        if args.only and not any(fnmatch.fnmatchcase(f"{env_name}:{level}", pattern) for pattern in args.only):
             continue
         frames = play(env_name, level)
         results[f"{env_name}:{level}"] = record(frames)
         full[f"{env_name}:{level}"] = frames
         print(f"{env_name:32s} {level:24s} {results[f'{env_name}:{level}']['sha256'][:12]}", flush=True)
+    if kept:  # the file's order: re-recorded entries in place, new ones at the end
+        results = {**{name: results.get(name, entry) for name, entry in kept.items()}, **results}
     payload = {"seed": SEED, "image_size": IMAGE_SIZE, "play": list(PLAY), "levels": results}
     atomic_write(args.out, json.dumps(payload, indent=1) + "\n")
     if args.frames:
