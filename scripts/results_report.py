@@ -14,7 +14,8 @@ recompute it and find the same numbers:
 - ``published.csv``: the train-level rows beside the published numbers (``vigen.results.compare``);
 - ``levels.png`` (IQM per level) and ``robustness.png`` (the gap per level);
 - ``report.md``: the tables above and, per test level, whether the second method's advantage over
-  the first in P(X > Y) is resolved by its interval.
+  the first is resolved: only where a stated test holds (:data:`RESOLVED_RULE`), with the closest
+  pair of runs the ordering rests on beside it; and, where the rows say it, the data each level showed.
 
     python scripts/results_report.py docs/results/cartpole-balance --compare drqv2 --methods drqv2 svea
 
@@ -37,12 +38,18 @@ import numpy as np
 
 from vigen.evaluation import generalization_gaps, improvements, markdown_table, plot_levels, summarize, write_csv
 from vigen.evaluation.aggregate import percentile_interval, stratified_picks
-from vigen.evaluation.statistics import gap_resamples, generalization_gap
+from vigen.evaluation.statistics import gap_resamples, generalization_gap, improvement_p_value, smallest_p_value
 from vigen.evaluation.summary import score_matrix
 from vigen.io import atomic_write
 from vigen.protocols import get_protocol
 from vigen.results import compare, published
 
+ALPHA = 0.05
+RESOLVED_RULE = (f"resolved where the one-sided Mann–Whitney U test on the runs' mean returns gives p ≤ {ALPHA} in one "
+                 "direction and the closest pair of runs across the two methods differs by at least twice their standard "
+                 "error (for the gap difference: the test on each run's own test / train ratio, and the 95 % interval "
+                 "excludes 0)")
+"""When the report calls a level resolved. With 3 runs per method the smallest p-value is 1 / C(6, 3) = 0.05."""
 INTEGER_COLUMNS = ("run", "seed", "episode", "length", "frames", "batch_size", "action_repeat", "frame_stack", "image_size", "episode_length")
 FLOAT_COLUMNS = ("return",)
 DERIVED = ("summary.csv", "gaps.csv", "gap_differences.csv", "improvements.csv", "published.csv", "levels.png", "robustness.png", "report.md")
@@ -96,23 +103,61 @@ def gap_differences(rows: Sequence[Mapping[str, Any]], method: str, over: str, *
         differences = draws[0] - draws[1]
         low, high = percentile_interval(differences[np.isfinite(differences)], 0.95)
         lines.append({"level": level, "method": method, "over": over, "difference": float(point[0] - point[1]),
-                      "low": float(low), "high": float(high)})
+                      "low": float(low), "high": float(high),
+                      "p_value": improvement_p_value(*(run_ratios(rows, name, level) for name in (method, over)))})
     return lines
 
 
-def resolved(line: Mapping[str, Any], threshold: float, above: str, below: str) -> str:
-    """What an interval (``low``, ``high``) resolves about ``threshold``: ``above``, ``below``, or "not resolved"."""
-    return above if line["low"] > threshold else below if line["high"] < threshold else "not resolved"
+def run_ratios(rows: Sequence[Mapping[str, Any]], method: str, level: str) -> np.ndarray:
+    """Each run's own test / train ratio ``[runs, tasks]`` (the statistic the gap difference's test ranks)."""
+    mine = [row for row in rows if row["method"] == method]
+    return score_matrix([row for row in mine if row["level"] == level]) / score_matrix([row for row in mine if row["level"] == "train"])
 
 
-def direction(lines: Sequence[Mapping[str, Any]], method: str, over: str) -> list[dict[str, Any]]:
-    """Per level, P(method > over) with its interval and what the interval resolves: above 0.5, below it, or neither."""
+def closest_pair(rows: Sequence[Mapping[str, Any]], method: str, over: str, level: str) -> dict[str, float]:
+    """The pair of runs (one of ``method``, one of ``over``) whose mean returns at ``level`` lie closest, and their standard errors.
+
+    An ordering of runs that rests on a margin far below the runs' own standard errors (the spread of
+    their episodes over the square root of their count) would likely flip with more episodes.
+    """
+    runs: dict[str, dict[Any, list[float]]] = {method: {}, over: {}}
+    for row in rows:
+        if row["level"] == level and row["method"] in runs:
+            runs[row["method"]].setdefault(row["run"], []).append(float(row["return"]))
+
+    def mean_and_error(values: list[float]) -> tuple[float, float]:
+        spread = float(np.std(values, ddof=1)) if len(values) > 1 else float("nan")
+        return float(np.mean(values)), spread / math.sqrt(len(values))
+
+    pairs = [(mean_and_error(mine), mean_and_error(theirs)) for mine in runs[method].values() for theirs in runs[over].values()]
+    (mine, mine_error), (theirs, theirs_error) = min(pairs, key=lambda pair: abs(pair[0][0] - pair[1][0]))
+    return {"margin": abs(mine - theirs), "error": max(mine_error, theirs_error)}
+
+
+def resolved(p_above: float, p_below: float, above: str, below: str) -> str:
+    """``above`` where the one-sided test that way gives p ≤ :data:`ALPHA`, ``below`` where the other way does, else "not resolved"."""
+    return above if p_above <= ALPHA else below if p_below <= ALPHA else "not resolved"
+
+
+def direction(lines: Sequence[Mapping[str, Any]], rows: Sequence[Mapping[str, Any]], method: str, over: str) -> list[dict[str, Any]]:
+    """Per level, P(method > over) with its interval, the Mann–Whitney p-values both ways, the closest pair and the verdict.
+
+    The verdict follows :data:`RESOLVED_RULE`: a test that holds on an ordering of runs whose closest
+    pair differs by less than twice its standard error is reported as "not resolved (fragile)".
+    """
+    reverse = {line["level"]: line["p_value"] for line in lines if line["method"] == over and line["over"] == method}
     verdicts = []
     for line in lines:
         if line["method"] != method or line["over"] != over:
             continue
+        pair = closest_pair(rows, method, over, line["level"])
+        fragile = pair["margin"] < 2 * pair["error"]
+        verdict = resolved(line["p_value"], reverse[line["level"]], f"{method} better", f"{over} better")
+        if fragile and verdict != "not resolved":
+            verdict = f"not resolved (fragile: {verdict} by the test alone)"
         verdicts.append({"level": line["level"], "probability": line["probability"], "low": line["low"],
-                         "high": line["high"], "verdict": resolved(line, 0.5, f"{method} better", f"{over} better")})
+                         "high": line["high"], "p_value": line["p_value"], "p_reverse": reverse[line["level"]],
+                         "margin": pair["margin"], "error": pair["error"], "fragile": fragile, "verdict": verdict})
     return verdicts
 
 
@@ -135,26 +180,45 @@ def write(folder: Path, rows: Sequence[Mapping[str, Any]], tables: Mapping[str, 
               "", "![robustness.png](robustness.png)", ""]
     if len(methods) == 2:
         first, second = methods
-        verdicts = direction(tables["improvements"], second, first)
-        report += [f"## P({second} > {first}) per level (95 % CI)", "",
-                   "| level | P | 95 % CI | resolved |", "|---|---|---|---|"]
-        report += [f"| {line['level']} | {line['probability']:.2f} | [{line['low']:.2f}, {line['high']:.2f}] | {line['verdict']} |"
-                   for line in verdicts]
+        verdicts = direction(tables["improvements"], rows, second, first)
+        runs = {name: len({row["run"] for row in rows if row["method"] == name}) for name in methods}
+        floor = smallest_p_value(runs[second], runs[first])
+        report += [f"## P({second} > {first}) per level (95 % CI), with the one-sided Mann–Whitney test", "",
+                   f"A level is {RESOLVED_RULE}. With {runs[second]} runs of {second} and {runs[first]} of {first}, the "
+                   f"smallest p-value any result can give is {floor:.3g}: "
+                   + ("no level can be resolved at this sample size. " if floor > ALPHA else
+                      f"p = {floor:.3g} means every pair of runs agrees, the most this design can show, not certainty. ")
+                   + "The closest pair is the pair of runs, one of each method, whose mean returns lie closest, with the "
+                     "larger of their standard errors (episodes' spread over √episodes); an ordering that rests on a margin "
+                     "under twice that error is fragile: more episodes could flip it.", "",
+                   f"| level | P | 95 % CI | p ({second} > {first}) | p ({first} > {second}) | closest pair: margin | resolved |",
+                   "|---|---|---|---|---|---|---|"]
+        report += [f"| {line['level']} | {line['probability']:.2f} | [{line['low']:.2f}, {line['high']:.2f}] | "
+                   f"{line['p_value']:.3f} | {line['p_reverse']:.3f} | {line['margin']:.1f} (SE {line['error']:.1f}) | "
+                   f"{line['verdict']} |" for line in verdicts]
         report += ["", f"## Return kept under shift: gap({second}) − gap({first}) per level (95 % CI)", "",
-                   f"Positive: {second} keeps more of its own training return than {first} does.", "",
-                   "| level | difference | 95 % CI | resolved |", "|---|---|---|---|"]
+                   f"A method's gap at a level is its runs' mean test return divided by their mean training return (a "
+                   f"ratio of means over the runs, not the mean of each run's own ratio). Positive: {second} keeps more of "
+                   f"its training return than {first} does. The p-value is the one-sided Mann–Whitney test on each run's own "
+                   f"test / train ratio.", "",
+                   "| level | difference | 95 % CI | p | resolved |", "|---|---|---|---|---|"]
         for line in tables["gap_differences"]:
-            word = resolved(line, 0.0, f"{second} keeps more", f"{first} keeps more")
-            report.append(f"| {line['level']} | {line['difference']:+.2f} | [{line['low']:+.2f}, {line['high']:+.2f}] | {word} |")
+            reverse = improvement_p_value(*(run_ratios(rows, name, line["level"]) for name in (first, second)))
+            word = (resolved(line["p_value"], reverse, f"{second} keeps more", f"{first} keeps more")
+                    if line["low"] > 0 or line["high"] < 0 else "not resolved")
+            report.append(f"| {line['level']} | {line['difference']:+.2f} | [{line['low']:+.2f}, {line['high']:+.2f}] | "
+                          f"{line['p_value']:.3f} | {word} |")
         report += [""]
     if "published" in tables:
         report += ["## Beside the published numbers (train level)", "",
                    "| method | frames | vigen mean ± std over runs | published | published frames | notes |", "|---|---|---|---|---|---|"]
         for line in tables["published"]:
             spread = "" if math.isnan(line["std"]) else f" ± {line['std']:.1f}"
+            theirs = ("none at this budget" if math.isnan(line["published"]) else
+                      f"{line['published']:.1f} ({line['published_seeds']} seeds)")
+            at = "" if line["published_frames"] is None else f"{line['published_frames']:,}"
             report.append(f"| {line['method']} | {line['frames']:,} | {line['mean']:.1f}{spread} ({line['runs']} runs) | "
-                          f"{line['published']:.1f} ({line['published_seeds']} seeds) | {line['published_frames']:,} | "
-                          f"{line['notes']} |")
+                          f"{theirs} | {at} | {line['notes']} |")
         for line in tables["published"]:
             others = published(source=line["source"], method=line["method"],
                                suite=line["env"].split("/")[0], task=line["env"].split("/", 1)[1], level=line["level"],

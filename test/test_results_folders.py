@@ -69,3 +69,27 @@ def test_a_changed_row_changes_the_summary():
     rows[0] = dict(rows[0], **{"return": rows[0]["return"] + 500.0})
     after = results_report.summarize(rows, reps=100)
     assert before[0]["mean"] != after[0]["mean"]
+
+
+def episode_rows(method: str, run_means: list[float], spread: float, level: str = "color_hard") -> list[dict]:
+    """10 episodes per run around each mean, ± ``spread`` (mean exact), for the report's verdict rules."""
+    return [{"method": method, "run": run, "env": "dmc/cartpole-balance", "level": level, "return": mean + spread * sign}
+            for run, mean in enumerate(run_means) for sign in (-1, 1) * 5]
+
+
+def test_a_level_is_resolved_only_by_the_stated_test_on_a_margin_above_the_errors():
+    def verdict(svea, drqv2, spread):
+        rows = episode_rows("svea", svea, spread) + episode_rows("drqv2", drqv2, spread)
+        return results_report.direction(results_report.improvements(rows, reps=50), rows, "svea", "drqv2")[0]
+
+    clear = verdict([900.0, 910.0, 920.0], [300.0, 310.0, 320.0], spread=10.0)
+    assert clear["p_value"] == pytest.approx(0.05) and clear["verdict"] == "svea better"
+    # every pair of runs agrees (p = 0.05, the floor for 3 runs each), but the closest runs differ by 2 points
+    # while each run's mean has a standard error of about 100 / sqrt(10) = 31.6: more episodes could flip it
+    fragile = verdict([502.0, 910.0, 920.0], [300.0, 310.0, 500.0], spread=100.0)
+    assert fragile["p_value"] == pytest.approx(0.05) and fragile["fragile"]
+    assert fragile["margin"] == pytest.approx(2.0) and fragile["error"] == pytest.approx(100.0 * (10 / 9) ** 0.5 / 10 ** 0.5)
+    assert fragile["verdict"].startswith("not resolved (fragile")
+    mixed = verdict([900.0, 200.0, 920.0], [300.0, 310.0, 320.0], spread=1.0)  # one svea run below every drqv2 run
+    assert mixed["p_value"] == pytest.approx(0.35) and mixed["verdict"] == "not resolved"
+    assert results_report.smallest_p_value(3, 3) == pytest.approx(0.05)

@@ -134,3 +134,21 @@ def test_a_plot_that_fails_while_drawing_leaves_no_file(tmp_path):
     with pytest.raises(KeyError, match="iqm_high"):
         plot_levels(lines, tmp_path / "levels.png")
     assert list(tmp_path.iterdir()) == [] and plt.get_fignums() == [], "nothing half-written, the figure closed"
+
+
+def test_plot_levels_draws_no_interval_for_a_method_of_one_run(tmp_path, monkeypatch):
+    from matplotlib.axes import Axes
+
+    drawn, titles = [], []
+    errorbar, set_title = Axes.errorbar, Axes.set_title
+    monkeypatch.setattr(Axes, "errorbar", lambda self, x, y, **kw: (drawn.append((list(x), kw["yerr"])), errorbar(self, x, y, **kw))[1])
+    monkeypatch.setattr(Axes, "set_title", lambda self, text, **kw: (titles.append(text), set_title(self, text, **kw))[1])
+    lines = [{"method": "svea", "level": "train", "runs": 3, "iqm": 900.0, "iqm_low": 880.0, "iqm_high": 950.0},
+             {"method": "random", "level": "train", "runs": 1, "iqm": 300.0, "iqm_low": 300.0, "iqm_high": 300.0}]
+    plot_levels(lines, tmp_path / "levels.png")
+    assert len(drawn) == 1 and len(drawn[0][0]) == 1, "one error bar: the 3-run method's"
+    assert drawn[0][1] == [[20.0], [50.0]]
+    assert "one run, no interval" in titles[0]
+    drawn.clear(), titles.clear()
+    plot_levels(lines[:1], tmp_path / "three.png")
+    assert len(drawn) == 1 and "one run" not in titles[0]

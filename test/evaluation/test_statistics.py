@@ -9,6 +9,7 @@ import pytest
 
 from vigen.evaluation import (generalization_gap, generalization_gap_ci, generalization_gaps, improvements, performance_profile,
                               performance_profile_ci, probability_of_improvement, probability_of_improvement_ci)
+from vigen.evaluation.statistics import improvement_p_value, smallest_p_value
 
 
 def brute_force_improvement(x: np.ndarray, y: np.ndarray) -> float:
@@ -70,3 +71,37 @@ def test_improvements_pair_methods_on_the_envs_both_ran():
     lines = improvements(rows, reps=50)
     assert [(line["method"], line["over"], line["tasks"], line["probability"]) for line in lines] == [
         ("svea", "drqv2", 1, 0.0), ("drqv2", "svea", 1, 1.0)], "svea's walker runs are not set against drqv2's cheetah runs"
+
+
+def permutation_p_value(x: list[float], y: list[float]) -> float:
+    """The exact one-sided p-value by its definition: the share of all splits of the pooled runs whose U is at least x's."""
+    pooled = x + y
+
+    def u(a, b):
+        return sum(1.0 if i > j else 0.5 if i == j else 0.0 for i in a for j in b)
+
+    observed = u(x, y)
+    splits = list(itertools.combinations(range(len(pooled)), len(x)))
+    at_least = sum(u([pooled[i] for i in chosen], [pooled[i] for i in range(len(pooled)) if i not in chosen]) >= observed
+                   for chosen in splits)
+    return at_least / len(splits)
+
+
+@pytest.mark.parametrize("x, y", [([3.0, 4.0, 5.0], [0.0, 1.0, 2.0]), ([0.0, 4.0, 5.0], [3.0, 1.0, 2.0]),
+                                  ([10.0, 20.0, 30.0, 40.0], [15.0, 5.0, 1.0]), ([1.0, 2.0, 3.0], [4.0, 5.0, 6.0])])
+def test_improvement_p_value_is_the_exact_mann_whitney_test(x, y):
+    p = improvement_p_value([[v] for v in x], [[v] for v in y])
+    assert p == pytest.approx(permutation_p_value(x, y), abs=1e-12)
+
+
+def test_three_runs_each_cannot_go_below_p_005():
+    assert smallest_p_value(3, 3) == pytest.approx(0.05)
+    far_apart = improvement_p_value([[1000.0], [1001.0], [1002.0]], [[0.0], [1.0], [2.0]])
+    assert far_apart == pytest.approx(0.05)  # however far apart the runs score
+
+
+def test_improvements_carry_the_p_value_of_each_pair():
+    rows = [{"method": m, "level": "train", "run": run, "env": "dmc/a", "return": r + run}
+            for m, r in [("svea", 900.0), ("drqv2", 100.0)] for run in range(3)]
+    lines = {(line["method"], line["over"]): line["p_value"] for line in improvements(rows, reps=50)}
+    assert lines[("svea", "drqv2")] == pytest.approx(0.05) and lines[("drqv2", "svea")] == pytest.approx(1.0)

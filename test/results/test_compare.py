@@ -88,8 +88,9 @@ def test_frames_and_agent_steps_are_never_mixed():
     with pytest.raises(ProtocolMismatch, match="checkpoint is at 500,000 frames; sgqn publish.* at 2,000,000 frames"):
         compare(rows(frames=500_000), source="sgqn", protocol="dmcgb")
     lines = compare(rows(frames=500_000), source="sgqn", protocol="dmcgb", allow_budget_mismatch=True)
-    assert not lines[0]["budget_matches"] and lines[0]["frames"] == 500_000
-    assert lines[0]["notes"].startswith("budget: run 500,000 frames, published 2,000,000")
+    assert lines[0]["frames"] == 500_000 and lines[0]["published_frames"] is None
+    assert math.isnan(lines[0]["published"]) and math.isnan(lines[0]["difference"]), "no number from another budget"
+    assert lines[0]["notes"].startswith("no published point at the run's 500,000 frames: the source publishes 2,000,000")
 
 
 def test_drqv2_curves_are_matched_at_the_runs_frame_count():
@@ -97,8 +98,15 @@ def test_drqv2_curves_are_matched_at_the_runs_frame_count():
     line = compare(run, source="drqv2", protocol="drqv2")[0]
     expected = published(source="drqv2", task="cartpole-balance", budget=40_000, statistic="mean")[0]
     assert (line["published"], line["published_frames"], line["published_seeds"]) == (expected.value, 40_000, 10)
-    with pytest.raises(ProtocolMismatch, match="publish.* train at 0, 20,000, 40,000"):
-        compare([dict(row, frames=30_000) for row in run], source="drqv2", protocol="drqv2")
+    between = compare([dict(row, frames=30_000) for row in run], source="drqv2", protocol="drqv2")[0]
+    at_20k, at_40k = (published(source="drqv2", task="cartpole-balance", budget=budget, statistic="mean")[0].value
+                      for budget in (20_000, 40_000))
+    assert between["published"] == pytest.approx(at_20k + (30_000 - 20_000) / (40_000 - 20_000) * (at_40k - at_20k))
+    assert between["published_frames"] == 30_000 and between["budget_matches"] is False
+    assert between["notes"].startswith("published mean interpolated linearly between 20,000 frames")
+    last = max(row.frames(2) for row in published(source="drqv2", task="cartpole-balance", statistic="mean"))
+    with pytest.raises(ProtocolMismatch, match="publish.* train at 0, 20,000, 40,000.*none at or around"):
+        compare([dict(row, frames=last + 10_000) for row in run], source="drqv2", protocol="drqv2")
 
 
 def test_success_rates_compare_with_published_success_in_percent():

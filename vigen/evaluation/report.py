@@ -131,6 +131,9 @@ def plot_levels(
 ) -> Path:
     """Bar plot, levels along x and one bar per method, heights ``statistic`` with its 95 % CI as error bars.
 
+    A method evaluated as one run (a line with ``runs`` 1) gets a hatched bar and no error bar, and
+    the title says so: a bootstrap over one run has no interval to show.
+
     ``statistic`` is ``"iqm"`` or ``"mean"`` (both with their bootstrap intervals) or
     ``"rlvigen_mean"`` (error bars ± the sample std over runs), as in RL-ViGen's figures.
 
@@ -148,27 +151,38 @@ def plot_levels(
     by_cell = {(str(line["level"]), str(line.get("method", "agent"))): line for line in lines}
     width = 0.8 / len(methods)
     with _figure(path, (max(4.0, 1.1 * len(levels) * max(1, len(methods)) ** 0.5 + 1.5), 3.2)) as axes:
+        single = False
         for index, method in enumerate(methods):
-            xs, heights, below, above = [], [], [], []
+            xs, heights, bands, hatches = [], [], [], []
             for position, level in enumerate(levels):
                 line = by_cell.get((level, method))
                 if line is None:
                     continue
-                height = float(line[statistic])
-                if statistic == "rlvigen_mean":
-                    spread = 0.0 if math.isnan(line["rlvigen_std"]) else float(line["rlvigen_std"])
-                    low, high = height - spread, height + spread
-                else:
-                    low, high = float(line[f"{statistic}_low"]), float(line[f"{statistic}_high"])
+                one_run = line.get("runs") == 1  # a bootstrap over one run has no spread: no interval is drawn
+                single |= one_run
                 xs.append(position - 0.4 + width * (index + 0.5))
-                heights.append(height)
-                below.append(height - low)
-                above.append(high - height)
-            axes.bar(xs, heights, width=width * 0.92, yerr=[below, above], capsize=3, label=method)
+                heights.append(float(line[statistic]))
+                if one_run:
+                    bands.append(None)
+                elif statistic == "rlvigen_mean":
+                    bands.append(_band(line, statistic))
+                else:  # a line of several runs must carry its interval
+                    bands.append((float(line[f"{statistic}_low"]), float(line[f"{statistic}_high"])))
+                hatches.append("//" if one_run else None)
+            bars = axes.bar(xs, heights, width=width * 0.92, label=method)
+            for bar, hatch in zip(bars, hatches):
+                bar.set_hatch(hatch)
+            drawn = [(x, height, band) for x, height, band in zip(xs, heights, bands) if band is not None]
+            if drawn:
+                axes.errorbar([x for x, _, _ in drawn], [height for _, height, _ in drawn], fmt="none", ecolor="black",
+                              capsize=3, yerr=[[height - band[0] for _, height, band in drawn],
+                                               [band[1] - height for _, height, band in drawn]])
         crowded = len(levels) > 4
         axes.set_xticks(range(len(levels)), levels, rotation=30 if crowded else 0, ha="right" if crowded else "center")
         axes.set_ylabel(ylabel)
-        axes.set_title(title or f"zero-shot {statistic.replace('_', ' ')} per level (95 % CI)")
+        interval = "± std over runs" if statistic == "rlvigen_mean" else "95 % CI"
+        caption = title or f"zero-shot {statistic.replace('_', ' ')} per level ({interval})"
+        axes.set_title(caption + ("\nhatched: one run, no interval" if single else ""), fontsize="medium")
         if len(methods) > 1:
             axes.legend(frameon=False, fontsize="small")
     return path
@@ -273,9 +287,14 @@ def comparison_table(lines: Sequence[Mapping[str, Any]]) -> str:
         std = "" if _number(line.get("std")) is None else f" ± {line['std']:.1f}"
         spread = "" if _number(line.get("published_spread")) is None else f" ± {line['published_spread']:.1f}"
         runs = f"{line['runs']} run{'s' * (line['runs'] != 1)}"
+        if _number(line["published"]) is None:  # no published point at the run's budget (see notes)
+            theirs, difference = "none at this budget", ""
+        else:
+            theirs = f"{line['published']:.1f}{spread} ({line['published_seeds']} seeds)"
+            difference = f"{line['difference']:+.1f}"
         table.append(f"| {line['env']} | {line['level']} | {line['method']} | {line.get('unit', 'return')} | "
-                     f"{line['mean']:.1f}{std} ({runs}) | {line['published']:.1f}{spread} ({line['published_seeds']} seeds) | "
-                     f"{line['source']}: {line['published_method']} | {line['difference']:+.1f} | {line.get('notes', '')} |")
+                     f"{line['mean']:.1f}{std} ({runs}) | {theirs} | "
+                     f"{line['source']}: {line['published_method']} | {difference} | {line.get('notes', '')} |")
     seeded = sorted({line["source"] for line in lines if line.get("published_statistic") == "seed"})
     table += ["", "vigen: mean ± sample std over runs of each run's mean. Published: mean ± std over seeds"
               + (f" (for {', '.join(seeded)} computed here from its per-seed values)." if seeded else ", as the source prints it.")]

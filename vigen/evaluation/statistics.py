@@ -10,6 +10,10 @@ https://arxiv.org/abs/2108.13264; ``benchmarks/rliable_parity.py`` checks them a
   each task;
 * **performance profile**: the fraction of all ``runs × tasks`` scores above each threshold τ (rliable's
   run-score distribution), with a stratified-bootstrap band;
+* **the one-sided Mann–Whitney U test** of "a run of X scores above a run of Y": the p-value
+  beside P(X > Y), the test that says whether a level is resolved. Its smallest possible p-value is
+  fixed by the number of runs: ``1 / C(n + m, n)``, which is 0.05 for 3 runs against 3, so 3 runs
+  per method can never show more than p = 0.05, however far apart they score;
 * **generalization gap** as a ratio: mean test score over mean training score of the same runs
   (1 = nothing lost; 1 − gap is the fraction lost), the form visual-RL papers quote ("test
   performance at 14 % of training", CNSN 2024); the difference train − test (Cobbe et al. 2019) is
@@ -20,7 +24,10 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import math
+
 import numpy as np
+from scipy import stats
 
 from vigen.evaluation.aggregate import as_scores, check_confidence, percentile_interval, resample_runs, stratified_picks
 
@@ -73,6 +80,45 @@ def probability_of_improvement_ci(
                              for chunk in _chunks(reps, x.shape[0] * y.shape[0] * x.shape[1])])
     low, high = percentile_interval(values, confidence)
     return float(low), float(high)
+
+
+def improvement_p_value(x: np.ndarray | list, y: np.ndarray | list) -> float:
+    """One-sided Mann–Whitney U test that runs of X score above runs of Y: its p-value.
+
+    ``x`` is ``[runs_x, tasks]`` and ``y`` ``[runs_y, tasks]``; each run is scored by its mean over
+    the tasks, and the test compares those run scores (scipy's ``mannwhitneyu``, ``alternative=
+    "greater"``: exact when no scores tie, the normal approximation with tie correction otherwise).
+    It answers the question P(X > Y) estimates: the p-value is small only when X's runs score above
+    Y's more often than a random ordering would. The smallest p-value a design can give is
+    :func:`smallest_p_value`; 0.05 for 3 runs against 3.
+
+    Examples:
+        >>> from vigen.evaluation.statistics import improvement_p_value
+        >>> round(improvement_p_value([[3.0], [4.0], [5.0]], [[0.0], [1.0], [2.0]]), 4)  # every run of X above: 1 / C(6, 3)
+        0.05
+        >>> round(improvement_p_value([[0.0], [4.0], [5.0]], [[3.0], [1.0], [2.0]]), 4)  # 6 of 9 pairs: 7 of 20 orders do as well
+        0.35
+    """
+    x, y = as_scores(x), as_scores(y)
+    if x.shape[1] != y.shape[1]:
+        raise ValueError(f"x and y must cover the same tasks, got {x.shape[1]} and {y.shape[1]} task columns.")
+    x_runs, y_runs = x.mean(axis=1), y.mean(axis=1)
+    method = "asymptotic" if len(np.intersect1d(x_runs, y_runs)) or len(set(x_runs)) < len(x_runs) \
+        or len(set(y_runs)) < len(y_runs) else "exact"
+    return float(stats.mannwhitneyu(x_runs, y_runs, alternative="greater", method=method).pvalue)
+
+
+def smallest_p_value(runs_x: int, runs_y: int) -> float:
+    """The smallest one-sided Mann–Whitney p-value ``runs_x`` runs against ``runs_y`` runs can give: ``1 / C(n + m, n)``.
+
+    Examples:
+        >>> from vigen.evaluation.statistics import smallest_p_value
+        >>> smallest_p_value(3, 3), round(smallest_p_value(5, 5), 4)
+        (0.05, 0.004)
+    """
+    if runs_x < 1 or runs_y < 1:
+        raise ValueError(f"both methods need at least one run, got {runs_x} and {runs_y}.")
+    return 1 / math.comb(runs_x + runs_y, runs_x)
 
 
 def _chunks(reps: int, cost: int, budget: int = 4_000_000) -> list[int]:

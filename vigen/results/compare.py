@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections import defaultdict
 from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any
 
@@ -116,19 +117,43 @@ def _run_scores(rows: Sequence[Mapping[str, Any]], value: str, clip_at_zero: boo
     return [float(np.mean(scores)) for scores in per_run.values()]
 
 
-def _at_budget(budgets: Mapping[int | None, list[PublishedScore]], run_frames: int | None, repeat: int, allow_mismatch: bool
-               ) -> tuple[list[PublishedScore] | None, str]:
-    """The published cell at the run's frames (or the only, unstated, budget); else the nearest if allowed, else why not."""
+@dataclass(frozen=True)
+class PublishedPoint:
+    """The published side of a comparison at the run's budget: its mean, spread, seeds and how it was found."""
+
+    mean: float
+    spread: float | None
+    seeds: int | None
+    frames: int | None
+    note: str = ""
+
+
+def _at_budget(budgets: Mapping[int | None, list[PublishedScore]], run_frames: int | None, repeat: int
+               ) -> tuple[PublishedPoint | None, str]:
+    """The published point at the run's budget, or why there is none.
+
+    The cell published at the run's frames (or the only one, when the source states no budget); else
+    the published means linearly interpolated between the two budgets around the run's; else
+    ``None`` and the budgets that exist. A point at another budget is never returned.
+    """
     if list(budgets) == [None]:
-        return budgets[None], ""
+        return PublishedPoint(*_published_mean(budgets[None]), frames=None), ""
     at_frames = {cell[0].frames(repeat): cell for budget, cell in budgets.items() if budget is not None}
     if run_frames in at_frames:
-        return at_frames[run_frames], ""
-    nearest = at_frames[min(at_frames, key=lambda frames: abs(frames - (run_frames or 0)))]
-    if allow_mismatch:
-        return nearest, ""
+        return PublishedPoint(*_published_mean(at_frames[run_frames]), frames=run_frames), ""
+    below = [frames for frames in at_frames if run_frames is not None and frames < run_frames]
+    above = [frames for frames in at_frames if run_frames is not None and frames > run_frames]
+    if below and above:
+        low, high = max(below), min(above)
+        (low_mean, _, low_seeds), (high_mean, _, high_seeds) = (_published_mean(at_frames[low]), _published_mean(at_frames[high]))
+        weight = (run_frames - low) / (high - low)
+        seeds = None if low_seeds is None or high_seeds is None else min(low_seeds, high_seeds)
+        return PublishedPoint(low_mean + weight * (high_mean - low_mean), None, seeds, run_frames,
+                              f"published mean interpolated linearly between {low:,} frames ({low_mean:.1f}) and "
+                              f"{high:,} frames ({high_mean:.1f}); the source publishes no point at {run_frames:,}"), ""
     shown = ", ".join(f"{frames:,}" for frames in sorted(at_frames)[:6]) + (" ..." if len(at_frames) > 6 else "")
-    return None, f"{shown} frames ({nearest[0].budget_text} at action repeat {repeat})"
+    some = next(iter(at_frames.values()))[0]
+    return None, f"{shown} frames ({some.budget_text} at action repeat {repeat}), none at or around the run's"
 
 
 def compare(
@@ -148,8 +173,11 @@ def compare(
         source: the source(s) to compare with (:data:`vigen.results.SOURCES`).
         protocol: the protocol the rows were produced under; it must be the source's.
         value: ``"return"`` or ``"success"`` (compared with published success rates in %).
-        allow_budget_mismatch: put a run beside published numbers measured after a different
-            training length (e.g. a run still in progress); each such line says so in ``notes``.
+        allow_budget_mismatch: show a run whose budget has no published point at it or around
+            it (e.g. a run still in progress) instead of raising: its line has no published number
+            (``published`` is NaN) and ``notes`` says which budgets the source publishes. A run is
+            never set beside a number published at another budget: between two published budgets
+            the published mean is interpolated linearly, and ``notes`` says so.
 
     Returns:
         Lines with the vigen side (``runs``, ``mean``, ``std`` over runs of each run's mean, as
@@ -224,21 +252,24 @@ def compare(
         repeat = protocol.action_repeat_for(env)
         for source_name, variant in dict.fromkeys(key[3:5] for key in matches):
             budgets = {key[5]: cells[key] for key in matches if key[3:5] == (source_name, variant)}
-            cell, problem = _at_budget(budgets, run_frames, repeat, allow_budget_mismatch)
-            if cell is None:
+            point, problem = _at_budget(budgets, run_frames, repeat)
+            if point is None and not allow_budget_mismatch:
                 key = (method, env, run_frames, problem)
                 budget_problems.setdefault(key, ({}, {}))[0][source_name] = None
                 budget_problems[key][1][level] = None
                 continue
-            mean, spread, seeds = _published_mean(cell)
+            cell = next(iter(budgets.values()))
+            if point is None:  # shown, with no published number beside it
+                point = PublishedPoint(float("nan"), None, None, None,
+                                       f"no published point at the run's {run_frames or 0:,} frames: the source publishes {problem}")
             clip = value == "return" and env.startswith(CLIPPED_AT_ZERO.get(source_name, ()))
             scores = _run_scores(members, value, clip_at_zero=clip)
-            published_frames = cell[0].frames(repeat)
+            mean, spread, seeds, published_frames = point.mean, point.spread, point.seeds, point.frames
             notes = [CLIP_NOTE] if clip else []
-            if published_frames is None:
+            if point.note:
+                notes.append(point.note)
+            elif published_frames is None:
                 notes.append("budget not published")
-            elif published_frames != run_frames:
-                notes.append(f"budget: run {run_frames or 0:,} frames, published {published_frames:,}")
             batches = {row.get("batch_size") for row in members} - {None, ""}
             if protocol.batch_size is not None and batches and batches != {protocol.batch_size}:
                 notes.append(f"batch: run {', '.join(map(str, sorted(batches)))}, {protocol.name}'s code {protocol.batch_size}")
@@ -254,7 +285,7 @@ def compare(
                 "published_method": cell[0].label, "source": source_name, "published": mean,
                 "published_spread": spread, "published_seeds": seeds, "published_statistic": cell[0].statistic,
                 "published_frames": published_frames,
-                "budget_matches": None if published_frames is None else published_frames == run_frames,
+                "budget_matches": None if published_frames is None else not point.note,
                 "difference": float(np.mean(scores)) - mean, "unit": cell[0].unit, "notes": "; ".join(notes),
                 "where": cell[0].where,
             })
@@ -263,8 +294,8 @@ def compare(
             f"{method} on {env}: the run's checkpoint is at {'an unknown number of' if frames is None else f'{frames:,}'} frames; "
             f"{', '.join(names)} publish(es) {', '.join(levels)} at {budget}"
             for (method, env, frames, budget), (names, levels) in budget_problems.items()],
-            "Evaluate a checkpoint at the published budget, or pass allow_budget_mismatch=True (--allow-budget-mismatch) "
-            "to show them anyway, labelled.")
+            "Evaluate a checkpoint at a published budget (or between two), or pass allow_budget_mismatch=True "
+            "(--allow-budget-mismatch) to show the run with no published number beside it, labelled.")
     if not lines:
         have = sorted({(row.method, row.env, row.level) for row in candidates})
         raise ValueError(f"{', '.join(sources)} publish(es) nothing for the rows' (method, env, level) "
