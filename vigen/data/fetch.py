@@ -258,7 +258,7 @@ def _extract_into_place(dataset: DataSet, folder: Path, path: Path, url: str, sh
         try:
             extract_zip(path, staging)
             check_layout(staging, archive.layout, where=f"{archive.file_name} (from {url})")
-        except (LayoutError, CorruptFileError) as error:
+        except DataError as error:
             kept = "It was removed." if downloaded else f"{path} was left as it is."
             if downloaded:
                 path.unlink()
@@ -267,7 +267,9 @@ def _extract_into_place(dataset: DataSet, folder: Path, path: Path, url: str, sh
             message = f"{str(error).partition(' Fix: ')[0]} {kept} {fix}"
             if isinstance(error, LayoutError):
                 raise LayoutError(message, missing=error.missing) from None
-            raise CorruptFileError(message, path=path, expected=error.expected, got=error.got) from None
+            if isinstance(error, CorruptFileError):
+                raise CorruptFileError(message, path=path, expected=error.expected, got=error.got) from None
+            raise DataError(message) from None
         report("record", message="recording the extracted files' sizes and sha256")
         record_manifest(staging, dataset.name, archive.layout.top,
                         {"file": archive.file_name, "url": url, "sha256": sha256, "size": path.stat().st_size})
