@@ -26,7 +26,7 @@ def toy(server, make_toy, monkeypatch):
 def test_fetch_path_list_verify(server, toy, isolated_cache, capsys):
     assert main(["path", "toy", "--part", "hard"]) == 1
     err = capsys.readouterr().err
-    assert "toy part hard is not fetched" in err and "hard 0/2 files present" in err
+    assert "toy part hard is not (fully) fetched" in err and "hard 0/2 files present" in err
     assert "Fetch it with: python -m vigen.data fetch toy --part hard" in err
 
     assert main(["fetch", "toy", "--part", "hard", "--mirror", server.url]) == 0
@@ -36,7 +36,7 @@ def test_fetch_path_list_verify(server, toy, isolated_cache, capsys):
     assert "(2 downloaded, 0 already present)" in err
 
     assert main(["path", "toy", "--part", "hard"]) == 0 and capsys.readouterr().out.strip() == str(isolated_cache / "toy/hard")
-    assert main(["path", "toy"]) == 1 and "toy is not fetched" in capsys.readouterr().err
+    assert main(["path", "toy"]) == 1 and "toy is not (fully) fetched" in capsys.readouterr().err
 
     assert main(["list"]) == 0
     out = capsys.readouterr().out

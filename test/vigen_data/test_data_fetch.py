@@ -91,7 +91,7 @@ def test_a_missing_file_is_named_with_its_url_and_the_others_are_kept(server, is
     message = str(caught.value)
     assert "1 of the 2 files of toy part hard could not be fetched" in message
     assert f"hard/b.bin: toy/hard/b.bin is not at {server.url}/toy/hard/b.bin (HTTP 404)" in message
-    assert "<cache>/toy/hard/b.bin" in message
+    assert f"copy the file to {isolated_cache / 'toy'}/<file>" in message
     assert _files(isolated_cache) == ["toy/hard/a.bin"] and locate(toy, "hard") is None
 
 

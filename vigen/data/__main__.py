@@ -14,6 +14,7 @@ Progress goes to stderr; results (list, verify reports, paths) to stdout. Exit s
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from collections.abc import Sequence
@@ -41,6 +42,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return args.run(args)
+    except BrokenPipeError:  # the reader of stdout went away (e.g. `| head`): stop quietly
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except UnknownDataSetError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
@@ -122,7 +126,7 @@ def _path(args: argparse.Namespace) -> int:
     parts = [part for part in status(dataset, args.root) if args.part is None or part.part == args.part]
     have = ", ".join(f"{p.part or 'files'} {p.present}/{p.expected if p.expected is not None else '?'}" for p in parts)
     scope = f"{dataset.name} part {args.part}" if args.part else dataset.name
-    print(f"{scope} is not fetched in {parts[0].folder.parent if args.part else parts[0].folder} ({have} files present). "
+    print(f"{scope} is not (fully) fetched in {parts[0].folder.parent if args.part else parts[0].folder} ({have} files present). "
           f"Fetch it with: {fetch_command(dataset.name, args.part, root=args.root)}", file=sys.stderr)
     return 1
 

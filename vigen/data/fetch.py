@@ -171,7 +171,7 @@ def _failure_summary(dataset: DataSet, part: str | None, files: tuple[PinnedFile
     for pinned, error in failures:
         text, _, fix = str(error).partition(" Fix: ")
         lines.append(f"  - {pinned.path}: {text}")
-        fix = fix.replace(str(folder / pinned.path), "<cache>/" + dataset.name + "/" + pinned.path)
+        fix = fix.replace(str(folder / pinned.path), f"{folder}/<file>")  # one fix line for all files that share it
         if fix and fix not in fixes:
             fixes.append(fix)
     lines += [f"Fix: {fix}" for fix in fixes]
