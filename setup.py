@@ -60,7 +60,11 @@ setup(
     long_description_content_type="text/markdown",
     license="MIT",
     packages=find_packages(include=["vigen", "vigen.*"]),
-    package_data={"vigen.results": ["data/*.csv"], "vigen.pretrained": ["agents/*.pt", "agents/*.json"]},
+    package_data={
+        "vigen.results": ["data/*.csv"],
+        "vigen.pretrained": ["agents/*.pt", "agents/*.json"],
+        "vigen.data": ["*.tsv"],  # the pinned file lists of the fetched data sets
+    },
     python_requires=">=3.10",
     install_requires=install_requires,
     extras_require=extras_require,
