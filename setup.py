@@ -60,7 +60,8 @@ setup(
     long_description_content_type="text/markdown",
     license="MIT",
     packages=find_packages(include=["vigen", "vigen.*"]),
-    package_data={"vigen.results": ["data/*.csv"], "vigen.pretrained": ["agents/*.pt", "agents/*.json"]},
+    package_data={"vigen.results": ["data/*.csv"], "vigen.pretrained": ["agents/*.pt", "agents/*.json"],
+                  "vigen.assets": ["data/*.json"]},  # DMC-GB's colour presets (plain JSON, with their MIT notice)
     python_requires=">=3.10",
     install_requires=install_requires,
     extras_require=extras_require,
