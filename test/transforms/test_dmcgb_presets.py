@@ -18,7 +18,8 @@ from vigen.assets.palettes import DMCGB_PRESETS, PALETTE_KEYS, dmcgb_presets_rec
 ROOT = Path(__file__).resolve().parents[2]
 SHARED = ROOT.parent / "shared" / "data" / "dmcgb"
 SHIPPED = ROOT / "vigen" / "assets" / "data" / "dmcgb_colors.json"
-NO_SAMPLE = "DMC-GB's color_{easy,hard}.pt are not at ../shared/data/dmcgb (a user's clone): nothing to compare the shipped values with"
+NO_SAMPLE = ("DMC-GB's color_{easy,hard}.pt are not at ../shared/data/dmcgb (a user's clone): nothing to compare the "
+             "shipped values with")
 DMCGB_COMMIT = "ff9c0aa8d47685ed972414c67f1b7225e37ff85e"
 DMCGB2_COMMIT = "5fd8fd7a886319a4a6854b4f8c421f897a32e776"
 
