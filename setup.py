@@ -63,6 +63,7 @@ setup(
     package_data={
         "vigen.results": ["data/*.csv"],
         "vigen.pretrained": ["agents/*.pt", "agents/*.json"],
+        "vigen.assets": ["data/*.json"],  # DMC-GB's colour presets (plain JSON, with their MIT notice)
         "vigen.data": ["*.tsv"],  # the pinned file lists of the fetched data sets
     },
     python_requires=">=3.10",

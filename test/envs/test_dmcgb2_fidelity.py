@@ -14,6 +14,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from vigen.assets import dmcgb_presets
 from vigen.envs import make_env
 from vigen.envs.dmc import DMC
 from vigen.rendering import RenderSettings
@@ -193,7 +194,7 @@ def test_reads_the_source_colour_files(name):
 
 
 def test_missing_or_bad_colour_files_say_so(tmp_path):
-    with pytest.raises(FileNotFoundError, match="does not download"):
+    with pytest.raises(FileNotFoundError, match="does not exist. DMC-GB's presets ship with vigen"):
         RandomSceneColors(dmcgb2_colors=tmp_path / "color_hard.pt")
     bad = tmp_path / "bad.pt"
     bad.write_bytes(pickle.dumps([{"grid_rgb1": [0.1, 0.2, 0.3]}]))
@@ -203,6 +204,29 @@ def test_missing_or_bad_colour_files_say_so(tmp_path):
         RandomSceneColors(dmcgb2_colors=tmp_path)
     with pytest.raises(ValueError, match="pass one of them"):
         RandomSceneColors(palette=presets(2), dmcgb2_colors=presets(2))
+
+
+@pytest.mark.parametrize("level", ["color_video_easy", "color_video_hard"])
+@pytest.mark.parametrize("seed", [0, 42])
+def test_colour_video_cycles_the_shipped_presets_without_a_file(level, seed):
+    # DMC-GB2-only levels: its (DMC-GB's) presets, cycled from RandomState(seed).randint(100), no file to pass
+    colors, _ = DMC.level_transforms("walker-walk", level, seed=seed)
+    entries = dmcgb_presets(level.replace("_video", ""))
+    for index in source_color_indices(seed, 100, 3):
+        colors.params = colors.sample(colors.generator(), {})
+        assert colors.params["preset"] == index
+        assert all(np.array_equal(colors.params[key], entries[index][key]) for key in entries[index])
+
+
+@pytest.mark.render
+def test_colour_video_shows_the_shipped_preset_of_the_cycle():
+    env = build("color_video_hard", 5)
+    env.reset()
+    model, entry = env.base_env.scene.model, dmcgb_presets("color_hard")[source_color_indices(5, 100, 1)[0]]
+    reference = source_textures(entry)
+    for name in ("grid", "skybox"):
+        assert np.array_equal(texture(model, name), texture(reference, name)), name
+    assert np.array_equal(model.mat_rgba, reference.mat_rgba)
 
 
 # -- 5. one start index for the colours and the videos -------------------------------------------------------------

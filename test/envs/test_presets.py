@@ -33,9 +33,16 @@ def test_every_preset_names_its_source():
         assert "Distracting Control" in DMC.levels[name].source
 
 
-def test_dmcgb_colour_presets_have_the_palette_statistics():
-    assert [t.scale for t in built("color_easy")] == [0.1] and [t.scale for t in built("color_hard")] == [0.2]
-    assert all(isinstance(t, RandomSceneColors) and t.parts == ("grid", "skybox", "self") for t in built("color_hard"))
+def test_dmcgb_colour_levels_show_its_presets_and_keep_the_statistics_by_name():
+    # DMC-GB's color_easy / color_hard draw from its own 100 presets (shipped); the statistics-matched stand-ins
+    # (default + N(0, scale²), 0.1 / 0.2 measured from those presets) stay available as palette="statistics"
+    for level in ("color_easy", "color_hard"):
+        (colors,) = built(level)
+        assert isinstance(colors, RandomSceneColors) and colors.parts == ("grid", "skybox", "self")
+        assert (colors.palette_name, colors.draw, len(colors.palette), colors.uses_stand_in) == (level, "dmcgb", 100, False)
+    stand_ins = [DMC.level_transforms("walker-walk", level, seed=0, palette="statistics")[0]
+                 for level in ("color_easy", "color_hard")]
+    assert [(t.scale, t.palette, t.uses_stand_in) for t in stand_ins] == [(0.1, None, True), (0.2, None, True)]
     assert [t.floor for t in built("video_easy")] == [False] and [t.floor for t in built("video_hard")] == [True]
 
 
@@ -65,7 +72,8 @@ def test_dmcgb2_rotate_ranges_are_the_sources():
 def test_color_video_is_colour_and_video_together():
     for difficulty, scale in (("easy", 0.1), ("hard", 0.2)):
         colors, video = built(f"color_video_{difficulty}")
-        assert isinstance(colors, RandomSceneColors) and colors.scale == scale
+        assert isinstance(colors, RandomSceneColors) and colors.scale == scale  # the scale of palette="statistics"
+        assert (colors.palette_name, colors.draw) == (f"color_{difficulty}", "dmcgb2")  # its presets, cycled by default
         assert isinstance(video, VideoBackground) and video.floor is False  # only video_hard removes it (dmcgb_photometric.py:47)
 
 

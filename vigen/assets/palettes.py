@@ -1,9 +1,19 @@
-"""DMC-GB's colour presets (``color_easy.pt`` / ``color_hard.pt``), read without running code from the file."""
+"""DMC-GB's colour presets: the shipped copy (:func:`dmcgb_presets`) and a reader for ``color_easy.pt`` / ``color_hard.pt`` files.
+
+vigen ships DMC-GB's two preset lists as plain JSON (``vigen/assets/data/dmcgb_colors.json``, with
+DMC-GB's MIT license notice and the repository, commit, file and git blob id they come from), so
+the ``color_easy`` / ``color_hard`` levels show the benchmark's own colours without any download.
+A user's own preset file (a pickle, as DMC-GB stores them) is read by :func:`load_dmcgb_palette`
+without running code.
+"""
 
 from __future__ import annotations
 
+import functools
 import importlib
+import importlib.resources
 import io
+import json
 import os
 import pickle
 import re
@@ -15,6 +25,54 @@ import torch
 
 PALETTE_KEYS = ("grid_rgb1", "grid_rgb2", "skybox_rgb", "self_rgb")
 """The four colours of a DMC-GB preset: floor checker (two tones), sky, and the agent's ``self`` material."""
+
+DMCGB_PRESETS = ("color_easy", "color_hard")
+"""The names of DMC-GB's preset lists that ship with vigen (100 entries each)."""
+
+DMCGB_PRESETS_FILE = "dmcgb_colors.json"
+"""The file under ``vigen/assets/data`` that holds them, with their license notice and provenance."""
+
+
+def dmcgb_presets(name: str) -> list[dict[str, np.ndarray]]:
+    """DMC-GB's ``color_easy`` or ``color_hard`` presets as shipped with vigen: 100 dicts of four float64 RGB triples.
+
+    The values equal those of DMC-GB's ``src/env/data/color_{easy,hard}.pt`` exactly (see
+    :func:`dmcgb_presets_record` for the license notice, the commit and the files' git blob ids).
+    Each call returns fresh arrays, so editing them changes nothing for the next caller.
+
+    Examples:
+        >>> presets = dmcgb_presets("color_hard")
+        >>> len(presets), sorted(presets[0]), presets[0]["grid_rgb1"].dtype
+        (100, ['grid_rgb1', 'grid_rgb2', 'self_rgb', 'skybox_rgb'], dtype('float64'))
+        >>> dmcgb_presets("colour_hard")
+        Traceback (most recent call last):
+        ...
+        ValueError: Unknown DMC-GB preset list 'colour_hard'; vigen ships 'color_easy' and 'color_hard'.
+    """
+    if name not in DMCGB_PRESETS:
+        raise ValueError(f"Unknown DMC-GB preset list {name!r}; vigen ships 'color_easy' and 'color_hard'.")
+    return check_palette(_shipped_presets()["presets"][name], f"vigen's shipped DMC-GB {name} presets")
+
+
+def dmcgb_presets_record() -> dict[str, Any]:
+    """What the shipped presets file says about itself: ``about``, ``license`` (name, copyright, text) and ``provenance``.
+
+    Examples:
+        >>> record = dmcgb_presets_record()
+        >>> record["license"]["name"], record["provenance"]["commit"][:7]
+        ('MIT', 'ff9c0aa')
+        >>> record["provenance"]["files"]["color_hard"]["git_blob"][:7]
+        'f13f9f4'
+    """
+    data = _shipped_presets()
+    return json.loads(json.dumps({key: data[key] for key in ("about", "license", "provenance")}))  # a copy
+
+
+@functools.lru_cache(maxsize=1)
+def _shipped_presets() -> dict[str, Any]:
+    """The shipped JSON file, parsed once (plain JSON: reading it runs no code)."""
+    text = importlib.resources.files("vigen.assets").joinpath("data", DMCGB_PRESETS_FILE).read_text(encoding="utf-8")
+    return json.loads(text)
 
 
 def load_dmcgb_palette(path: str | os.PathLike) -> list[dict[str, np.ndarray]]:

@@ -6,7 +6,7 @@ imports dm_control when the first env is built), the level table, groups and fac
 Examples:
     >>> from vigen.envs.dmc import DMC
     >>> DMC.levels["color_hard"].steps
-    (RandomSceneColors(scale=0.2, rebuild_textures=True, dmcgb2_file='color_hard.pt'),)
+    (RandomSceneColors(palette='color_hard', scale=0.2, rebuild_textures=True, dmcgb2_file='color_hard.pt'),)
 """
 
 from __future__ import annotations
@@ -123,21 +123,26 @@ def dmcgb2_level(mode: str, difficulty: str) -> Level:
                  (Step(DMCGB2Camera, {"mode": mode, "difficulty": difficulty, "domain": Domain()}),))
 
 
+def dmcgb_color_level(difficulty: str, scale: float) -> Level:
+    """DMC-GB's ``color_{difficulty}``: its 100 presets (shipped with vigen), one drawn per episode as DMC-GB draws it.
+
+    ``level_options={"draw": "dmcgb2"}`` cycles the presets as DMC-GB2 does (its ``color_{difficulty}``),
+    ``{"palette": "statistics"}`` draws stand-in colours, default + N(0, ``scale``²) per channel, and
+    ``{"palette": <file or folder>}`` / ``{"dmcgb2_colors": <file or folder>}`` read a user's copy.
+    """
+    return Level(
+        f"floor, sky and agent colours: one of DMC-GB's 100 color_{difficulty} presets per episode, drawn as DMC-GB "
+        f"draws it for the env seed (DMC-GB2's cycle with level_options={{'draw': 'dmcgb2'}}; stand-ins, default + "
+        f"N(0, {scale}²) per channel, with {{'palette': 'statistics'}})",
+        f"DMC-GB color_{difficulty} (its 100 presets, shipped); DMC-GB2 color_{difficulty} (the same presets, cycled)",
+        (Step(RandomSceneColors, {"palette": f"color_{difficulty}", "scale": scale, "rebuild_textures": True,
+                                  "dmcgb2_file": f"color_{difficulty}.pt"}),),
+    )
+
 
 LEVELS: dict[str, Level] = {
     "train": Level("the clean training scene", "all"),
-    "color_easy": Level(
-        "floor, sky and agent colours: default + N(0, 0.1²) per channel (DMC-GB2's presets in its order with "
-        "level_options={'dmcgb2_colors': <DMC-GB2's envs/dmcgb/data>})",
-        "DMC-GB color_easy (statistics of its presets); DMC-GB2 color_easy",
-        (Step(RandomSceneColors, {"scale": 0.1, "rebuild_textures": True, "dmcgb2_file": "color_easy.pt"}),),
-    ),
-    "color_hard": Level(
-        "floor, sky and agent colours: default + N(0, 0.2²) per channel (DMC-GB2's presets in its order with "
-        "level_options={'dmcgb2_colors': <DMC-GB2's envs/dmcgb/data>})",
-        "DMC-GB color_hard (statistics of its presets); DMC-GB2 color_hard",
-        (Step(RandomSceneColors, {"scale": 0.2, "rebuild_textures": True, "dmcgb2_file": "color_hard.pt"}),),
-    ),
+    **{f"color_{difficulty}": dmcgb_color_level(difficulty, scale) for difficulty, scale in (("easy", 0.1), ("hard", 0.2))},
     "objects_color_easy": Level(
         "agent colour only: default + N(0, 0.1²)",
         "RL-ViGen objects_color easy",
@@ -187,10 +192,13 @@ LEVELS: dict[str, Level] = {
        for difficulty in ("easy", "hard")},
     **{
         f"color_video_{difficulty}": Level(
-            f"color_{difficulty} and a sky video together (the floor stays, recoloured); colours and videos start from "
-            "one seeded index; DMC-GB2's in-scene video screen with level_options={'screen': True}",
-            "DMC-GB2 color_video (its video is on an in-scene screen box; vigen composites by segmentation unless screen=True)",
-            (Step(RandomSceneColors, {"scale": scale, "rebuild_textures": True, "dmcgb2_file": f"color_{difficulty}.pt"}),
+            f"color_{difficulty}'s 100 presets cycled as DMC-GB2 cycles them, and a sky video (the floor stays, "
+            "recoloured); colours and videos start from one index seeded by the env seed; DMC-GB2's in-scene video "
+            "screen with level_options={'screen': True}",
+            f"DMC-GB2 color_video_{difficulty} (its presets, shipped; its video is on an in-scene screen box: vigen "
+            "composites by segmentation unless screen=True)",
+            (Step(RandomSceneColors, {"palette": f"color_{difficulty}", "draw": "dmcgb2", "scale": scale,
+                                      "rebuild_textures": True, "dmcgb2_file": f"color_{difficulty}.pt"}),
              Step(DMCGB2VideoBackground, {"floor": False, "domain": Domain()})),
         )
         for difficulty, scale in (("easy", 0.1), ("hard", 0.2))

@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 import torch
 
-from vigen.assets.palettes import PALETTE_KEYS, check_palette, load_dmcgb_palette
+from vigen.assets.palettes import DMCGB_PRESETS, PALETTE_KEYS, check_palette, dmcgb_presets, load_dmcgb_palette
 from vigen.transforms.scene.base import Defaults, SceneHandle, SceneParams, ScenePerturbation
 from vigen.transforms.scene.builtin_textures import (
     CUBE_FACES,
@@ -25,6 +25,18 @@ from vigen.transforms.scene.mujoco import named_id, texture_pixels
 
 PARTS = ("grid", "skybox", "self")
 
+STATISTICS = "statistics"
+"""The palette name of the statistics-matched stand-in colours (default + N(0, scale²) per channel)."""
+
+PALETTE_NAMES = (*DMCGB_PRESETS, STATISTICS)
+"""The named palettes: DMC-GB's shipped ``color_easy`` / ``color_hard`` presets and the statistics draw."""
+
+DRAWS = ("dmcgb", "dmcgb2")
+"""How presets are chosen per episode: DMC-GB's draw per reset, or DMC-GB2's cycle from a seeded start."""
+
+_PALETTE_CHOICES = ("'color_easy' / 'color_hard' (DMC-GB's presets, shipped), 'statistics' (stand-in colours, default + "
+                    "N(0, scale²)), a color_*.pt file or its folder, or a list of preset entries")
+
 
 class RandomSceneColors(ScenePerturbation):
     """Recolour the floor grid, the skybox and the agent's ``self`` material once per episode (DMC-GB).
@@ -32,84 +44,154 @@ class RandomSceneColors(ScenePerturbation):
     DMC-GB draws one of 100 presets per episode and reloads the physics from rewritten XML;
     vigen edits the live model instead (material colour, and the texture pixels of the grid and
     the skybox, re-uploaded to the render context), which gives the same colours without a
-    recompile. Without a palette file, colours are drawn the way the presets were made (measured
-    from DMC-GB's files): each channel of ``grid_rgb1``, ``skybox_rgb`` and ``self_rgb`` is its
-    default plus N(0, ``scale``²), clipped to [0, 1], and ``grid_rgb2 = grid_rgb1 + 0.1`` (the
-    default offset). ``scale`` is 0.1 for DMC-GB's ``color_easy`` and 0.2 for ``color_hard``. With
-    ``palette`` (a DMC-GB ``color_*.pt`` file or a list of its entries) one entry is drawn per
-    episode, uniformly. With ``dmcgb2_colors`` (DMC-GB2's ``envs/dmcgb/data/color_{easy,hard}.pt``,
-    or its entries) the entries are cycled as DMC-GB2 does (``dmcgb_photometric.py:53, 58, 176-179``):
-    episode ``k`` shows entry ``(start + k) % len(entries)`` with ``start =
-    np.random.RandomState(s).randint(100)`` for the env seed ``s`` (the seed of the vigen env the
-    transform sits in, or ``source_seed``; see :mod:`~vigen.transforms.scene.dmcgb2_seed`), so a
-    vigen env and a DMC-GB2 env seeded alike show the same colours in the same episodes.
+    recompile. ``palette`` says where the colours come from:
+
+    * ``"color_easy"`` / ``"color_hard"``: DMC-GB's own 100 presets, which ship with vigen
+      (:func:`~vigen.assets.palettes.dmcgb_presets`; the defaults of the ``color_*`` levels).
+    * a DMC-GB / DMC-GB2 preset file (``color_*.pt``; or the folder holding it, read at
+      ``dmcgb2_file``), or a list of its entries.
+    * ``"statistics"`` (the default; ``None`` is the same): stand-in colours drawn the way the
+      presets were made (measured from DMC-GB's files): each channel of ``grid_rgb1``,
+      ``skybox_rgb`` and ``self_rgb`` is its default plus N(0, ``scale``²), clipped to [0, 1], and
+      ``grid_rgb2 = grid_rgb1 + 0.1`` (the default offset). ``scale`` is 0.1 for ``color_easy``
+      and 0.2 for ``color_hard``.
+
+    ``draw`` says which preset each episode shows. ``"dmcgb"`` (the default) draws as DMC-GB's
+    ``ColorWrapper`` (``src/env/wrappers.py``): one ``np.random.RandomState(s)`` per env, seeded
+    with the env seed ``s``, and ``randint(len(presets))`` at every reset, the first included.
+    ``"dmcgb2"`` cycles as DMC-GB2 does (``dmcgb_photometric.py:53, 58, 176-179``): episode ``k``
+    shows preset ``(start + k) % len(presets)`` with ``start = np.random.RandomState(s).randint(100)``.
+    Either way ``s`` is the seed of the vigen env the transform sits in (or ``source_seed``; see
+    :mod:`~vigen.transforms.scene.dmcgb2_seed`), so a vigen env and a DMC-GB (DMC-GB2) env seeded
+    alike show the same presets in the same episodes. ``dmcgb2_colors`` (a user's DMC-GB2 file,
+    folder or entries) takes the place of a named palette and implies ``draw="dmcgb2"``. The
+    statistics draw has no presets: it ignores ``draw``.
 
     Texture edits keep each texture's structure: the checker's two tones and the sky gradient's
     two ends are mapped to the new colours, and the sky's white stars stay white. With
-    ``rebuild_textures`` (implied by ``dmcgb2_colors``) the pixels are those MuJoCo builds from the
-    new colours when DMC-GB / DMC-GB2 recompile the XML (:mod:`~vigen.transforms.scene.builtin_textures`):
-    colours become bytes by truncation, the grid's edge marks keep their ``markrgb`` (neither
-    source edits it), and the sky is MuJoCo's gradient recomputed for the new top colour; a
-    texture that is not MuJoCo's builtin checker / gradient keeps the tone mapping.
+    ``rebuild_textures`` (implied by ``draw="dmcgb2"``; the ``color_*`` levels set it) the pixels
+    are those MuJoCo builds from the new colours when DMC-GB / DMC-GB2 recompile the XML
+    (:mod:`~vigen.transforms.scene.builtin_textures`): colours become bytes by truncation, the
+    grid's edge marks keep their ``markrgb`` (neither source edits it), and the sky is MuJoCo's
+    gradient recomputed for the new top colour; a texture that is not MuJoCo's builtin checker /
+    gradient keeps the tone mapping.
+
+    :attr:`data_source` names what the transform shows (for evaluation rows) and
+    :attr:`uses_stand_in` is True for the statistics draw only.
 
     Paper: DMC-GB / SODA, https://arxiv.org/abs/2011.13389.
 
     Args:
-        scale: standard deviation of the colour noise (ignored with ``palette``).
-        palette: DMC-GB preset file or entries.
+        scale: standard deviation of the colour noise of the statistics draw (ignored with presets).
+        palette: ``"color_easy"`` / ``"color_hard"`` (shipped DMC-GB presets), ``"statistics"``
+            (or ``None``), a preset file or folder, or a list of preset entries.
         parts: which of ``"grid"``, ``"skybox"``, ``"self"`` to recolour (RL-ViGen's
             ``objects_color`` is ``("self",)``).
         rebuild_textures: write the textures MuJoCo builds for the new colours (see above).
-        dmcgb2_colors: DMC-GB2 preset file or entries, cycled from a seeded start (exclusive with ``palette``);
-            or DMC-GB2's data folder (``envs/dmcgb/data``), read at ``dmcgb2_file``.
-        dmcgb2_file: the preset file to read in a ``dmcgb2_colors`` folder (the levels set ``color_easy.pt``
-            or ``color_hard.pt``, so one folder serves every DMC-GB2 colour level).
-        source_seed: DMC-GB2's env seed for ``dmcgb2_colors``' start; ``None``: the vigen env's seed.
+        dmcgb2_colors: DMC-GB2 preset file or entries, cycled from a seeded start (in place of a
+            named palette); or DMC-GB2's data folder (``envs/dmcgb/data``), read at ``dmcgb2_file``.
+        dmcgb2_file: the preset file to read in a folder given as ``dmcgb2_colors`` or ``palette``
+            (the levels set ``color_easy.pt`` or ``color_hard.pt``, so one folder serves every colour level).
+        source_seed: the source env's seed (DMC-GB's or DMC-GB2's) for the preset draw; ``None``:
+            the vigen env's seed.
+        draw: ``"dmcgb"`` (DMC-GB's draw per reset) or ``"dmcgb2"`` (DMC-GB2's cycle); ``None``:
+            ``"dmcgb2"`` with ``dmcgb2_colors``, else ``"dmcgb"``.
         seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
 
     Examples:
         >>> from vigen.envs import make_env
         >>> from vigen.transforms import RandomSceneColors
-        >>> env = make_env("dmc/walker-walk").append_transform(RandomSceneColors(scale=0.2, seed=0))
+        >>> colors = RandomSceneColors(palette="color_hard", rebuild_textures=True, seed=0)
+        >>> colors
+        RandomSceneColors(palette='color_hard', parts=('grid', 'skybox', 'self'), rebuild_textures=True, seed=0)
+        >>> colors.data_source, colors.uses_stand_in
+        ('DMC-GB color_hard presets (shipped, 100)', False)
+        >>> env = make_env("dmc/walker-walk").append_transform(colors)
         >>> env.reset()["pixels"].shape
         torch.Size([9, 84, 84])
+        >>> RandomSceneColors(scale=0.2).data_source
+        'statistics-matched stand-in colours (scale=0.2)'
     """
 
     def __init__(
         self,
         scale: float = 0.1,
-        palette: str | os.PathLike | Sequence[dict[str, Any]] | None = None,
+        palette: str | os.PathLike | Sequence[dict[str, Any]] | None = STATISTICS,
         parts: Sequence[str] = PARTS,
         rebuild_textures: bool = False,
         dmcgb2_colors: str | os.PathLike | Sequence[dict[str, Any]] | None = None,
         dmcgb2_file: str | None = None,
         source_seed: int | None = None,
+        draw: str | None = None,
         seed: int | None = None,
     ) -> None:
         unknown = set(parts) - set(PARTS)
         if unknown:
             raise ValueError(f"Unknown parts {sorted(unknown)}; choose from {PARTS}.")
-        if palette is not None and dmcgb2_colors is not None:
-            raise ValueError("RandomSceneColors: palette (DMC-GB: one entry drawn per episode) and dmcgb2_colors (DMC-GB2: "
-                             "entries cycled from a seeded start) choose the colours two ways; pass one of them.")
+        if draw is not None and draw not in DRAWS:
+            raise ValueError(f"RandomSceneColors: unknown draw {draw!r}; choose 'dmcgb' (DMC-GB: one preset drawn per reset "
+                             "from RandomState(env seed)) or 'dmcgb2' (DMC-GB2: presets cycled from a seeded start).")
+        palette = STATISTICS if palette is None else palette
+        named = isinstance(palette, str) and palette in PALETTE_NAMES
+        if isinstance(palette, str) and not named and not _looks_like_a_path(palette):
+            raise ValueError(f"RandomSceneColors: unknown palette {palette!r}; choose {_PALETTE_CHOICES}.")
+        if dmcgb2_colors is not None:
+            if not named:
+                raise ValueError("RandomSceneColors: palette (a preset file or entries) and dmcgb2_colors (DMC-GB2's presets) "
+                                 "both give the colours; pass one of them (palette=<file>, draw='dmcgb2' cycles a file "
+                                 "as DMC-GB2 does).")
+            if draw == "dmcgb":
+                raise ValueError("RandomSceneColors: dmcgb2_colors are cycled as DMC-GB2 cycles them; draw='dmcgb' contradicts "
+                                 "it. Pass palette=<file> to draw a file's presets as DMC-GB does.")
+            palette, draw, named = dmcgb2_colors, "dmcgb2", False
         if not isinstance(rebuild_textures, bool):
             raise TypeError(f"RandomSceneColors: rebuild_textures is True or False, got {rebuild_textures!r}.")
         source_seed = check_source_seed(source_seed, "RandomSceneColors")
         super().__init__(seed=seed)
         self.source_seed = source_seed
         self.scale = scale
-        self.cycle = dmcgb2_colors is not None
-        given = dmcgb2_colors if self.cycle else palette
-        option = "dmcgb2_colors" if self.cycle else "palette"
-        self.palette_source = given if given is None or isinstance(given, (str, os.PathLike)) else "entries"
-        if given is None:
-            self.palette = None
-        elif isinstance(given, (str, os.PathLike)):
-            self.palette = _load_dmcgb2_colors(given, dmcgb2_file) if self.cycle else load_dmcgb_palette(given)
+        self.from_dmcgb2_colors = dmcgb2_colors is not None
+        self.palette_name = palette if named and palette != STATISTICS else None
+        if isinstance(palette, str) and palette == STATISTICS:
+            self.palette, self.palette_source = None, None
+        elif named:
+            self.palette, self.palette_source = dmcgb_presets(palette), palette
+        elif isinstance(palette, (str, os.PathLike)):
+            option = "dmcgb2_colors" if self.from_dmcgb2_colors else "palette"
+            self.palette_source = _preset_file(palette, dmcgb2_file, option)
+            self.palette = load_dmcgb_palette(self.palette_source)
         else:  # entries given in code: checked now, not at the first reset
-            self.palette = check_palette(list(given) if isinstance(given, Sequence) else given, f"RandomSceneColors({option}=...)")
+            option = "dmcgb2_colors" if self.from_dmcgb2_colors else "palette"
+            self.palette = check_palette(list(palette) if isinstance(palette, Sequence) else palette,
+                                         f"RandomSceneColors({option}=...)")
+            self.palette_source = "entries"
+        self.draw = (draw or "dmcgb") if self.palette is not None else None
+        self.cycle = self.draw == "dmcgb2"
         self.rebuild_textures = rebuild_textures or self.cycle
         self.parts = tuple(parts)
+        self._source_rng: np.random.RandomState | None = None
+
+    @property
+    def uses_stand_in(self) -> bool:
+        """True when the colours are the statistics-matched stand-ins, not a benchmark's (or a user's) presets."""
+        return self.palette is None
+
+    @property
+    def data_source(self) -> str:
+        """What the colours are, in a few words, e.g. ``"DMC-GB color_hard presets (shipped, 100)"``."""
+        if self.palette is None:
+            return f"statistics-matched stand-in colours (scale={self.scale})"
+        count = len(self.palette)
+        if self.palette_name is not None:
+            if self.cycle:
+                return f"DMC-GB2 {self.palette_name} presets, cycled (shipped, {count})"
+            return f"DMC-GB {self.palette_name} presets (shipped, {count})"
+        where = "given in code" if self.palette_source == "entries" else str(self.palette_source)
+        return f"user presets {where} ({count})" + (", cycled as DMC-GB2" if self.cycle else "")
+
+    def set_seed(self, seed: int | None) -> None:
+        super().set_seed(seed)
+        self._source_rng = None  # DMC-GB's draws restart, as in a DMC-GB env built with the new seed
 
     def read_defaults(self, scene: SceneHandle) -> Defaults:
         model = scene.model
@@ -148,17 +230,20 @@ class RandomSceneColors(ScenePerturbation):
             else:
                 start, episode = photometric_start(resolve_source_seed(self.source_seed, self.seed, rng)), 0
             preset = (start + episode) % len(self.palette)
-            entry = self.palette[preset]
-            return {**{key: np.asarray(entry[key], dtype=np.float64) for key in PALETTE_KEYS},
-                    "start": start, "episode": episode, "preset": preset}
+            return {**self._preset(preset), "start": start, "episode": episode}
         if self.palette is not None:
-            entry = self.palette[rng.integers(len(self.palette))]
-            return {key: np.asarray(entry[key], dtype=np.float64) for key in PALETTE_KEYS}
+            if self._source_rng is None:
+                self._source_rng = np.random.RandomState(resolve_source_seed(self.source_seed, self.seed, rng))
+            return self._preset(int(self._source_rng.randint(len(self.palette))))
         params = {key: np.clip(defaults[key] + rng.normal(0, self.scale, 3), 0, 1) for key in PALETTE_KEYS
                   if key in defaults and key != "grid_rgb2"}
         if "grid_rgb1" in params:
             params["grid_rgb2"] = np.clip(params["grid_rgb1"] + defaults["grid_rgb2"] - defaults["grid_rgb1"], 0, 1)
         return params
+
+    def _preset(self, index: int) -> SceneParams:
+        entry = self.palette[index]
+        return {**{key: np.asarray(entry[key], dtype=np.float64) for key in PALETTE_KEYS}, "preset": index}
 
     def identity_params(self, defaults: Defaults) -> SceneParams:
         return {key: defaults[key] for key in PALETTE_KEYS if key in defaults}
@@ -176,28 +261,39 @@ class RandomSceneColors(ScenePerturbation):
                 _write_two_tone(scene, defaults, "skybox", defaults["skybox_bottom"], params["skybox_rgb"], self.rebuild_textures)
 
     def extra_repr(self) -> str:
-        option = "dmcgb2_colors" if self.cycle else "palette"
-        source = f"{option}={self.palette_source!s}" if self.palette is not None else f"scale={self.scale}"
+        if self.palette is None:
+            source = f"scale={self.scale}"
+        elif self.from_dmcgb2_colors:
+            source = f"dmcgb2_colors={self.palette_source!s}"
+        else:
+            name = repr(self.palette_name) if self.palette_name is not None else str(self.palette_source)
+            source = f"palette={name}" + (", draw='dmcgb2'" if self.cycle else "")
         rebuild = ", rebuild_textures=True" if self.rebuild_textures and not self.cycle else ""
         seed = "" if self.source_seed is None else f", source_seed={self.source_seed}"
         return f"{source}, parts={self.parts}{rebuild}{seed}"
 
 
-def _load_dmcgb2_colors(path: str | os.PathLike, file_name: str | None) -> list[dict[str, np.ndarray]]:
-    """DMC-GB2's colour presets from ``path`` (or ``path / file_name`` for a folder), read without running code."""
-    path = os.path.expanduser(path)
+def _looks_like_a_path(text: str) -> bool:
+    """A string that names a file or folder (a separator, a suffix, ``~``, or something that exists), not a misspelled name."""
+    return os.sep in text or "/" in text or "." in text or text.startswith("~") or os.path.exists(text)
+
+
+def _preset_file(path: str | os.PathLike, file_name: str | None, option: str) -> str:
+    """The preset file at ``path`` (or ``path / file_name`` for a folder), or an error naming what to pass instead."""
+    path = os.path.expanduser(os.fspath(path))
     if os.path.isdir(path):
         if file_name is None:
-            raise ValueError(f"RandomSceneColors: dmcgb2_colors={path} is a folder; pass the preset file itself, or "
-                             "dmcgb2_file='color_easy.pt' / 'color_hard.pt' (the DMC-GB2 levels set it).")
+            raise ValueError(f"RandomSceneColors: {option}={path} is a folder; pass the preset file itself, or "
+                             "dmcgb2_file='color_easy.pt' / 'color_hard.pt' (the colour levels set it).")
         path = os.path.join(path, file_name)
     if not os.path.isfile(path):
         raise FileNotFoundError(
-            f"DMC-GB2 colour presets {path} do not exist. vigen does not download them: copy envs/dmcgb/data/color_easy.pt "
-            "(color_easy, color_video_easy) and color_hard.pt (color_hard, color_video_hard) from aalmuzairee/dmcgb2 and pass "
-            "their folder, e.g. level_options={'dmcgb2_colors': '/data/dmcgb2/envs/dmcgb/data'}, or one file's path."
+            f"RandomSceneColors: the preset file {path} ({option}=) does not exist. DMC-GB's presets ship with vigen: "
+            f"palette='color_easy' / 'color_hard' (draw='dmcgb2' cycles them as DMC-GB2 does) need no file. For your own "
+            f"copy, pass a color_*.pt file or its folder, e.g. level_options={{{option!r}: '/data/dmcgb2/envs/dmcgb/data'}}. "
+            f"Palette choices: {_PALETTE_CHOICES}."
         )
-    return load_dmcgb_palette(path)
+    return path
 
 
 def _keep_edge_marks(grid: Defaults, raw: np.ndarray, height: int, width: int) -> Defaults:

@@ -7,7 +7,9 @@ env: the camera wrappers shuffle their 100 presets with ``np.random.RandomState(
 (``dmcgb_photometric.py:31, 53, 58, 62``). A vigen env seeded ``s`` gives its ``i``-th transform the seed
 ``derive_seed(s, i) = s * 1_000_003 + i`` (exact for env seeds below ``2**32``), so ``s`` is that seed
 divided by 1_000_003: :func:`env_seed_of`. Every DMC-GB2 transform (``DMCGB2Camera``, ``RandomSceneColors``
-with ``dmcgb2_colors``, ``DMCGB2VideoBackground``) plays the presets DMC-GB2 plays for the same env seed.
+with ``draw="dmcgb2"``, ``DMCGB2VideoBackground``) plays the presets DMC-GB2 plays for the same env seed.
+DMC-GB seeds its ``ColorWrapper`` the same way (``src/env/wrappers.py``: ``np.random.RandomState(seed)``,
+one ``randint`` per reset), so ``RandomSceneColors``' default draw recovers the env seed here too.
 
 Paper: Almuzairee et al., DMC-GB2, https://arxiv.org/abs/2405.17416.
 
@@ -48,8 +50,8 @@ def check_source_seed(source_seed: int | None, owner: str) -> int | None:
     if source_seed is None:
         return None
     if isinstance(source_seed, bool) or not isinstance(source_seed, numbers.Integral) or not 0 <= source_seed < ENV_SEED_LIMIT:
-        raise ValueError(f"{owner}: source_seed is DMC-GB2's env seed, an int in [0, 2**32) (or None: the seed of the vigen "
-                         f"env the transform sits in); got {source_seed!r}.")
+        raise ValueError(f"{owner}: source_seed is the source env's seed (DMC-GB's / DMC-GB2's), an int in [0, 2**32) "
+                         f"(or None: the seed of the vigen env the transform sits in); got {source_seed!r}.")
     return int(source_seed)
 
 
