@@ -244,6 +244,59 @@ def test_video_background_dcs_draws_a_random_video_of_the_first_n():
             VideoBackground(VideoSource.procedural(count=5, max_frames=3), **kwargs)
 
 
+def test_video_background_first_video_starts_forward_playback_there_for_every_seed():
+    source = VideoSource.procedural(count=5, max_frames=3)
+    for seed in (0, 1, 2):
+        video = VideoBackground(source, first_video=7, num_videos=3, seed=seed)
+        videos = []
+        for _ in range(4):
+            video.params = video.sample(video.generator())
+            videos.append(video.params["video"])
+        assert videos == [1, 2, 0, 1], "first_video wraps over the videos played, then one on per episode"
+        video.set_seed(seed + 10)
+        video.params = video.sample(video.generator())
+        assert video.params["video"] == 1, "reseeding restarts the count, as a new DMC-GB env does"
+    seeded = {VideoBackground(source, seed=seed).sample(np.random.default_rng(seed))["video"] for seed in range(20)}
+    assert len(seeded) > 1, "without first_video the start is drawn from the seed"
+    assert "first_video=1" in repr(VideoBackground(source, first_video=1))
+    for kwargs, match in [(dict(first_video=-1), "first_video is the index"), (dict(first_video=True), "first_video is the index"),
+                          (dict(first_video=1.0), "first_video is the index"),
+                          (dict(first_video=1, playback="static"), "does not apply with playback='static'"),
+                          (dict(first_video=1, video=2), "fixed video=2")]:
+        with pytest.raises(ValueError, match=match):
+            VideoBackground(source, **kwargs)
+
+
+def test_video_backgrounds_name_their_data_source(tmp_path):
+    from vigen.transforms import DMCGB2VideoBackground
+
+    assert VideoBackground().data_source == "procedural stand-in videos (10)" and VideoBackground().uses_stand_in
+    assert VideoBackground(num_videos=4).data_source == "procedural stand-in videos (4)"
+    assert VideoBackground(video=12).data_source == "procedural stand-in video 2 of 10"
+    assert DMCGB2VideoBackground().data_source == "procedural stand-in videos (10)" and DMCGB2VideoBackground().uses_stand_in
+    import cv2
+
+    for i in range(3):
+        writer = cv2.VideoWriter(str(tmp_path / f"video{i}.mp4"), cv2.VideoWriter_fourcc(*"mp4v"), 25, (8, 8))
+        writer.write(np.zeros((8, 8, 3), np.uint8))
+        writer.release()
+    folder = VideoBackground(tmp_path)
+    assert folder.data_source == f"{tmp_path}: 3 videos" and not folder.uses_stand_in
+    assert VideoBackground(tmp_path, num_videos=2, playback="static").data_source == f"{tmp_path}: 2 videos (the first of 3)"
+    assert VideoBackground(tmp_path, num_videos=1).data_source == f"{tmp_path}: 1 video (the first of 3)"
+    assert DMCGB2VideoBackground(tmp_path).data_source == f"{tmp_path}: 3 videos"
+    davis = tmp_path / "DAVIS"
+    (davis / "ImageSets" / "2017").mkdir(parents=True)
+    (davis / "ImageSets" / "2017" / "train.txt").write_text("bear\nboat\n")
+    (davis / "ImageSets" / "2017" / "val.txt").write_text("cows\n")
+    for name in ("bear", "boat", "cows"):
+        (davis / "JPEGImages" / "480p" / name).mkdir(parents=True)
+        cv2.imwrite(str(davis / "JPEGImages" / "480p" / name / "00000.jpg"), np.zeros((8, 8, 3), np.uint8))
+    assert VideoBackground(davis, split="train").data_source == f"{davis} (train): 2 videos"
+    assert VideoBackground(davis, split="val").data_source == f"{davis} (val): 1 video"
+    assert VideoBackground(davis).data_source == f"{davis}: 3 videos"
+
+
 def test_video_background_playbacks_composite_the_expected_frames():
     source = VideoSource.procedural(count=2, max_frames=4)
 

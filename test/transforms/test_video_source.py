@@ -7,7 +7,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+import torch
 
+from vigen.assets.video_source import natural_key
 from vigen.transforms import VideoBackground, VideoSource
 
 DMCGB = Path(__file__).resolve().parents[3] / "shared" / "data" / "dmcgb"
@@ -130,3 +132,39 @@ def test_real_dmcgb_videos_pass_the_checks(folder):
     source = VideoSource.from_folder(DMCGB / folder)
     assert len(source) == len(list((DMCGB / folder).glob("*.mp4")))
     assert source.frames(0, 16, 16).shape[1:] == (16, 16, 3)
+
+
+def test_a_folder_plays_dmcgb_videos_in_dmcgb_order(tmp_path):
+    """DMC-GB and DMC-GB2 list video{i}.mp4 for i in range(n): index i is video{i}.mp4, not the i-th name as text."""
+    for i in range(100):
+        _mp4(tmp_path / f"video{i}.mp4", frames=2, size=(8, 8))
+    source = VideoSource.from_folder(tmp_path, max_frames=2)
+    assert [path.name for path in source.paths] == [f"video{i}.mp4" for i in range(100)]
+    assert source.paths[2].name == "video2.mp4" and source.paths[10].name == "video10.mp4"
+    assert VideoBackground(videos=tmp_path).videos.paths == source.paths
+
+
+def test_natural_order_is_deterministic_for_any_names(tmp_path):
+    names = ["b10", "b9", "a", "A", "10", "9b", "video01.mp4", "video1.mp4", "video001.mp4", "x.2", "x.10"]
+    expected = ["9b", "10", "A", "a", "b9", "b10", "video001.mp4", "video01.mp4", "video1.mp4", "x.2", "x.10"]
+    assert sorted(names, key=natural_key) == sorted(reversed(names), key=natural_key) == expected
+    (tmp_path / "nested").mkdir()
+    for name in ("clip2.avi", "clip10.avi", "clip1.avi"):
+        _avi(tmp_path / "nested" / name, frames=2)
+    _frames(tmp_path / "frames20" / "bear", count=2)
+    _frames(tmp_path / "frames3" / "bear", count=2)
+    source = VideoSource.from_folder(tmp_path)
+    assert [path.relative_to(tmp_path).as_posix() for path in source.paths] == [
+        "frames3/bear", "frames20/bear", "nested/clip1.avi", "nested/clip2.avi", "nested/clip10.avi"]
+
+
+@pytest.mark.skipif(not DMCGB.is_dir(), reason="the DMC-GB sample in ../shared/data/dmcgb is absent (a user's clone)")
+def test_real_dmcgb_videos_play_in_dmcgb_order(tmp_path):
+    """DMC-GB's own files under DMC-GB's names video0 … video11 (the sample's 3 videos, linked in turn): index i is video{i}."""
+    sample = sorted((DMCGB / "video_hard").glob("video*.mp4"))
+    for i in range(12):
+        (tmp_path / f"video{i}.mp4").symlink_to(sample[i % len(sample)])
+    source = VideoSource.from_folder(tmp_path, max_frames=3)
+    assert [path.name for path in source.paths] == [f"video{i}.mp4" for i in range(12)]
+    for i in (2, 10, 11):
+        assert torch.equal(source.frames(i, 16, 16), VideoSource([sample[i % len(sample)]], max_frames=3).frames(0, 16, 16))

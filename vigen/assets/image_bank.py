@@ -13,7 +13,7 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor
 
-from vigen.assets.procedural import procedural_image
+from vigen.assets.procedural import STAND_IN_KINDS, procedural_image, stand_in_image
 
 IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png", ".bmp", ".webp")
 
@@ -28,6 +28,12 @@ class ImageBank:
     generated images (fractal noise, Voronoi cells, plaids and colour blobs). For the papers'
     setting, point :meth:`from_folder` at a Places365 copy (``places365_standard/train/<class>/*.jpg``)
     or any folder of images.
+
+    :meth:`builtin` and :meth:`procedural` are the **training side**; :meth:`stand_in` is the
+    **test side**, the generated textures test levels show (wood, marble, warped checkers,
+    mosaics, :func:`~vigen.assets.procedural.stand_in_image`). The two share no source (no
+    generator, no labmaze file), so an agent trained with the default overlays is not tested on
+    its own training images.
 
     Args:
         images: uint8 ``[M, 3, S, S]`` RGB images.
@@ -62,6 +68,28 @@ class ImageBank:
         generator = torch.Generator().manual_seed(seed)
         images = torch.stack([procedural_image(kind=i % 4, size=size, generator=generator) for i in range(count)])
         return cls(images, name=f"procedural({count}, seed={seed})")
+
+    @classmethod
+    def stand_in(cls, count: int, size: int = 128, seed: int = 0, kinds: tuple[str, ...] = STAND_IN_KINDS) -> ImageBank:
+        """``count`` generated test-side images of the ``kinds`` in turn (of wood, marble, checker, mosaic), the same for a seed.
+
+        The stand-in textures of test levels: they share no generator with :meth:`builtin`'s and
+        :meth:`procedural`'s training-side images.
+
+        Examples:
+            >>> bank = ImageBank.stand_in(4, size=16, kinds=("checker", "mosaic"))
+            >>> len(bank), bank.name
+            (4, 'stand-in(4 checker, mosaic, seed=0)')
+        """
+        unknown = [kind for kind in kinds if kind not in STAND_IN_KINDS]
+        if not kinds or unknown or isinstance(kinds, str):
+            raise ValueError(f"ImageBank.stand_in: kinds is a non-empty tuple of {STAND_IN_KINDS}, got {kinds!r}.")
+        if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+            raise ValueError(f"ImageBank.stand_in: count is the number of images, an int >= 1; got {count!r}.")
+        generator = torch.Generator().manual_seed(seed)
+        codes = [STAND_IN_KINDS.index(kind) for kind in kinds]
+        images = torch.stack([stand_in_image(codes[i % len(codes)], size, generator) for i in range(count)])
+        return cls(images, name=f"stand-in({count} {', '.join(kinds)}, seed={seed})")
 
     @classmethod
     def from_files(cls, paths: list[str | os.PathLike], size: int = 128) -> ImageBank:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -69,9 +70,11 @@ class VideoSource:
 
     @classmethod
     def from_folder(cls, root: str | os.PathLike, max_frames: int = 500, split: str | None = None) -> VideoSource:
-        """Every video file and every folder of frames under ``root`` (recursively), in sorted order, each checked.
+        """Every video file and every folder of frames under ``root`` (recursively), in natural order, each checked.
 
-        With ``split`` (``"train"`` or ``"val"``), ``root`` is a DAVIS 2017 folder and the source
+        Natural order compares runs of digits as numbers (:func:`natural_key`): ``video2.mp4`` comes
+        before ``video10.mp4``, as DMC-GB and DMC-GB2 list their videos (``video{i}.mp4`` for ``i`` in
+        ``range(n)``), so index ``i`` is ``video{i}.mp4``. With ``split`` (``"train"`` or ``"val"``), ``root`` is a DAVIS 2017 folder and the source
         holds that split's frame folders, in name order (the Distracting Control Suite's videos;
         see :func:`~vigen.assets.davis.davis_split_folders`).
         """
@@ -85,7 +88,7 @@ class VideoSource:
             return cls(davis_split_folders(root, split), max_frames=max_frames, name=f"{root} ({split})")
         videos = [p for p in root.rglob("*") if p.suffix.lower() in VIDEO_SUFFIXES]
         frame_dirs = {p.parent for p in root.rglob("*") if p.suffix.lower() in IMAGE_SUFFIXES}
-        paths = sorted(videos + list(frame_dirs))
+        paths = sorted(videos + list(frame_dirs), key=lambda path: natural_key(path.relative_to(root)))
         if not paths:
             found = sorted(str(p.relative_to(root)) for p in root.rglob("*") if p.is_file())
             listing = ", ".join(found[:10]) + (f" and {len(found) - 10} more" if len(found) > 10 else "")
@@ -115,6 +118,25 @@ class VideoSource:
 
     def __repr__(self) -> str:
         return f"VideoSource({self.name})"
+
+
+def natural_key(path: str | os.PathLike) -> tuple:
+    """Sort key of ``path`` that compares runs of digits as numbers, part by part (``video2`` before ``video10``).
+
+    Each part of the path is split into text and digit runs; digit runs compare by value, then (to
+    keep ``video01`` and ``video1`` apart, deterministically) the parts compare as text.
+
+    Examples:
+        >>> sorted(["video10.mp4", "video2.mp4", "video1.mp4", "video02.mp4"], key=natural_key)
+        ['video1.mp4', 'video02.mp4', 'video2.mp4', 'video10.mp4']
+        >>> sorted(["b/clip1", "a10/clip", "a9/clip"], key=natural_key)
+        ['a9/clip', 'a10/clip', 'b/clip1']
+    """
+    parts = Path(path).parts
+    return tuple(
+        (tuple((int(run), "") if i % 2 else (-1, run) for i, run in enumerate(re.split(r"(\d+)", part))), part)
+        for part in parts
+    )
 
 
 def _check_videos(paths: list[Path], name: str) -> None:

@@ -18,7 +18,7 @@ import math
 
 from vigen.envs.adroit_env import TASKS, AdroitPixelEnv
 from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
-from vigen.envs.level_types import Factor, Level, ProceduralImages, Scaled, Step
+from vigen.envs.level_types import Factor, Level, Scaled, StandInImages, Step
 from vigen.envs.suite import Suite
 from vigen.transforms import (
     DistractingCamera,
@@ -46,7 +46,7 @@ LIGHT = {"light_easy": (0.5, 0.5, 0.2), "light_hard": (1.0, 1.0, 0.5)}
 
 def table_and_colors(difficulty: str) -> tuple[Step, Step]:
     """The colour levels' steps: one of 10 table textures per episode, and floor and object colours mixed with U(0, 1)."""
-    tables = ProceduralImages(10, 256, 100 + ("easy", "hard").index(difficulty))
+    tables = StandInImages(10, 256, 100 + ("easy", "hard").index(difficulty))
     return (Step(RandomTextures, {"textures": TABLE_TEXTURES, "images": tables}),
             Step(RandomMaterialColors, {"mix": COLOR_MIX[difficulty], "exclude": HAND_PARTS}))
 

@@ -159,14 +159,14 @@ LEVELS: dict[str, Level] = {
         (Step(RandomTextures),),
     ),
     "video_easy": Level(
-        "sky replaced by a video, new frame every step",
+        "sky replaced by a video, new frame every step; episode k plays video (k + 1) mod n, as DMC-GB does",
         "DMC-GB video_easy (procedural videos unless a folder is given)",
-        (Step(VideoBackground, {"floor": False}),),
+        (Step(VideoBackground, {"floor": False, "first_video": 1}),),
     ),
     "video_hard": Level(
-        "sky and floor replaced by a video, new frame every step",
+        "sky and floor replaced by a video, new frame every step; episode k plays video (k + 1) mod n, as DMC-GB does",
         "DMC-GB video_hard (procedural videos unless a folder is given)",
-        (Step(VideoBackground, {"floor": True}),),
+        (Step(VideoBackground, {"floor": True, "first_video": 1}),),
     ),
     "light_easy": Level(
         "light position +{3, 4}, diffuse ± 0.2, light moving 0.01/step within ± 5",

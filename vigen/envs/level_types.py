@@ -26,10 +26,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-import torch
 from torchrl.envs import Transform
 
 from vigen.assets.image_bank import ImageBank
+from vigen.assets.procedural import STAND_IN_KINDS
 
 
 @dataclass(frozen=True)
@@ -165,35 +165,24 @@ class Choice(Derived):
 
 
 @dataclass(frozen=True)
-class ProceduralImages:
-    """``count`` generated images of side ``size`` from ``seed``, made at the first reset (a table-texture set)."""
+class StandInImages:
+    """``count`` generated test-side textures of side ``size`` from ``seed``, made at the first reset (a texture set of a level).
+
+    :meth:`ImageBank.stand_in` of ``kinds`` (of wood, marble, checker, mosaic): generators that the
+    overlay augmentations' training images never use.
+    """
 
     count: int
     size: int
     seed: int
+    kinds: tuple[str, ...] = STAND_IN_KINDS
 
     def __call__(self) -> ImageBank:
-        return ImageBank.procedural(self.count, size=self.size, seed=self.seed)
+        return ImageBank.stand_in(self.count, size=self.size, seed=self.seed, kinds=self.kinds)
 
     def __repr__(self) -> str:
-        return f"procedural({self.count}, size={self.size}, seed={self.seed})"
-
-
-@dataclass(frozen=True)
-class LabmazeImages:
-    """``count`` of labmaze's photographic floor and wall textures (installed with dm_control), chosen by ``seed``."""
-
-    count: int
-    size: int
-    seed: int
-
-    def __call__(self) -> ImageBank:
-        bank = ImageBank.builtin(self.size, procedural=0)
-        chosen = torch.randperm(len(bank), generator=torch.Generator().manual_seed(self.seed))[: self.count]
-        return ImageBank(bank.images[chosen], name=f"labmaze({self.count}, seed={self.seed})")
-
-    def __repr__(self) -> str:
-        return f"labmaze({self.count}, size={self.size}, seed={self.seed})"
+        kinds = "" if self.kinds == STAND_IN_KINDS else f", kinds={self.kinds!r}"
+        return f"stand-in({self.count}{kinds}, size={self.size}, seed={self.seed})"
 
 
 def evaluate_value(value: Any, context: LevelContext) -> Any:

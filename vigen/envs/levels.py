@@ -23,14 +23,13 @@ from vigen.envs.level_types import (
     Choice,
     Derived,
     Factor,
-    LabmazeImages,
     Level,
     LevelContext,
-    ProceduralImages,
     Scaled,
     SceneIndex,
     Severity,
     Span,
+    StandInImages,
     Step,
     accepted_options,
     check_intensity,
@@ -40,8 +39,8 @@ from vigen.envs.level_types import (
 from vigen.envs.registry import SUITES, get_suite
 
 __all__ = [
-    "ByTask", "Choice", "Derived", "Factor", "LabmazeImages", "Level", "LevelContext", "ProceduralImages", "Scaled", "SceneIndex",
-    "Severity", "Span", "Step", "accepted_options", "check_intensity", "evaluate_value", "level_label", "levels_markdown",
+    "ByTask", "Choice", "Derived", "Factor", "Level", "LevelContext", "Scaled", "SceneIndex", "Severity", "Span",
+    "StandInImages", "Step", "accepted_options", "check_intensity", "evaluate_value", "level_label", "levels_markdown",
     "resolve_levels",
 ]
 

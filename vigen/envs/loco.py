@@ -41,7 +41,7 @@ from typing import Any
 from torchrl.envs import DoubleToFloat, EnvBase
 
 from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
-from vigen.envs.level_types import ByTask, Choice, Derived, Factor, LabmazeImages, Level, LevelContext, ProceduralImages, Scaled, Step
+from vigen.envs.level_types import ByTask, Choice, Derived, Factor, Level, LevelContext, Scaled, StandInImages, Step
 from vigen.envs.loco_scene import MAX_MESH_FACES
 from vigen.envs.suite import Suite
 from vigen.transforms import (
@@ -105,13 +105,15 @@ def robot_colors(difficulty: str, parts: Any = ROBOT_PARTS) -> Step:
 
 
 def textures(difficulty: str) -> Step:
-    """One of 10 textures per level on the ground or the table: photographs (easy) or generated patterns (hard).
+    """One of 10 textures per level on the ground or the table: wood and marble (easy) or high-contrast patterns (hard).
 
     RL-ViGen's easy set is marble, wood, metal and granite photographs, its hard set city photos,
-    foil and tennis-ball patterns, 10 image files each; vigen uses labmaze's photographic textures
-    and its generated high-contrast patterns.
+    foil and tennis-ball patterns, 10 image files each; vigen generates test-side stand-ins
+    (:class:`~vigen.envs.level_types.StandInImages`): wood and marble, then warped checkerboards
+    and rectangle mosaics, none of them drawn from the overlay augmentations' images.
     """
-    images = LabmazeImages(10, 256, seed=200) if difficulty == "easy" else ProceduralImages(10, 256, seed=201)
+    kinds = ("wood", "marble") if difficulty == "easy" else ("checker", "mosaic")
+    images = StandInImages(10, 256, seed=200 + ("easy", "hard").index(difficulty), kinds=kinds)
     return Step(RandomTextures, {"textures": Surface(), "images": images})
 
 
@@ -145,7 +147,7 @@ LEVELS: dict[str, Level] = {
     **{
         f"texture_{d}": Level(f"ground (Unitree) or table (Franka) texture: one of 10 {kind}",
                               f"RL-ViGen table_texture {d} (vigen's images; RL-ViGen's are its own files)", (textures(d),))
-        for d, kind in (("easy", "labmaze photographs"), ("hard", "generated high-contrast patterns"))
+        for d, kind in (("easy", "generated wood and marble textures"), ("hard", "generated warped checkerboards and mosaics"))
     },
     **{
         f"light_position_{d}": Level(f"every light moved by an integer in {{{lo}, {hi}}} per coordinate", f"RL-ViGen light_position {d}",

@@ -177,11 +177,11 @@ FACTORS: dict[str, Factor] = {
 
 
 def texture_bank(level: str) -> ImageBank:
-    """The level's texture set: robosuite's texture files, then generated stand-ins for SECANT's custom textures."""
+    """The level's texture set: robosuite's texture files, then generated test-side stand-ins for SECANT's custom textures."""
     import robosuite
 
     folder = Path(robosuite.__file__).parent / "models" / "assets" / "textures"
-    generated = ImageBank.procedural(GENERATED_TEXTURES[level], size=256, seed=SCENE_LEVELS.index(level))
+    generated = ImageBank.stand_in(GENERATED_TEXTURES[level], size=256, seed=SCENE_LEVELS.index(level))
     files = ROBOSUITE_TEXTURES[level]
     if not files:
         return generated

@@ -16,16 +16,25 @@ from vigen.transforms.scene.base import Defaults, SceneHandle, SceneParams, Scen
 from vigen.transforms.scene.mujoco import named_id, texture_pixels
 
 
+DEFAULT_TEXTURES = functools.partial(ImageBank.stand_in, 100, 256)
+"""The texture bank of :class:`RandomTextures` without ``images``: 100 generated test-side stand-ins of side 256, seed 0."""
+
+
 class RandomTextures(ScenePerturbation):
     """Draw named textures of the scene with different images, per episode or per fixed scene.
 
     RL-ViGen swaps the ground texture of its DMC tasks for one of 10 images per level, and the
     floor, wall, table and object textures of its robosuite scenes for images chosen per scene id
     (SECANT's presets). vigen draws one image per named texture from an
-    :class:`~vigen.transforms.ImageBank` (by default the built-in one, whose labmaze floor and wall
-    textures are made for this), writes it into the live model's texture pixels, resized to the
+    :class:`~vigen.transforms.ImageBank`, writes it into the live model's texture pixels, resized to the
     texture's size (repeated on every face of a cube texture), and re-uploads it to the render
     context. With ``scene_id`` set, every episode gets the same draw, from that scene id.
+
+    Without ``images`` it draws from test-side stand-ins, :data:`DEFAULT_TEXTURES`
+    (:meth:`ImageBank.stand_in`: generated wood, marble, warped checkers and mosaics), not from the
+    overlay augmentations' :meth:`ImageBank.builtin` (labmaze's textures and the training-side
+    generated images): a texture level is a test level, and an agent trained with the default
+    overlays must not be tested on its own training images.
 
     Paper: RL-ViGen, https://arxiv.org/abs/2307.10224.
 
@@ -33,7 +42,7 @@ class RandomTextures(ScenePerturbation):
         textures: name or names of the textures to replace (dm_control's floor: ``"grid"``).
         images: an :class:`ImageBank`, a folder of images (which must exist; its images are read
             at the first reset), a function that returns a bank (called at the first reset), or
-            ``None`` for the built-in bank.
+            ``None`` for the stand-in textures (:data:`DEFAULT_TEXTURES`).
         scene_id: a scene id that fixes the draw for every episode, or ``None`` to draw per episode.
         blend: weight of the new image, in [0, 1]: each texel is ``(1 - blend)·original + blend·image``
             (1: replaced, vigen's levels; lower values are the ``*_texture`` factors' intensities).
@@ -71,7 +80,7 @@ class RandomTextures(ScenePerturbation):
 
     @property
     def bank(self) -> ImageBank:
-        self._images = ImageBank.load(self._images)
+        self._images = ImageBank.load(DEFAULT_TEXTURES if self._images is None else self._images)
         return self._images
 
     def read_defaults(self, scene: SceneHandle) -> Defaults:
@@ -125,7 +134,7 @@ class RandomTextures(ScenePerturbation):
         if isinstance(images, functools.partial):
             source = f"{images.func.__name__}({', '.join(map(repr, images.args))})"
         else:
-            source = images if isinstance(images, ImageBank) else (images or "builtin")
+            source = images if isinstance(images, ImageBank) else (images or "stand-in")
         scene = "" if self.scene_id is None else f", scene_id={self.scene_id}"
         blend = "" if self.blend == 1.0 else f", blend={self.blend:g}"
         return f"textures={self.textures}, images={source!s}{scene}{blend}"

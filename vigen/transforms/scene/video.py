@@ -43,13 +43,20 @@ class VideoBackground(SceneTransform):
 
     ``playback`` says which frames an episode shows:
 
-    * ``"forward"`` (DMC-GB): videos taken in order, one per episode, starting from a seeded
-      index; the first frame at reset, then one frame forward per step, wrapping;
+    * ``"forward"`` (DMC-GB): videos taken in order, one per episode, starting from
+      ``first_video`` (DMC-GB's ``video_easy`` / ``video_hard``: 1, see below) or, without it,
+      from a seeded index; the first frame at reset, then one frame forward per step, wrapping;
     * ``"static"`` (Distracting Control Suite, static): a random video and one random frame of it
       for the whole episode;
     * ``"bounce"`` (Distracting Control Suite, dynamic): a random video, a random start frame and
       direction (±1), one frame per step, turning at the ends as DCS's ``background.py`` does
       (index ``i += d``; at ``i <= 0``: ``i = 0, d = +1``; at ``i >= n``: ``i = n - 1, d = -1``).
+
+    ``first_video`` is DMC-GB's rule for the first episode's video: its ``VideoWrapper``
+    (``src/env/wrappers.py``) starts its index at 0 and moves it on by one before each episode's
+    video is loaded, so episode ``k`` plays video ``(k + 1) % n`` from frame 0 whatever the seed:
+    ``first_video=1``, which the ``dmc`` suite's ``video_easy`` / ``video_hard`` levels set. The
+    count restarts when the transform is reseeded (``set_seed``), as a new DMC-GB env does.
 
     ``alpha`` is DCS's ``video_alpha``: background pixels become ``(1 - α)·render + α·video``
     (truncated to the frame's integer type, as DCS does); 1 replaces them. ``num_videos`` keeps
@@ -98,6 +105,8 @@ class VideoBackground(SceneTransform):
         background: name prefixes of more geoms to replace, e.g. ``("wall",)``.
         video: play this video (index into ``videos``, wrapped) in every episode instead of
             taking them in turn (RL-ViGen's robosuite ``eval-hard``: the scene id).
+        first_video: with ``"forward"`` playback, the video of the first episode (an index,
+            wrapped), the next ones following in order (DMC-GB: 1); ``None`` draws it from the seed.
         playback: ``"forward"``, ``"static"`` or ``"bounce"`` (see above).
         alpha: weight of the video on background pixels, in [0, 1].
         num_videos: use only the first ``num_videos`` videos (``None``: all).
@@ -134,6 +143,7 @@ class VideoBackground(SceneTransform):
         background: Sequence[str] = (),
         video: int | None = None,
         playback: str = "forward",
+        first_video: int | None = None,
         alpha: float = 1.0,
         num_videos: int | None = None,
         ground_plane_alpha: float | None = None,
@@ -151,6 +161,14 @@ class VideoBackground(SceneTransform):
             raise TypeError(f"VideoBackground: video is the index of the one video to play (an int, wrapped), or None to "
                             f"take them in turn; got {video!r}. A folder of videos goes to videos=..., e.g. "
                             f"level_options={{'videos': {video!r}}}.")
+        if first_video is not None:
+            if isinstance(first_video, bool) or not isinstance(first_video, (int, np.integer)) or first_video < 0:
+                raise ValueError(f"VideoBackground: first_video is the index (an int >= 0, wrapped) of the first episode's "
+                                 f"video, or None to draw it from the seed; got {first_video!r}.")
+            if playback != "forward" or video is not None:
+                raise ValueError(f"VideoBackground: first_video sets where forward playback starts taking the videos in turn; "
+                                 f"it does not apply with playback={playback!r}" + ("" if video is None else f" and a fixed video={video!r}")
+                                 + ". Pass first_video=None.")
         if num_videos is not None and (isinstance(num_videos, bool) or not isinstance(num_videos, int) or num_videos < 1):
             raise ValueError(f"VideoBackground: num_videos is a count >= 1 or None (all videos), got {num_videos!r}.")
         if ground_plane_alpha is not None:
@@ -185,6 +203,35 @@ class VideoBackground(SceneTransform):
         self.floor = floor
         self.background = tuple(background)
         self.video = video
+        self.first_video = None if first_video is None else int(first_video)
+
+    @property
+    def uses_stand_in(self) -> bool:
+        """True when the videos are vigen's procedural stand-ins, not the benchmark's (or the user's) videos."""
+        return self.videos.paths is None
+
+    @property
+    def data_source(self) -> str:
+        """A short label of the videos this transform plays, with their count, e.g. ``"procedural stand-in videos (10)"``.
+
+        The count respects ``num_videos`` (the first ones of the source) and ``split`` (the source
+        holds only that split); a fixed ``video`` names the one video played.
+
+        Examples:
+            >>> VideoBackground().data_source, VideoBackground().uses_stand_in
+            ('procedural stand-in videos (10)', True)
+            >>> VideoBackground(num_videos=2).data_source, VideoBackground(video=13).data_source
+            ('procedural stand-in videos (2)', 'procedural stand-in video 3 of 10')
+        """
+        total = len(self.videos)
+        count = self.num_videos or total
+        if self.video is not None:
+            index = self.video % (total if self.playback == "forward" else count)
+            return f"procedural stand-in video {index} of {count}" if self.uses_stand_in else \
+                f"{self.videos.name}: video {index} of {count}"
+        if self.uses_stand_in:
+            return f"procedural stand-in videos ({count})"
+        return f"{self.videos.name}: {count} video{'s' * (count != 1)}" + (f" (the first of {total})" if count < total else "")
 
     def background_geoms(self, model: mujoco.MjModel) -> np.ndarray:
         """``[ngeom]`` True for the geoms that count as background: ground planes with ``floor``, and ``background`` names."""
@@ -208,8 +255,8 @@ class VideoBackground(SceneTransform):
     def sample(self, rng: np.random.Generator) -> SceneParams:
         """The episode's video and where its playback starts.
 
-        ``forward``: the next video in order (the first one drawn from ``rng``; or the fixed
-        ``video``) from its first frame. ``static`` / ``bounce``: a uniformly drawn video (or the
+        ``forward``: the next video in order (the first one ``first_video``, or drawn from ``rng``
+        without it; or the fixed ``video``) from its first frame. ``static`` / ``bounce``: a uniformly drawn video (or the
         fixed one), a start drawn uniformly over its frames (``start`` in [0, 1), resolved once
         the frames are decoded) and, for ``bounce``, a direction ±1.
         """
@@ -220,7 +267,10 @@ class VideoBackground(SceneTransform):
             return {"video": video, "frame": None, "start": start, "direction": direction}
         if self.video is not None:
             return {"video": self.video % len(self.videos), "frame": 0}
-        previous = self.params["video"] if self.params is not None else int(rng.integers(count)) - 1
+        if self.params is not None:
+            previous = self.params["video"]
+        else:
+            previous = (self.first_video if self.first_video is not None else int(rng.integers(count))) - 1
         return {"video": (previous + 1) % count, "frame": 0}
 
     def frame_after(self, length: int, moves: int) -> int:
@@ -370,6 +420,7 @@ class VideoBackground(SceneTransform):
         background = f", background={self.background}" if self.background else ""
         video = "" if self.video is None else f", video={self.video}"
         playback = "" if self.playback == "forward" else f", playback={self.playback!r}"
+        playback += "" if self.first_video is None else f", first_video={self.first_video}"
         alpha = "" if self.alpha == 1.0 else f", alpha={self.alpha}"
         count = "" if self.num_videos is None else f", num_videos={self.num_videos}"
         ground = "" if self.ground_plane_alpha is None else f", ground_plane_alpha={self.ground_plane_alpha}"
