@@ -155,7 +155,7 @@ LEVELS: dict[str, Level] = {
     ),
     "floor_texture": Level(
         "floor grid replaced by a texture image",
-        "RL-ViGen table_texture (labmaze and procedural textures)",
+        "RL-ViGen table_texture (generated stand-in textures)",
         (Step(RandomTextures),),
     ),
     "video_easy": Level(
