@@ -3,6 +3,7 @@ reason), and the test run's parallel workers (``scripts/test.sh`` runs pytest-xd
 
 import importlib.util
 import os
+import tempfile
 
 import pytest
 
@@ -58,7 +59,10 @@ CI_SAMPLE: dict[str, tuple[str, ...]] = {
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    """Each xdist worker gets its share of the cores for torch's intra-op threads (two 2-thread workers on 2 cores crawl)."""
+    """Each xdist worker gets its share of the cores for torch's intra-op threads (two 2-thread workers on 2 cores crawl),
+    and an empty data cache: levels that find fetched data (``vigen.data``) show their stand-ins in tests, whatever the
+    user's own cache holds (the data tests point ``VIGEN_DATA`` at their own folders)."""
+    os.environ["VIGEN_DATA"] = tempfile.mkdtemp(prefix="vigen-test-data-")
     workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
     if workers > 1:
         import torch

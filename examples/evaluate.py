@@ -28,12 +28,24 @@ runs, ``gaps.csv``), the probability that one method beats another per level (rl
 ``improvements.csv``, with two methods or more) and a performance profile over the test levels
 (``profile.png``). Tasks with a success check get the success rate (%) beside the return.
 
+Each level shows the benchmark's own data where vigen has it: DMC-GB's colour presets ship with
+vigen, and its videos and DAVIS 2017 are used once fetched (``python -m vigen.data fetch
+dmcgb-videos``, ``... davis2017``; docs/data.md). Until then the video levels show procedural
+stand-ins and warn. ``--videos`` gives folders per level instead (a level name or a shell
+pattern before ``=``; one bare folder serves every video level). Every row records what its
+level showed (``data``, ``stand_in``, ``level_options``, and ``shown``: the episode's video or
+preset), and the report lists it per level:
+
+    python examples/evaluate.py --pretrained svea-cartpole-balance --levels train video_easy video_hard dcs_0.1 \\
+        --videos video_easy=/data/dmcgb/video_easy video_hard=/data/dmcgb/video_hard 'dcs_*'=/data/DAVIS
+
 ``--compare NAME`` puts the runs beside the published numbers (``vigen.results``): a protocol
 (``dmcgb``, ``dmcgb2``, ``rlvigen``, ``drqv2``, ``planet``: every source published under it) or one
 source (``sgqn``, ``madi``, ``simgrl``, ``curl``). Before any episode runs, it checks that each run
 followed that protocol (its ``config.json``: action repeat, frame stack, image size; its
 checkpoint's frames against the published budget) and stops naming every difference otherwise;
-``--allow-budget-mismatch`` shows a run that trained for another length anyway, marked. Levels
+``--allow-budget-mismatch`` shows a run that trained for another length anyway, marked, and
+``--allow-stand-ins`` levels that showed vigen's stand-ins instead of the benchmark's data. Levels
 default to the protocol's test levels; the report gains a "Published" table and ``published.png``:
 
     python examples/evaluate.py runs/svea-walker-walk-s0 --compare dmcgb --episodes 100
@@ -49,6 +61,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import fnmatch
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -59,7 +72,7 @@ from tqdm import tqdm
 
 from vigen.checkpoint import CheckpointError
 from vigen.devices import resolve_device
-from vigen.envs import factors
+from vigen.envs import factors, level_label
 from vigen.envs.levels import resolve_levels
 from vigen.envs.registry import get_suite
 from vigen.evaluation import (comparison_table, evaluate, generalization_gaps, improvements, markdown_table, plot_comparison,
@@ -94,12 +107,18 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--seeds", nargs="+", type=int, default=[0],
                         help="env and level seeds (robosuite: also the scene, seed %% 10; RL-ViGen: --seeds 0 1 ... 9)")
     parser.add_argument("--random", action="store_true", help="also evaluate a random policy as a baseline")
-    parser.add_argument("--videos", default=None, help="a folder of videos for the video levels (default: procedural)")
+    parser.add_argument("--videos", nargs="+", default=[], metavar="[LEVEL=]FOLDER",
+                        help="video folders per level: LEVEL=FOLDER, LEVEL a level or a shell pattern (video_easy=DIR "
+                             "video_hard=DIR 'dcs_*'=DAVIS), or one FOLDER for every video level. Default: the data "
+                             "fetched with python -m vigen.data (docs/data.md), else procedural stand-ins")
     parser.add_argument("--episode-length", type=int, default=None, help="simulator steps per episode (default: the run's)")
     parser.add_argument("--compare", default=None, choices=sorted({*PROTOCOLS, *SOURCES}),
                         help="put the runs beside the published numbers of a protocol (all its sources) or of one source")
     parser.add_argument("--allow-budget-mismatch", action="store_true",
                         help="with --compare: show runs trained for another length than the published numbers, marked")
+    parser.add_argument("--allow-stand-ins", action="store_true",
+                        help="with --compare: show levels that showed vigen's stand-ins (procedural videos, statistics-"
+                             "matched colours) beside the published numbers, each line saying so")
     parser.add_argument("--ray", nargs="?", const="local", default=None, metavar="ADDRESS",
                         help="run the (level, seed) jobs on Ray: a local cluster, or the cluster at ADDRESS")
     parser.add_argument("--workers", type=int, default=None, help="with --ray: jobs in flight at once (default: the cluster's CPUs)")
@@ -125,7 +144,43 @@ def parse_args() -> argparse.Namespace:
         except KeyError as error:
             raise SystemExit(f"--pretrained {name}: {error.args[0]}") from None
     args.sweep = [parse_sweep(items) for items in args.sweep]
+    args.videos = parse_videos(args.videos)
     return args
+
+
+def parse_videos(items: list[str]) -> list[tuple[str, Path]]:
+    """``--videos`` -> (level pattern, folder) pairs, in order; a bare FOLDER applies to every level (``*``)."""
+    pairs = []
+    for item in items:
+        pattern, _, folder = item.rpartition("=") if "=" in item else ("*", "", item)
+        path = Path(folder).expanduser()
+        if not pattern or not path.is_dir():
+            raise SystemExit(f"--videos {item}: give LEVEL=FOLDER or FOLDER, with an existing folder "
+                             f"({path} {'is not a folder' if pattern else 'has no level before ='}).")
+        pairs.append((pattern, path))
+    return pairs
+
+
+def videos_for(env: str, level: Any, pairs: list[tuple[str, Path]]) -> dict[str, str]:
+    """The ``level_options`` a level gets from ``--videos``: the first matching pattern's folder, if the level plays videos."""
+    suite, task = env.split("/", 1)
+    if not pairs or "videos" not in get_suite(suite).options_taken(level, task):
+        return {}
+    label = level_label(level)
+    folder = next((folder for pattern, folder in pairs if fnmatch.fnmatchcase(label, pattern)), None)
+    return {} if folder is None else {"videos": str(folder)}
+
+
+def in_runs(levels: list[Any], options_of: Any) -> list[tuple[list[Any], dict[str, str]]]:
+    """Consecutive levels that share their ``level_options``, in order (one evaluate() call each keeps Ray's parallelism)."""
+    runs: list[tuple[list[Any], dict[str, str]]] = []
+    for level in levels:
+        options = options_of(level)
+        if runs and runs[-1][1] == options:
+            runs[-1][0].append(level)
+        else:
+            runs.append(([level], options))
+    return runs
 
 
 def parse_sweep(items: list[str]) -> list[dict[str, float]]:
@@ -169,10 +224,10 @@ RUN_SETTINGS = ("action_repeat", "frame_stack", "image_size")
 """The env options a run was trained with (``config.json``); its evaluation uses the same."""
 
 
-def run_env_options(config: TrainConfig, args: argparse.Namespace, level_options: dict | None) -> dict:
+def run_env_options(config: TrainConfig, args: argparse.Namespace) -> dict:
     """The evaluation env of a run: its action repeat, frame stack and image size, and the episode length asked for."""
     length = args.episode_length or config.episode_length
-    return {"render_settings": RenderSettings.fast(), "level_options": level_options,
+    return {"render_settings": RenderSettings.fast(),
             **({} if length is None else {"episode_length": length}),
             **{name: getattr(config, name) for name in RUN_SETTINGS if getattr(config, name) is not None}}
 
@@ -198,7 +253,6 @@ def compare_sources(name: str) -> tuple[str, list[str]]:
 
 def main() -> None:
     args = parse_args()
-    level_options = {"videos": args.videos} if args.videos else None
     agents = [load_run(path, args.device) for path in args.runs] + [load_shipped(name, args.device) for name in args.pretrained]
     protocol, sources = compare_sources(args.compare) if args.compare else (None, [])
     levels = {}  # env name -> its levels
@@ -213,13 +267,14 @@ def main() -> None:
             if swept[0].factor not in factors(env):
                 raise SystemExit(f"--sweep {swept[0].factor}: not a factor of {env}; its factors are {', '.join(factors(env))}.")
             levels[env] += swept
-    options = [run_env_options(trained.config, args, level_options) for trained in agents]
-    if protocol is not None:  # the published numbers need the same protocol: check before any episode runs
-        probe = [{**run_tags(trained, env_options), "env": trained.config.env, "level": level, "return": 0.0, "success": 0.0}
+    options = [run_env_options(trained.config, args) for trained in agents]
+    if protocol is not None:  # the published numbers need the same protocol and data: check before any episode runs
+        probe = [{**run_tags(trained, env_options), "env": trained.config.env, "level": level, "return": 0.0, "success": 0.0,
+                  **shown_data(trained.config.env, level, args.videos)}
                  for trained, env_options in zip(agents, options) for level in levels[trained.config.env] if isinstance(level, str)]
         try:
-            published_lines(probe, sources, protocol, args.allow_budget_mismatch)
-        except ValueError as error:  # ProtocolMismatch included
+            published_lines(probe, sources, protocol, args.allow_budget_mismatch, args.allow_stand_ins)
+        except ValueError as error:  # ProtocolMismatch and StandInRows included
             raise SystemExit(f"--compare {args.compare}: {error}") from None
     evaluations = [(trained.policy, trained.config.env, env_options, run_tags(trained, env_options))
                    for trained, env_options in zip(agents, options)]
@@ -236,8 +291,10 @@ def main() -> None:
         progress = stack.enter_context(tqdm(total=sum(len(levels[env]) for _, env, _, _ in evaluations) * len(args.seeds),
                                             unit="job", desc="(level, seed) jobs", dynamic_ncols=True))
         for policy, env, env_options, tags in evaluations:
-            rows += evaluate(policy, env, levels[env], episodes=args.episodes, seeds=args.seeds, env_options=env_options,
-                             tags=tags, device=args.device, progress=lambda done, total: progress.update(1), **backend)
+            for share, level_options in in_runs(levels[env], lambda level: videos_for(env, level, args.videos)):
+                rows += evaluate(policy, env, share, episodes=args.episodes, seeds=args.seeds,
+                                 env_options={**env_options, "level_options": level_options or None}, tags=tags,
+                                 device=args.device, progress=lambda done, total: progress.update(1), **backend)
 
     out = unused_path(args.out)
     out.mkdir(parents=True)
@@ -273,7 +330,7 @@ def main() -> None:
     published_table = ""
     if protocol is not None:
         compared = published_lines([row for row in rows if row["method"] != "random"], sources, protocol,
-                                   args.allow_budget_mismatch)
+                                   args.allow_budget_mismatch, args.allow_stand_ins)
         written.append(write_csv(compared, out / "published.csv"))
         for unit in dict.fromkeys(line["unit"] for line in compared):
             name = "published.png" if unit == "return" else f"published_{unit}.png"
@@ -285,23 +342,25 @@ def main() -> None:
             f"\nThis evaluation played {played} episodes per level and run; protocol {protocol} plays {wanted} "
             f"(--episodes {wanted}): fewer episodes, a noisier mean.")
         report += (f"\n## Published ({PROTOCOLS[protocol].title}; sources: {', '.join(sources)})\n\n{published_table}\n\n"
-                   f"{level_notes(rows, args.videos)}\n" + "".join(f"![{figure.name}]({figure.name})\n"
+                   f"{level_notes(rows)}\n" + "".join(f"![{figure.name}]({figure.name})\n"
                                                                    for figure in figures if figure.name.startswith("published")))
     atomic_write(out / "report.md", report)
     print(markdown_table(lines))
     if published_table:
-        print(f"\nPublished numbers, protocol {protocol}:\n\n{published_table}\n\n{level_notes(rows, args.videos)}")
+        print(f"\nPublished numbers, protocol {protocol}:\n\n{published_table}\n\n{level_notes(rows)}")
     names = [path.name for path in [*written, out / "report.md", *figures, *curves]]
     print(f"\nwrote {out}/: {', '.join(names)}")
 
 
-def published_lines(rows: list[dict], sources: list[str], protocol: str, allow_budget_mismatch: bool) -> list[dict]:
+def published_lines(rows: list[dict], sources: list[str], protocol: str, allow_budget_mismatch: bool,
+                    allow_stand_ins: bool) -> list[dict]:
     """compare() on the return and, where the rows and the sources have one, the success rate (Adroit publishes success only)."""
     lines, nothing = [], []
     for value in ("return", "success"):
         if all(value in row for row in rows) and published(source=sources, unit=VALUE_UNITS[value]):
             try:
-                lines += compare(rows, source=sources, protocol=protocol, value=value, allow_budget_mismatch=allow_budget_mismatch)
+                lines += compare(rows, source=sources, protocol=protocol, value=value, allow_budget_mismatch=allow_budget_mismatch,
+                                 allow_stand_ins=allow_stand_ins)
             except ProtocolMismatch:
                 raise
             except ValueError as error:  # nothing published in this unit for these rows
@@ -311,16 +370,26 @@ def published_lines(rows: list[dict], sources: list[str], protocol: str, allow_b
     return lines
 
 
-def level_notes(rows: list[dict], videos: str | None) -> str:
-    """What vigen's levels are, so a reader sees where they approximate the source's (e.g. procedural videos)."""
+def shown_data(env: str, level: str, videos: list[tuple[str, Path]]) -> dict[str, Any]:
+    """What ``level`` will show (its transforms built, no env), as the ``data`` / ``stand_in`` columns of its rows."""
+    suite, task = env.split("/", 1)
+    built = [transform for transform in get_suite(suite).level_transforms(task, level, **videos_for(env, level, videos))
+             if hasattr(transform, "data_source")]
+    return {"data": "; ".join(t.data_source for t in built), "stand_in": any(t.uses_stand_in for t in built)}
+
+
+def level_notes(rows: list[dict]) -> str:
+    """What vigen's levels are and the data each showed, so a reader sees where they approximate the source's."""
     notes = []
     for env, level in dict.fromkeys((row["env"], row["level"]) for row in rows):
         if level == "train":
             continue
         source = get_suite(env).levels[level].source if level in get_suite(env).levels else level
-        if "video" in level and videos:
-            source += f" (videos from {videos})"
-        notes.append(f"- {level}: {source}")
+        mine = [row for row in rows if (row["env"], row["level"]) == (env, level)]
+        shown = [data for data in dict.fromkeys(row.get("data", "") for row in mine) if data]
+        stand_in = any(row.get("stand_in") is True for row in mine)
+        notes.append(f"- {level}: {source}" + (f"; showed {', '.join(shown)}" if shown else "")
+                     + (" (vigen's stand-ins, not the benchmark's data)" if stand_in else ""))
     return "vigen's levels, for reading the comparison:\n\n" + "\n".join(dict.fromkeys(notes)) + "\n" if notes else ""
 
 

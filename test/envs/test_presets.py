@@ -14,6 +14,7 @@ from vigen.envs.dmc import DMC
 from vigen.rendering import RenderSettings
 from vigen.transforms import DistractingCamera, DistractingColors, DMCGB2Camera, RandomSceneColors, VideoBackground
 from vigen.transforms.scene.dmcgb2_camera import rotate_presets
+from vigen.data import StandInDataWarning
 
 FAST = {"image_size": 32, "render_settings": RenderSettings.fast()}
 DCS_INTENSITIES = (0.025, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5)  # ANCHORS §3.4, DMC-GB's DCS variant
@@ -102,3 +103,21 @@ def test_dcs_settings_follow_the_domain():
 def test_new_presets_build_and_play(level):
     env = make_env("dmc/walker-walk", generalization=level, seed=0, **FAST)
     assert env.rollout(3)["pixels"].shape == (3, 9, 32, 32)
+
+
+def test_levels_say_what_data_they_show():
+    from vigen.envs import make_env
+
+    def level(name, **options):
+        return make_env("dmc/walker-walk", generalization=name, image_size=32, level_options=options or None).level
+
+    assert (level("color_hard").data_source, level("color_hard").uses_stand_in) == ("DMC-GB color_hard presets (shipped, 100)", False)
+    stand_in = level("color_hard", palette="statistics")
+    assert (stand_in.data_source, stand_in.uses_stand_in) == ("statistics-matched stand-in colours (scale=0.2)", True)
+    # RL-ViGen's objects_color draws random colours by its own definition: no data, so no stand-in
+    objects = level("objects_color_hard")
+    assert objects.data_source.startswith("random colours") and not objects.uses_stand_in
+    with pytest.warns(StandInDataWarning, match="fetch dmcgb-videos --part video_hard"):
+        videos = level("video_hard")  # the test session's data cache is empty (conftest)
+    assert (videos.data_source, videos.uses_stand_in) == ("procedural stand-in videos (10)", True)
+    assert level("train").data_source == "" and not level("train").uses_stand_in

@@ -104,7 +104,8 @@ def test_dict_levels_reach_a_factory_and_label_the_rows():
     assert "factor" not in rows[0] and "intensity" not in rows[0], "named levels keep today's columns"
     assert [(row["factor"], row["intensity"]) for row in rows[1:]] == [
         ("camera_rotation", 0.1), ("camera_rotation", 0.3), ("camera_rotation+object_color", "")]
-    assert list(rows[1])[:5] == ["env", "level", "factor", "intensity", "seed"]
+    assert list(rows[1])[:8] == ["env", "level", "factor", "intensity", "data", "stand_in", "level_options", "seed"]
+    assert (rows[1]["data"], rows[1]["stand_in"], rows[1]["level_options"]) == ("", False, ""), "a factory env: no level to ask"
 
 
 def test_repeated_levels_run_once():
@@ -156,7 +157,8 @@ def test_rows_path_widens_for_sweep_columns(tmp_path):
                     env_options=TINY, rows_path=path)
     with path.open(newline="") as file:
         on_disk = list(csv.DictReader(file))
-    assert list(on_disk[0]) == ["env", "level", "seed", "episode", "return", "length", "factor", "intensity"]
+    assert list(on_disk[0]) == ["env", "level", "data", "stand_in", "level_options", "seed", "episode", "return", "length", "factor",
+                                "intensity"]
     assert [(row["level"], row["factor"], row["intensity"]) for row in on_disk] == [
         ("train", "", ""), ("camera_rotation=0.2", "camera_rotation", "0.2")]
     assert len(rows) == 2

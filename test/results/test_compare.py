@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from vigen.results import ProtocolMismatch, compare, published
+from vigen.results import ProtocolMismatch, StandInRows, compare, published
 
 
 def rows(method="svea", env="dmc/walker-stand", level="video_hard", frames=2_000_000, returns=(800.0, 900.0), **settings):
@@ -126,3 +126,16 @@ def test_nothing_published_for_the_rows_says_what_is():
         compare(rows(method="random"), source="sgqn", protocol="dmcgb")
     with pytest.raises(KeyError, match="lack the column"):
         compare([{"method": "svea"}], source="sgqn", protocol="dmcgb")
+
+
+def test_stand_in_rows_are_refused_unless_asked_for_and_then_labelled():
+    run = [dict(row, data="procedural stand-in videos (10)", stand_in=True) for row in rows()]
+    with pytest.raises(StandInRows, match="video_hard: procedural stand-in videos \\(10\\)(.|\n)*allow_stand_ins=True"):
+        compare(run, source="sgqn", protocol="dmcgb")
+    line = compare(run, source="sgqn", protocol="dmcgb", allow_stand_ins=True)[0]
+    assert "vigen showed stand-ins (procedural stand-in videos (10)) where the source showed its own data" in line["notes"]
+    as_read = [dict(row, stand_in="True") for row in run]  # as a CSV reads the rows back
+    with pytest.raises(StandInRows):
+        compare(as_read, source="sgqn", protocol="dmcgb")
+    real = [dict(row, data="/data/dmcgb-videos/video_hard: 100 videos", stand_in="False") for row in rows()]
+    assert "stand-ins" not in compare(real, source="sgqn", protocol="dmcgb")[0]["notes"]

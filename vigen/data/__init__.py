@@ -26,7 +26,7 @@ from vigen.data.cache import cache_root
 from vigen.data.catalog import DATASETS, get_dataset
 from vigen.data.checksums import git_blob_id
 from vigen.data.errors import (CorruptFileError, DataError, DownloadError, FetchError, IncompleteDownloadError, LayoutError,
-                               MissingFileError, SourceUnreachableError, UnknownDataSetError)
+                               MissingFileError, SourceUnreachableError, StandInDataWarning, UnknownDataSetError)
 from vigen.data.fetch import fetch, fetch_command
 from vigen.data.locate import PartStatus, locate, status
 from vigen.data.progress import Progress
@@ -36,6 +36,6 @@ from vigen.data.verify import Mismatch, VerifyReport, verify
 __all__ = [
     "DATASETS", "Archive", "ArchiveLayout", "CorruptFileError", "DataError", "DataSet", "DownloadError", "FetchError",
     "IncompleteDownloadError", "LayoutError", "Mismatch", "MissingFileError", "PartStatus", "PinnedFile", "Progress",
-    "SourceUnreachableError", "UnknownDataSetError", "VerifyReport", "cache_root", "fetch", "fetch_command", "get_dataset",
+    "SourceUnreachableError", "StandInDataWarning", "UnknownDataSetError", "VerifyReport", "cache_root", "fetch", "fetch_command", "get_dataset",
     "git_blob_id", "locate", "status", "verify",
 ]

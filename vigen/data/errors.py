@@ -135,3 +135,16 @@ class FetchError(DataError):
     def __init__(self, message: str, failures: Sequence[DataError]) -> None:
         super().__init__(message)
         self.failures = list(failures)
+
+
+class StandInDataWarning(UserWarning):
+    """A level shows vigen's stand-ins because the benchmark's data is not in the cache; the message names the fetch command.
+
+    Python's warning filter shows each such message once per process by default; evaluation rows
+    and reports still name the stand-ins on every row.
+
+    Examples:
+        >>> from vigen.data.errors import StandInDataWarning
+        >>> issubclass(StandInDataWarning, UserWarning)
+        True
+    """

@@ -19,7 +19,7 @@ from typing import Any
 from torchrl.envs import DoubleToFloat, EnvBase
 
 from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
-from vigen.envs.level_types import Derived, Factor, Level, LevelContext, Scaled, Step
+from vigen.envs.level_types import Derived, Factor, FetchedData, Level, LevelContext, Scaled, Step
 from vigen.envs.pixels import PixelEnv
 from vigen.envs.suite import Suite
 from vigen.transforms import (
@@ -107,11 +107,13 @@ def dcs_level(scale: float, dynamic: bool) -> Level:
     clips = f"the first {videos} DAVIS train videos" if videos else "every DAVIS train video"
     return Level(
         f"DCS at intensity {scale}: camera pose and every material colour {motion}, background video "
-        f"({clips}, procedural without a DAVIS folder; {'playing back and forth' if dynamic else 'one still frame'})",
+        f"({clips}, once fetched: python -m vigen.data fetch davis2017; procedural stand-ins without it; "
+        f"{'playing back and forth' if dynamic else 'one still frame'})",
         DCS_SOURCE + ("" if dynamic else ", static variant"),
         (Step(DistractingCamera, {"scale": scale, "dynamic": dynamic, **DCS_CAMERA, **every}),
          Step(DistractingColors, {"scale": scale, "dynamic": dynamic, **every}),
          Step(VideoBackground, {"playback": "bounce" if dynamic else "static", "num_videos": videos, "split": "train",
+                                "videos": FetchedData("davis2017", subfolder="DAVIS"),
                                 "ground_plane_alpha": GroundPlaneAlpha(), **every})),
     )
 
@@ -160,13 +162,15 @@ LEVELS: dict[str, Level] = {
     ),
     "video_easy": Level(
         "sky replaced by a video, new frame every step; episode k plays video (k + 1) mod n, as DMC-GB does",
-        "DMC-GB video_easy (procedural videos unless a folder is given)",
-        (Step(VideoBackground, {"floor": False, "first_video": 1}),),
+        "DMC-GB video_easy (its 10 videos once fetched: python -m vigen.data fetch dmcgb-videos; procedural stand-ins "
+        "until then, or a folder given as level_options={'videos': ...})",
+        (Step(VideoBackground, {"floor": False, "first_video": 1, "videos": FetchedData("dmcgb-videos", "video_easy")}),),
     ),
     "video_hard": Level(
         "sky and floor replaced by a video, new frame every step; episode k plays video (k + 1) mod n, as DMC-GB does",
-        "DMC-GB video_hard (procedural videos unless a folder is given)",
-        (Step(VideoBackground, {"floor": True, "first_video": 1}),),
+        "DMC-GB video_hard (its 100 videos once fetched: python -m vigen.data fetch dmcgb-videos; procedural stand-ins "
+        "until then, or a folder given as level_options={'videos': ...})",
+        (Step(VideoBackground, {"floor": True, "first_video": 1, "videos": FetchedData("dmcgb-videos", "video_hard")}),),
     ),
     "light_easy": Level(
         "light position +{3, 4}, diffuse ± 0.2, light moving 0.01/step within ± 5",
@@ -199,7 +203,8 @@ LEVELS: dict[str, Level] = {
             "composites by segmentation unless screen=True)",
             (Step(RandomSceneColors, {"palette": f"color_{difficulty}", "draw": "dmcgb2", "scale": scale,
                                       "rebuild_textures": True, "dmcgb2_file": f"color_{difficulty}.pt"}),
-             Step(DMCGB2VideoBackground, {"floor": False, "domain": Domain()})),
+             Step(DMCGB2VideoBackground, {"floor": False, "domain": Domain(),
+                                          "videos": FetchedData("dmcgb-videos", f"video_{difficulty}")})),
         )
         for difficulty, scale in (("easy", 0.1), ("hard", 0.2))
     },

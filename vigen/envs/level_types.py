@@ -22,12 +22,14 @@ from __future__ import annotations
 import inspect
 import math
 import numbers
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 from torchrl.envs import Transform
 
+import vigen.data
 from vigen.assets.image_bank import ImageBank
 from vigen.assets.procedural import STAND_IN_KINDS
 
@@ -185,6 +187,47 @@ class StandInImages:
         return f"stand-in({self.count}{kinds}, size={self.size}, seed={self.seed})"
 
 
+@dataclass(frozen=True, repr=False)
+class FetchedData(Derived):
+    """The folder of a benchmark data set fetched with ``python -m vigen.data fetch`` (:func:`vigen.data.locate`), or ``None``.
+
+    A level whose source shows real data (DMC-GB's videos, DAVIS 2017) names it here: when every
+    file of the data set (or ``part``) is in the cache, the transform gets its folder (plus
+    ``subfolder``); when not, it gets ``None`` (its stand-ins) and a :class:`~vigen.data.StandInDataWarning`
+    names the command that fetches the data. A folder given in ``level_options`` replaces the rule.
+
+    Examples:
+        >>> import os, tempfile, warnings
+        >>> before = os.environ.get("VIGEN_DATA")
+        >>> os.environ["VIGEN_DATA"] = tempfile.mkdtemp()  # an empty cache
+        >>> with warnings.catch_warnings(record=True) as caught:
+        ...     warnings.simplefilter("always")
+        ...     FetchedData("dmcgb-videos", "video_hard")(LevelContext("walker-walk"))
+        >>> print(str(caught[0].message).split(" is not")[0])
+        dmc/walker-walk shows stand-ins: dmcgb-videos (part video_hard)
+        >>> _ = os.environ.pop("VIGEN_DATA") if before is None else os.environ.update(VIGEN_DATA=before)
+    """
+
+    dataset: str
+    part: str | None = None
+    subfolder: str = ""
+    suite: str = "dmc"
+
+    def __call__(self, context: LevelContext) -> str | None:
+        folder = vigen.data.locate(self.dataset, self.part)
+        if folder is None:
+            what = f"{self.dataset}" + (f" (part {self.part})" if self.part else "")
+            warnings.warn(vigen.data.StandInDataWarning(
+                f"{self.suite}/{context.task} shows stand-ins: {what} is not in the data cache "
+                f"{vigen.data.cache_root()}; fetch it with `{vigen.data.fetch_command(self.dataset, self.part)}` "
+                "(docs/data.md), or pass a folder in level_options."), stacklevel=2)
+            return None
+        return str(folder / self.subfolder) if self.subfolder else str(folder)
+
+    def __repr__(self) -> str:
+        return f"fetched {self.dataset}{'/' + self.part if self.part else ''} (stand-ins without it)"
+
+
 def evaluate_value(value: Any, context: LevelContext) -> Any:
     """A parameter's value in ``context``: a :class:`Derived` rule is applied, anything else is returned as it is."""
     return value(context) if isinstance(value, Derived) else value
@@ -208,9 +251,13 @@ class Step:
         return accepted_options(self.transform)
 
     def build(self, context: LevelContext, options: Mapping[str, Any] | None = None) -> Transform:
-        """The transform, with its parameters evaluated in ``context`` and the ``options`` it accepts on top."""
-        params = {name: evaluate_value(value, context) for name, value in self.params.items()}
-        params.update({name: value for name, value in (options or {}).items() if name in self.accepts()})
+        """The transform, with its parameters evaluated in ``context`` and the ``options`` it accepts on top.
+
+        A parameter that an option replaces is not evaluated (a folder given for ``videos`` looks up no cache).
+        """
+        given = {name: value for name, value in (options or {}).items() if name in self.accepts()}
+        params = {name: evaluate_value(value, context) for name, value in self.params.items() if name not in given}
+        params.update(given)
         return self.transform(**params)
 
     def scene_params(self, context: LevelContext) -> dict[str, Any]:

@@ -23,6 +23,7 @@ from vigen.envs.level_types import (
     Choice,
     Derived,
     Factor,
+    FetchedData,
     Level,
     LevelContext,
     Scaled,
@@ -39,7 +40,7 @@ from vigen.envs.level_types import (
 from vigen.envs.registry import SUITES, get_suite
 
 __all__ = [
-    "ByTask", "Choice", "Derived", "Factor", "Level", "LevelContext", "Scaled", "SceneIndex", "Severity", "Span",
+    "ByTask", "Choice", "Derived", "Factor", "FetchedData", "Level", "LevelContext", "Scaled", "SceneIndex", "Severity", "Span",
     "StandInImages", "Step", "accepted_options", "check_intensity", "evaluate_value", "level_label", "levels_markdown",
     "resolve_levels",
 ]

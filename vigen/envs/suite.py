@@ -43,6 +43,33 @@ class BuiltLevel:
     def transforms(self) -> list[Transform]:
         return [transform for _, _, transform in self.parts]
 
+    @property
+    def data_sources(self) -> list[tuple[str, bool]]:
+        """(what it shows, whether it is a stand-in) for each of the level's transforms that shows data (videos, presets, textures)."""
+        return [(transform.data_source, bool(transform.uses_stand_in)) for transform in self.transforms
+                if hasattr(transform, "data_source")]
+
+    @property
+    def data_source(self) -> str:
+        """What the level shows, in a few words per transform (``"; "``-joined); ``""`` for a level that shows no data.
+
+        Evaluation rows carry it (``data``), so a table says whether a number came from the
+        benchmark's own data or from vigen's stand-ins.
+        """
+        return "; ".join(label for label, _ in self.data_sources)
+
+    @property
+    def uses_stand_in(self) -> bool:
+        """True when any transform shows vigen's stand-ins where the level's source shows its own data."""
+        return any(stand_in for _, stand_in in self.data_sources)
+
+    def episode_data(self) -> dict[str, Any]:
+        """What the current episode shows of the level's data (a video's file, a preset's index), merged over its transforms."""
+        shown: dict[str, Any] = {}
+        for transform in self.transforms:
+            shown.update(transform.episode_data() if hasattr(transform, "episode_data") else {})
+        return shown
+
     def select_scene(self, scene_id: int) -> None:
         """Show scene ``scene_id`` from the next reset on."""
         for step, context, transform in self.parts:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import functools
 import io
+import json
 import os
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -84,6 +85,11 @@ def evaluate(
         ``episode``, ``return``, ``length`` and, where the task reports one, ``success`` (whether
         the episode ever succeeded), after the ``tags``. Rows of a generalization dict also carry
         ``factor`` and ``intensity`` after ``level`` (:func:`~vigen.evaluation.sweep.level_columns`).
+        Every row says what its level showed (:func:`data_columns`): ``data`` (e.g. ``"DMC-GB
+        color_hard presets (shipped, 100)"`` or ``"procedural stand-in videos (10)"``, ``""`` for a
+        level that shows no data), ``stand_in`` (True where vigen's stand-ins replace the source's
+        data) and ``level_options`` (the options given, as JSON); a level that shows data adds
+        ``shown``, what that episode showed (``"video=video3.mp4"``, ``"preset=17"``).
 
     Examples:
         >>> from vigen.evaluation import evaluate
@@ -184,10 +190,12 @@ def run_job(job: Job, *, policy: Policy | None, env: str | EnvFactory, name: str
             instance = env(job.level, job.seed)
         try:
             acting = _random_policy(instance, job.seed) if policy is None else policy
-            columns = level_columns(job.level)
+            columns = {**level_columns(job.level), **data_columns(instance, options.get("level_options") if isinstance(env, str) else None)}
             for episode in range(episodes):
                 row = {**tags, "env": name, "level": job.label, **columns, "seed": job.seed, "episode": episode,
                        **_play(acting, instance, max_steps)}
+                if columns["data"]:
+                    row["shown"] = shown_data(instance)
                 rows.append(row)
                 if on_row is not None:
                     on_row(row)
@@ -197,6 +205,28 @@ def run_job(job: Job, *, policy: Policy | None, env: str | EnvFactory, name: str
     except Exception as error:
         raise JobError(rows, episode, error) from error
     return rows
+
+
+def data_columns(env: EnvBase, level_options: Mapping[str, Any] | None) -> dict[str, Any]:
+    """What an env's level shows, for its rows: ``data`` (the level's data source, ``""`` if it shows none),
+    ``stand_in`` (whether any of it is vigen's stand-ins) and ``level_options`` (the options given, as JSON).
+
+    Examples:
+        >>> from vigen.envs import make_env
+        >>> data_columns(make_env("dmc/cartpole-balance", generalization="color_hard", image_size=32), None)
+        {'data': 'DMC-GB color_hard presets (shipped, 100)', 'stand_in': False, 'level_options': ''}
+    """
+    level = getattr(env, "level", None)
+    given = {key: value for key, value in (level_options or {}).items()}
+    return {"data": "" if level is None else level.data_source, "stand_in": bool(level is not None and level.uses_stand_in),
+            "level_options": json.dumps(given, sort_keys=True, default=str) if given else ""}
+
+
+def shown_data(env: EnvBase) -> str:
+    """What the episode just played showed of its level's data, e.g. ``"video=video3.mp4"`` or ``"preset=17"``."""
+    level = getattr(env, "level", None)
+    shown = {} if level is None else level.episode_data()
+    return "; ".join(f"{key}={value}" for key, value in shown.items())
 
 
 def _check_levels(levels: Level | Sequence[Level], env: str | EnvFactory) -> dict[str, Level]:

@@ -17,7 +17,7 @@ Examples:
 """
 
 from vigen.results.aggregates import seed_aggregates, task_means
-from vigen.results.compare import ProtocolMismatch, check_protocol, compare
+from vigen.results.compare import ProtocolMismatch, StandInRows, check_protocol, compare
 from vigen.results.published import COLUMNS, PublishedScore, as_dicts, load, published
 from vigen.results.sources import SOURCES, Source
 
@@ -27,6 +27,7 @@ __all__ = [
     "PublishedScore",
     "SOURCES",
     "Source",
+    "StandInRows",
     "as_dicts",
     "check_protocol",
     "compare",

@@ -49,6 +49,31 @@ class ProtocolMismatch(ValueError):
                          "\n".join(f"  - {difference}" for difference in self.differences) + (f"\n{hint}" if hint else ""))
 
 
+class StandInRows(ValueError):
+    """Rows that showed vigen's stand-ins where the source showed its own data; ``levels`` lists (level, data shown).
+
+    Examples:
+        >>> from vigen.results.compare import StandInRows
+        >>> print(StandInRows([("video_hard", "procedural stand-in videos (10)")]))  # doctest: +ELLIPSIS
+        cannot set these rows beside published numbers: they showed vigen's stand-ins, not the benchmark's data:
+          - video_hard: procedural stand-in videos (10)
+        Fetch the data (python -m vigen.data fetch ...) and evaluate again, or pass allow_stand_ins=True ...
+    """
+
+    def __init__(self, levels: Sequence[tuple[str, str]]) -> None:
+        self.levels = list(levels)
+        super().__init__(
+            "cannot set these rows beside published numbers: they showed vigen's stand-ins, not the benchmark's data:\n"
+            + "\n".join(f"  - {level}: {data}" for level, data in self.levels)
+            + "\nFetch the data (python -m vigen.data fetch ...) and evaluate again, or pass allow_stand_ins=True "
+              "(--allow-stand-ins) to show them anyway, each line saying so.")
+
+
+def _is_true(value: Any) -> bool:
+    """A row's boolean cell, as evaluate() writes it (True / False) or as a CSV reads it back ("True" / "False")."""
+    return value is True or (isinstance(value, str) and value.strip().lower() == "true")
+
+
 def check_protocol(rows: Sequence[Mapping[str, Any]], protocol: str | Protocol) -> list[str]:
     """How the rows' settings differ from ``protocol``: one sentence per difference, empty when they follow it.
 
@@ -163,6 +188,7 @@ def compare(
     protocol: str | Protocol,
     value: str = "return",
     allow_budget_mismatch: bool = False,
+    allow_stand_ins: bool = False,
 ) -> list[dict[str, Any]]:
     """A vigen evaluation beside the published numbers of the same method, env and level, one line per pair.
 
@@ -178,6 +204,11 @@ def compare(
             (``published`` is NaN) and ``notes`` says which budgets the source publishes. A run is
             never set beside a number published at another budget: between two published budgets
             the published mean is interpolated linearly, and ``notes`` says so.
+        allow_stand_ins: set rows that showed vigen's stand-ins (``stand_in`` true: procedural
+            videos, statistics-matched colours) beside the published numbers anyway; each such line
+            says in ``notes`` that the source showed its own data. Without it such rows raise
+            :class:`StandInRows`. Rows without a ``stand_in`` column (evaluations older than the
+            column, or rows made by hand) are taken as showing the benchmark's data.
 
     Returns:
         Lines with the vigen side (``runs``, ``mean``, ``std`` over runs of each run's mean, as
@@ -218,6 +249,9 @@ def compare(
     if missing:
         raise KeyError(f"rows lack the column(s) {missing}; pass the rows of vigen.evaluation.evaluate with method tags.")
     protocol = get_protocol(protocol)
+    stand_ins = {(str(row["level"]), str(row.get("data", ""))) for row in rows if _is_true(row.get("stand_in"))}
+    if stand_ins and not allow_stand_ins:
+        raise StandInRows(sorted(stand_ins))
     sources = [source] if isinstance(source, str) else list(source)
     candidates = published(source=sources, unit=VALUE_UNITS[value], statistic=["mean", "seed"])
     if not candidates:
@@ -279,6 +313,10 @@ def compare(
                 notes.append(f"{source_name}'s rows are unverified: {SOURCES[source_name].unverified}")
             if level in protocol.level_differences:
                 notes.append(f"{level} differs: {protocol.level_differences[level]}")
+            shown = {str(row.get("data", "")) for row in members if _is_true(row.get("stand_in"))}
+            if shown:
+                notes.append(f"vigen showed stand-ins ({'; '.join(sorted(shown))}) where the source showed its own data: "
+                             "not the benchmark's number")
             lines.append({
                 "method": method, "env": env, "level": level, "runs": len(scores), "frames": run_frames,
                 "mean": float(np.mean(scores)), "std": float(np.std(scores, ddof=1)) if len(scores) > 1 else float("nan"),

@@ -94,6 +94,10 @@ class SceneTransform(Transform):
             )
         return base.scene
 
+    def episode_data(self) -> dict[str, Any]:
+        """What this episode shows of the transform's data (a video's file, a preset's index), for evaluation rows; ``{}`` here."""
+        return {}
+
     def generator(self) -> np.random.Generator:
         """The transform's NumPy generator, created from ``seed`` at first use."""
         if self._rng is None:

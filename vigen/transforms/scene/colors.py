@@ -77,7 +77,10 @@ class RandomSceneColors(ScenePerturbation):
     gradient keeps the tone mapping.
 
     :attr:`data_source` names what the transform shows (for evaluation rows) and
-    :attr:`uses_stand_in` is True for the statistics draw only.
+    :attr:`uses_stand_in` is True when ``palette="statistics"`` is asked for by name, i.e. where
+    the statistics-matched draw stands in for DMC-GB's presets. Without a palette (the default:
+    RL-ViGen's ``objects_color`` levels and vigen's colour factors) random colours are the level's
+    own definition, not a stand-in. :meth:`episode_data` names the preset an episode shows.
 
     Paper: DMC-GB / SODA, https://arxiv.org/abs/2011.13389.
 
@@ -109,14 +112,16 @@ class RandomSceneColors(ScenePerturbation):
         >>> env = make_env("dmc/walker-walk").append_transform(colors)
         >>> env.reset()["pixels"].shape
         torch.Size([9, 84, 84])
-        >>> RandomSceneColors(scale=0.2).data_source
+        >>> RandomSceneColors(palette="statistics", scale=0.2).data_source
         'statistics-matched stand-in colours (scale=0.2)'
+        >>> RandomSceneColors(scale=0.2).data_source, RandomSceneColors(scale=0.2).uses_stand_in
+        ('random colours: default + N(0, 0.2²) per channel', False)
     """
 
     def __init__(
         self,
         scale: float = 0.1,
-        palette: str | os.PathLike | Sequence[dict[str, Any]] | None = STATISTICS,
+        palette: str | os.PathLike | Sequence[dict[str, Any]] | None = None,
         parts: Sequence[str] = PARTS,
         rebuild_textures: bool = False,
         dmcgb2_colors: str | os.PathLike | Sequence[dict[str, Any]] | None = None,
@@ -131,6 +136,7 @@ class RandomSceneColors(ScenePerturbation):
         if draw is not None and draw not in DRAWS:
             raise ValueError(f"RandomSceneColors: unknown draw {draw!r}; choose 'dmcgb' (DMC-GB: one preset drawn per reset "
                              "from RandomState(env seed)) or 'dmcgb2' (DMC-GB2: presets cycled from a seeded start).")
+        self.stands_in = isinstance(palette, str) and palette == STATISTICS  # asked for in place of the presets
         palette = STATISTICS if palette is None else palette
         named = isinstance(palette, str) and palette in PALETTE_NAMES
         if isinstance(palette, str) and not named and not _looks_like_a_path(palette):
@@ -173,13 +179,15 @@ class RandomSceneColors(ScenePerturbation):
 
     @property
     def uses_stand_in(self) -> bool:
-        """True when the colours are the statistics-matched stand-ins, not a benchmark's (or a user's) presets."""
-        return self.palette is None
+        """True when the statistics-matched colours were asked for in place of a benchmark's presets (``palette="statistics"``)."""
+        return self.palette is None and self.stands_in
 
     @property
     def data_source(self) -> str:
         """What the colours are, in a few words, e.g. ``"DMC-GB color_hard presets (shipped, 100)"``."""
         if self.palette is None:
+            if not self.stands_in:
+                return f"random colours: default + N(0, {self.scale}²) per channel"
             return f"statistics-matched stand-in colours (scale={self.scale})"
         count = len(self.palette)
         if self.palette_name is not None:
@@ -188,6 +196,15 @@ class RandomSceneColors(ScenePerturbation):
             return f"DMC-GB {self.palette_name} presets (shipped, {count})"
         where = "given in code" if self.palette_source == "entries" else str(self.palette_source)
         return f"user presets {where} ({count})" + (", cycled as DMC-GB2" if self.cycle else "")
+
+    def episode_data(self) -> dict[str, Any]:
+        """The preset this episode shows (its index in the palette), or nothing for random colours.
+
+        Examples:
+            >>> RandomSceneColors(palette="color_hard").episode_data()  # before the first reset
+            {}
+        """
+        return {"preset": int(self.params["preset"])} if self.params is not None and "preset" in self.params else {}
 
     def set_seed(self, seed: int | None) -> None:
         super().set_seed(seed)
@@ -262,7 +279,7 @@ class RandomSceneColors(ScenePerturbation):
 
     def extra_repr(self) -> str:
         if self.palette is None:
-            source = f"scale={self.scale}"
+            source = ("palette='statistics', " if self.stands_in else "") + f"scale={self.scale}"
         elif self.from_dmcgb2_colors:
             source = f"dmcgb2_colors={self.palette_source!s}"
         else:

@@ -79,6 +79,35 @@ class RandomTextures(ScenePerturbation):
         self._pixels: dict[tuple[int, int], np.ndarray] = {}
 
     @property
+    def uses_stand_in(self) -> bool:
+        """True for generated stand-in textures (the default, ``ImageBank.stand_in``), where the level's source shows image files."""
+        images = self._images
+        if images is None:
+            return True
+        if isinstance(images, ImageBank):
+            return images.name.startswith("stand-in")
+        if isinstance(images, (str, os.PathLike)):
+            return False
+        return "stand-in" in repr(images) or "stand_in" in getattr(getattr(images, "func", None), "__name__", "")
+
+    @property
+    def data_source(self) -> str:
+        """What the textures are drawn from, e.g. ``"generated stand-in textures"`` or a folder.
+
+        Examples:
+            >>> RandomTextures().data_source, RandomTextures().uses_stand_in
+            ('generated stand-in textures: stand-in', True)
+        """
+        kind = "generated stand-in textures" if self.uses_stand_in else "textures"
+        return f"{kind}: {self._images_label()}"
+
+    def _images_label(self) -> str:
+        images = self._images
+        if isinstance(images, functools.partial):
+            return f"{images.func.__name__}({', '.join(map(repr, images.args))})"
+        return str(images if isinstance(images, ImageBank) else (images or "stand-in"))
+
+    @property
     def bank(self) -> ImageBank:
         self._images = ImageBank.load(DEFAULT_TEXTURES if self._images is None else self._images)
         return self._images
@@ -130,11 +159,6 @@ class RandomTextures(ScenePerturbation):
         return state
 
     def extra_repr(self) -> str:
-        images = self._images
-        if isinstance(images, functools.partial):
-            source = f"{images.func.__name__}({', '.join(map(repr, images.args))})"
-        else:
-            source = images if isinstance(images, ImageBank) else (images or "stand-in")
         scene = "" if self.scene_id is None else f", scene_id={self.scene_id}"
         blend = "" if self.blend == 1.0 else f", blend={self.blend:g}"
-        return f"textures={self.textures}, images={source!s}{scene}{blend}"
+        return f"textures={self.textures}, images={self._images_label()}{scene}{blend}"

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -232,6 +233,18 @@ class VideoBackground(SceneTransform):
         if self.uses_stand_in:
             return f"procedural stand-in videos ({count})"
         return f"{self.videos.name}: {count} video{'s' * (count != 1)}" + (f" (the first of {total})" if count < total else "")
+
+    def episode_data(self) -> dict[str, Any]:
+        """The video this episode plays: its file or folder name (``"video3.mp4"``), or ``"procedural <i>"``.
+
+        Examples:
+            >>> VideoBackground().episode_data()  # before the first reset
+            {}
+        """
+        if self.params is None:
+            return {}
+        index = int(self.params["video"])
+        return {"video": f"procedural {index}" if self.videos.paths is None else self.videos.paths[index].name}
 
     def background_geoms(self, model: mujoco.MjModel) -> np.ndarray:
         """``[ngeom]`` True for the geoms that count as background: ground planes with ``floor``, and ``background`` names."""
