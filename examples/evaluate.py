@@ -77,6 +77,7 @@ from vigen.envs.levels import resolve_levels
 from vigen.envs.registry import get_suite
 from vigen.evaluation import (comparison_table, evaluate, generalization_gaps, improvements, markdown_table, plot_comparison,
                               plot_intensity, plot_levels, plot_performance_profile, summarize, sweep, write_csv)
+from vigen.evaluation.report import label_stand_ins
 from vigen.io import atomic_write, unused_path
 from vigen.protocols import PROTOCOLS
 from vigen.ray_cluster import ray_session
@@ -301,7 +302,11 @@ def main() -> None:
     lines = summarize(rows)
     written = [write_csv(rows, out / "episodes.csv"), write_csv(lines, out / "summary.csv")]
     task = ", ".join(dict.fromkeys(row["env"] for row in rows))
-    report = f"# Zero-shot evaluation: {task}\n\n## Episode return\n\n{markdown_table(lines)}\n"
+    report = f"# Zero-shot evaluation: {task}\n\n## Episode return\n\n{markdown_table(label_stand_ins(lines, rows))}\n"
+    if any(row["stand_in"] for row in rows):
+        report += ("\nLevels marked (stand-in) showed vigen's stand-ins (procedural videos, statistics-matched colours), not "
+                   "the benchmark's own data; `python -m vigen.data fetch ...` gets the data (docs/data.md).\n")
+    report += f"\n## What each level showed\n\n{level_notes(rows, heading=False)}"
     if all("success" in row for row in rows):  # tasks with a success check: the success rate in %
         success = summarize([dict(row, success=100.0 * row["success"]) for row in rows], value="success")
         written.append(write_csv(success, out / "summary_success.csv"))
@@ -345,7 +350,7 @@ def main() -> None:
                    f"{level_notes(rows)}\n" + "".join(f"![{figure.name}]({figure.name})\n"
                                                                    for figure in figures if figure.name.startswith("published")))
     atomic_write(out / "report.md", report)
-    print(markdown_table(lines))
+    print(markdown_table(label_stand_ins(lines, rows)))
     if published_table:
         print(f"\nPublished numbers, protocol {protocol}:\n\n{published_table}\n\n{level_notes(rows)}")
     names = [path.name for path in [*written, out / "report.md", *figures, *curves]]
@@ -378,7 +383,7 @@ def shown_data(env: str, level: str, videos: list[tuple[str, Path]]) -> dict[str
     return {"data": "; ".join(t.data_source for t in built), "stand_in": any(t.uses_stand_in for t in built)}
 
 
-def level_notes(rows: list[dict]) -> str:
+def level_notes(rows: list[dict], heading: bool = True) -> str:
     """What vigen's levels are and the data each showed, so a reader sees where they approximate the source's."""
     notes = []
     for env, level in dict.fromkeys((row["env"], row["level"]) for row in rows):
@@ -390,7 +395,9 @@ def level_notes(rows: list[dict]) -> str:
         stand_in = any(row.get("stand_in") is True for row in mine)
         notes.append(f"- {level}: {source}" + (f"; showed {', '.join(shown)}" if shown else "")
                      + (" (vigen's stand-ins, not the benchmark's data)" if stand_in else ""))
-    return "vigen's levels, for reading the comparison:\n\n" + "\n".join(dict.fromkeys(notes)) + "\n" if notes else ""
+    if not notes:
+        return ""
+    return ("vigen's levels, for reading the comparison:\n\n" if heading else "") + "\n".join(dict.fromkeys(notes)) + "\n"
 
 
 if __name__ == "__main__":

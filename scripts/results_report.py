@@ -38,6 +38,7 @@ import numpy as np
 
 from vigen.evaluation import generalization_gaps, improvements, markdown_table, plot_levels, summarize, write_csv
 from vigen.evaluation.aggregate import percentile_interval, stratified_picks
+from vigen.evaluation.report import label_stand_ins
 from vigen.evaluation.statistics import gap_resamples, generalization_gap, improvement_p_value, smallest_p_value
 from vigen.evaluation.summary import score_matrix
 from vigen.io import atomic_write
@@ -52,6 +53,7 @@ RESOLVED_RULE = (f"resolved where the one-sided Mann–Whitney U test on the run
 """When the report calls a level resolved. With 3 runs per method the smallest p-value is 1 / C(6, 3) = 0.05."""
 INTEGER_COLUMNS = ("run", "seed", "episode", "length", "frames", "batch_size", "action_repeat", "frame_stack", "image_size", "episode_length")
 FLOAT_COLUMNS = ("return",)
+BOOLEAN_COLUMNS = ("stand_in",)
 DERIVED = ("summary.csv", "gaps.csv", "gap_differences.csv", "improvements.csv", "published.csv", "levels.png", "robustness.png", "report.md")
 
 
@@ -65,6 +67,9 @@ def read_rows(path: str | Path) -> list[dict[str, Any]]:
                     row[column] = int(row[column])
             for column in FLOAT_COLUMNS:
                 row[column] = float(row[column])
+            for column in BOOLEAN_COLUMNS:
+                if column in row:
+                    row[column] = {"True": True, "False": False}[row[column]]
             rows.append(row)
     if not rows:
         raise ValueError(f"{path}: no rows.")
@@ -161,6 +166,25 @@ def direction(lines: Sequence[Mapping[str, Any]], rows: Sequence[Mapping[str, An
     return verdicts
 
 
+def data_shown(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """The report's table of what each level showed: its data, whether vigen's stand-ins, its options, what the episodes saw."""
+    if not any("data" in row for row in rows):
+        return []
+    table = ["## What each level showed", "",
+             "From the rows' `data`, `stand_in`, `level_options` and `shown` columns (examples/evaluate.py writes them).", "",
+             "| level | data | stand-in | level options | seen by the episodes |", "|---|---|---|---|---|"]
+    for level in dict.fromkeys(row["level"] for row in rows):
+        mine = [row for row in rows if row["level"] == level]
+        data = "; ".join(dict.fromkeys(str(row.get("data", "")) for row in mine if row.get("data"))) or "—"
+        stand_in = "yes" if any(row.get("stand_in") is True for row in mine) else "no"
+        options = ", ".join(f"`{value}`" for value in dict.fromkeys(str(row.get("level_options", "")) for row in mine) if value) or "—"
+        shown = sorted({str(row["shown"]) for row in mine if row.get("shown")})
+        seen = "—" if not shown else (f"{len(shown)} distinct: " + ", ".join(value.split("=", 1)[-1] for value in shown[:6])
+                                      + (" ..." if len(shown) > 6 else ""))
+        table.append(f"| {level} | {data} | {stand_in} | {options} | {seen} |")
+    return table + [""]
+
+
 def write(folder: Path, rows: Sequence[Mapping[str, Any]], tables: Mapping[str, list[dict[str, Any]]],
           methods: Sequence[str]) -> list[Path]:
     """Write the derived files of ``folder`` (the caller checked they may be replaced)."""
@@ -174,7 +198,8 @@ def write(folder: Path, rows: Sequence[Mapping[str, Any]], tables: Mapping[str, 
                                title=f"{task}: return kept under each shift (95 % CI)"))
     report = [f"# Zero-shot evaluation: {task}", "",
               "Derived by `scripts/results_report.py` from `episodes.csv`; see README.md for how the rows were made.", "",
-              "## Episode return", "", markdown_table(tables["summary"]), "",
+              *data_shown(rows),
+              "## Episode return", "", markdown_table(label_stand_ins(tables["summary"], rows)), "",
               "## Generalization gap (test / train return of the same runs, 95 % CI)", "",
               markdown_table(tables["gaps"], cell=lambda line: f"{line['gap']:.2f} [{line['gap_low']:.2f}, {line['gap_high']:.2f}]"),
               "", "![robustness.png](robustness.png)", ""]

@@ -4,6 +4,7 @@ level showed (the benchmark's data or vigen's stand-ins)."""
 from __future__ import annotations
 
 import csv
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -68,3 +69,19 @@ def test_videos_are_given_per_level_pattern():
                     (["dcs_0.1", "dcs_0.2"], {"videos": "/davis"})]
     with pytest.raises(SystemExit, match="is not a folder"):
         script.parse_videos(["video_easy=/no/such/folder"])
+
+
+@pytest.mark.slow
+@pytest.mark.render
+def test_stand_in_levels_are_labelled_in_the_report_and_warned_about(tmp_path):
+    out = tmp_path / "report"
+    env = {**os.environ, "VIGEN_DATA": str(tmp_path / "empty-cache")}
+    result = subprocess.run(
+        [sys.executable, str(ROOT / "examples" / "evaluate.py"), "--pretrained", "svea-cartpole-balance", "--levels", "train",
+         "video_hard", "--episodes", "1", "--episode-length", "10", "--out", str(out)],
+        capture_output=True, text=True, cwd=ROOT, timeout=600, env=env)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert "StandInDataWarning" in result.stderr and "python -m vigen.data fetch dmcgb-videos --part video_hard" in result.stderr
+    report = (out / "report.md").read_text()
+    assert "| video_hard (stand-in) |" in report and "| train |" in report
+    assert "- video_hard: DMC-GB video_hard" in report and "showed procedural stand-in videos (10) (vigen's stand-ins" in report

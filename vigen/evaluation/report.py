@@ -76,6 +76,19 @@ def _iqm_cell(line: Mapping[str, Any]) -> str:
     return f"{line['iqm']:.1f} [{line['iqm_low']:.1f}, {line['iqm_high']:.1f}] · {line['rlvigen_mean']:.1f}{std}"
 
 
+def label_stand_ins(lines: Sequence[Mapping[str, Any]], rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """``lines`` with " (stand-in)" after each level whose rows showed vigen's stand-ins (``stand_in`` true), for tables.
+
+    Examples:
+        >>> from vigen.evaluation.report import label_stand_ins
+        >>> rows = [{"level": "train", "stand_in": False}, {"level": "video_hard", "stand_in": True}]
+        >>> [line["level"] for line in label_stand_ins([{"level": "train"}, {"level": "video_hard"}], rows)]
+        ['train', 'video_hard (stand-in)']
+    """
+    stand_ins = {row["level"] for row in rows if row.get("stand_in") is True or str(row.get("stand_in")) == "True"}
+    return [dict(line, level=f"{line['level']} (stand-in)") if line["level"] in stand_ins else dict(line) for line in lines]
+
+
 def markdown_table(
     lines: Sequence[Mapping[str, Any]],
     *,
