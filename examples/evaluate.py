@@ -77,7 +77,7 @@ from vigen.envs.levels import resolve_levels
 from vigen.envs.registry import get_suite
 from vigen.evaluation import (comparison_table, evaluate, generalization_gaps, improvements, markdown_table, plot_comparison,
                               plot_intensity, plot_levels, plot_performance_profile, summarize, sweep, write_csv)
-from vigen.evaluation.report import label_stand_ins
+from vigen.evaluation.report import interval_cell, label_stand_ins
 from vigen.io import atomic_write, unused_path
 from vigen.protocols import PROTOCOLS
 from vigen.ray_cluster import ray_session
@@ -315,13 +315,14 @@ def main() -> None:
     if gaps:
         written.append(write_csv(gaps, out / "gaps.csv"))
         report += "\n## Generalization gap (test / train return of the same runs, 95 % CI)\n\n" + markdown_table(
-            gaps, cell=lambda line: f"{line['gap']:.2f} [{line['gap_low']:.2f}, {line['gap_high']:.2f}]") + "\n"
+            gaps, cell=lambda line: interval_cell(line["gap"], line["gap_low"], line["gap_high"], line["runs"])) + "\n"
     if len({row["method"] for row in rows}) > 1:
         better = improvements(rows)
         written.append(write_csv(better, out / "improvements.csv"))
         report += "\n## Probability of improvement P(row beats column), per level (95 % CI)\n\n" + "\n\n".join(
             f"{level}:\n\n" + markdown_table([line for line in better if line["level"] == level], rows="method", columns="over",
-                                              cell=lambda line: f"{line['probability']:.2f} [{line['low']:.2f}, {line['high']:.2f}]")
+                                              cell=lambda line: interval_cell(line["probability"], line["low"], line["high"],
+                                                                                max(line["runs"], line["over_runs"])))
             for level in dict.fromkeys(line["level"] for line in better)) + "\n"
     figures = [plot_levels(lines, out / "levels.png", title=f"{task}: zero-shot IQM per level (95 % CI)")]
     if any(row["level"] != "train" for row in rows):

@@ -36,9 +36,10 @@ from typing import Any
 
 import numpy as np
 
+from vigen.assets.video_source import natural_key
 from vigen.evaluation import generalization_gaps, improvements, markdown_table, plot_levels, summarize, write_csv
 from vigen.evaluation.aggregate import percentile_interval, stratified_picks
-from vigen.evaluation.report import label_stand_ins
+from vigen.evaluation.report import interval_cell, label_stand_ins
 from vigen.evaluation.statistics import gap_resamples, generalization_gap, improvement_p_value, smallest_p_value
 from vigen.evaluation.summary import score_matrix
 from vigen.io import atomic_write
@@ -178,9 +179,9 @@ def data_shown(rows: Sequence[Mapping[str, Any]]) -> list[str]:
         data = "; ".join(dict.fromkeys(str(row.get("data", "")) for row in mine if row.get("data"))) or "—"
         stand_in = "yes" if any(row.get("stand_in") is True for row in mine) else "no"
         options = ", ".join(f"`{value}`" for value in dict.fromkeys(str(row.get("level_options", "")) for row in mine) if value) or "—"
-        shown = sorted({str(row["shown"]) for row in mine if row.get("shown")})
-        seen = "—" if not shown else (f"{len(shown)} distinct: " + ", ".join(value.split("=", 1)[-1] for value in shown[:6])
-                                      + (" ..." if len(shown) > 6 else ""))
+        shown = sorted({str(row["shown"]) for row in mine if row.get("shown")}, key=natural_key)
+        named = [value if ";" in value else value.split("=", 1)[-1] for value in shown]  # "video=video3.mp4" -> "video3.mp4"
+        seen = "—" if not shown else f"{len(shown)} distinct: " + ", ".join(named[:6]) + (" ..." if len(shown) > 6 else "")
         table.append(f"| {level} | {data} | {stand_in} | {options} | {seen} |")
     return table + [""]
 
@@ -193,7 +194,7 @@ def write(folder: Path, rows: Sequence[Mapping[str, Any]], tables: Mapping[str, 
     task = ", ".join(dict.fromkeys(row["env"] for row in rows))
     written.append(plot_levels(tables["summary"], folder / "levels.png", title=f"{task}: zero-shot IQM per level (95 % CI)"))
     as_bars = [{"method": line["method"], "level": line["level"], "iqm": line["gap"], "iqm_low": line["gap_low"],
-                "iqm_high": line["gap_high"]} for line in tables["gaps"]]
+                "iqm_high": line["gap_high"], "runs": line["runs"]} for line in tables["gaps"]]
     written.append(plot_levels(as_bars, folder / "robustness.png", ylabel="test / train return (same runs)",
                                title=f"{task}: return kept under each shift (95 % CI)"))
     report = [f"# Zero-shot evaluation: {task}", "",
@@ -201,7 +202,7 @@ def write(folder: Path, rows: Sequence[Mapping[str, Any]], tables: Mapping[str, 
               *data_shown(rows),
               "## Episode return", "", markdown_table(label_stand_ins(tables["summary"], rows)), "",
               "## Generalization gap (test / train return of the same runs, 95 % CI)", "",
-              markdown_table(tables["gaps"], cell=lambda line: f"{line['gap']:.2f} [{line['gap_low']:.2f}, {line['gap_high']:.2f}]"),
+              markdown_table(tables["gaps"], cell=lambda line: interval_cell(line["gap"], line["gap_low"], line["gap_high"], line["runs"])),
               "", "![robustness.png](robustness.png)", ""]
     if len(methods) == 2:
         first, second = methods
@@ -218,7 +219,12 @@ def write(folder: Path, rows: Sequence[Mapping[str, Any]], tables: Mapping[str, 
                      "under twice that error is fragile: more episodes could flip it.", "",
                    f"| level | P | 95 % CI | p ({second} > {first}) | p ({first} > {second}) | closest pair: margin | resolved |",
                    "|---|---|---|---|---|---|---|"]
-        report += [f"| {line['level']} | {line['probability']:.2f} | [{line['low']:.2f}, {line['high']:.2f}] | "
+        single = runs[second] == 1 and runs[first] == 1  # a bootstrap over one run each has no interval
+
+        def ci(low: float, high: float, spec: str = ".2f") -> str:
+            return "1 run each: no interval" if single else f"[{low:{spec}}, {high:{spec}}]"
+
+        report += [f"| {line['level']} | {line['probability']:.2f} | {ci(line['low'], line['high'])} | "
                    f"{line['p_value']:.3f} | {line['p_reverse']:.3f} | {line['margin']:.1f} (SE {line['error']:.1f}) | "
                    f"{line['verdict']} |" for line in verdicts]
         report += ["", f"## Return kept under shift: gap({second}) − gap({first}) per level (95 % CI)", "",
@@ -231,7 +237,7 @@ def write(folder: Path, rows: Sequence[Mapping[str, Any]], tables: Mapping[str, 
             reverse = improvement_p_value(*(run_ratios(rows, name, line["level"]) for name in (first, second)))
             word = (resolved(line["p_value"], reverse, f"{second} keeps more", f"{first} keeps more")
                     if line["low"] > 0 or line["high"] < 0 else "not resolved")
-            report.append(f"| {line['level']} | {line['difference']:+.2f} | [{line['low']:+.2f}, {line['high']:+.2f}] | "
+            report.append(f"| {line['level']} | {line['difference']:+.2f} | {ci(line['low'], line['high'], '+.2f')} | "
                           f"{line['p_value']:.3f} | {word} |")
         report += [""]
     if "published" in tables:
@@ -242,7 +248,8 @@ def write(folder: Path, rows: Sequence[Mapping[str, Any]], tables: Mapping[str, 
             theirs = ("none at this budget" if math.isnan(line["published"]) else
                       f"{line['published']:.1f} ({line['published_seeds']} seeds)")
             at = "" if line["published_frames"] is None else f"{line['published_frames']:,}"
-            report.append(f"| {line['method']} | {line['frames']:,} | {line['mean']:.1f}{spread} ({line['runs']} runs) | "
+            report.append(f"| {line['method']} | {line['frames']:,} | {line['mean']:.1f}{spread} "
+                          f"({line['runs']} run{'s' * (line['runs'] != 1)}) | "
                           f"{theirs} | {at} | {line['notes']} |")
         for line in tables["published"]:
             others = published(source=line["source"], method=line["method"],
@@ -260,7 +267,8 @@ def write(folder: Path, rows: Sequence[Mapping[str, Any]], tables: Mapping[str, 
     for level in dict.fromkeys(line["level"] for line in tables["improvements"]):
         report += [f"{level}:", "", markdown_table([line for line in tables["improvements"] if line["level"] == level],
                                                    rows="method", columns="over",
-                                                   cell=lambda line: f"{line['probability']:.2f} [{line['low']:.2f}, {line['high']:.2f}]"), ""]
+                                                   cell=lambda line: interval_cell(line["probability"], line["low"], line["high"],
+                                                                                max(line["runs"], line["over_runs"]))), ""]
     report += ["![levels.png](levels.png)", ""]
     atomic_write(folder / "report.md", "\n".join(report))
     return [*written, folder / "report.md"]

@@ -30,7 +30,7 @@ def same_cell(committed: str, recomputed: object) -> bool:
 
 
 def test_there_are_results_to_check():
-    assert [folder.name for folder in FOLDERS] == ["cartpole-balance"]
+    assert [folder.name for folder in FOLDERS] == ["cartpole-balance", "cartpole-balance-benchmark-data"]
 
 
 @pytest.mark.parametrize("folder", FOLDERS, ids=lambda folder: folder.name)
@@ -57,9 +57,23 @@ def test_rows_cover_every_run_level_and_episode(folder):
     for row in rows:
         key = (row["method"], row["run"], row["level"])
         counts[key] = counts.get(key, 0) + 1
-    agents = {key[:2] for key in counts}
+    agents = {key[:2] for key in counts if key[0] != "random"}
     assert all(counts.get((*agent, level)) == 10 for agent in agents for level in levels), "10 episodes per run and level"
-    assert sum(method != "random" for method, _ in agents) >= 6 and ("random", 0) in agents
+    assert counts.get(("random", 0, "train")) == 10, "the random baseline at least on the training level"
+    assert len(agents) >= (6 if folder.name == "cartpole-balance" else 2)
+
+
+@pytest.mark.parametrize("folder", FOLDERS, ids=lambda folder: folder.name)
+def test_every_row_says_what_its_level_showed(folder):
+    rows = results_report.read_rows(folder / "episodes.csv")
+    assert all({"data", "stand_in", "level_options"} <= set(row) for row in rows)
+    for row in rows:
+        assert (row["data"] == "") == (row["level"] in ("train", "rotate_easy", "shift_easy")), row["level"]
+        assert row["stand_in"] == ("stand-in" in row["data"]), row["level"]
+    if folder.name == "cartpole-balance-benchmark-data":  # the benchmarks' own data, and which of it each episode saw
+        assert not any(row["stand_in"] for row in rows)
+        hard = [row["shown"] for row in rows if row["level"] == "video_hard" and row["method"] == "svea"]
+        assert hard == [f"video=video{k + 1}.mp4" for k in range(10)], "DMC-GB's order: episode k plays video k + 1"
 
 
 def test_a_changed_row_changes_the_summary():

@@ -76,6 +76,19 @@ def _iqm_cell(line: Mapping[str, Any]) -> str:
     return f"{line['iqm']:.1f} [{line['iqm_low']:.1f}, {line['iqm_high']:.1f}] · {line['rlvigen_mean']:.1f}{std}"
 
 
+def interval_cell(value: float, low: float, high: float, runs: int | None, spec: str = ".2f") -> str:
+    """``value [low, high]``, or ``value (1 run: no interval)`` where the interval is a bootstrap over a single run.
+
+    Examples:
+        >>> from vigen.evaluation.report import interval_cell
+        >>> interval_cell(0.81, 0.7, 0.9, 3), interval_cell(0.81, 0.81, 0.81, 1)
+        ('0.81 [0.70, 0.90]', '0.81 (1 run: no interval)')
+    """
+    if runs == 1:
+        return f"{value:{spec}} (1 run: no interval)"
+    return f"{value:{spec}} [{low:{spec}}, {high:{spec}}]"
+
+
 def label_stand_ins(lines: Sequence[Mapping[str, Any]], rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     """``lines`` with " (stand-in)" after each level whose rows showed vigen's stand-ins (``stand_in`` true), for tables.
 

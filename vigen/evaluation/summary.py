@@ -110,8 +110,8 @@ def generalization_gaps(
     """Per method and test level, the generalization gap: mean test return over the same runs' mean ``train_level`` return.
 
     Columns: ``method``, ``level``, ``gap`` with its 95 % bootstrap interval (``gap_low``,
-    ``gap_high``; runs resampled jointly for both levels), and the sweep columns ``factor`` and
-    ``intensity`` when the level has them. Methods without a ``train_level`` row are skipped.
+    ``gap_high``; runs resampled jointly for both levels; degenerate for one run), ``runs``, and the
+    sweep columns ``factor`` and ``intensity`` when the level has them. Methods without a ``train_level`` row are skipped.
 
     Examples:
         >>> from vigen.evaluation import generalization_gaps
@@ -141,7 +141,7 @@ def generalization_gaps(
             low, high = generalization_gap_ci(test, reference, reps=reps)
             extra = {key: members[0][key] for key in ("factor", "intensity") if key in members[0]}
             lines.append({"method": method, "level": level, **extra, "gap": generalization_gap(test, reference),
-                          "gap_low": low, "gap_high": high})
+                          "gap_low": low, "gap_high": high, "runs": test.shape[0]})
     return lines
 
 
@@ -178,5 +178,6 @@ def improvements(rows: Sequence[Mapping[str, Any]], *, value: str = "return", re
                 low, high = probability_of_improvement_ci(x_scores, y_scores, reps=reps)
                 lines.append({"level": level, "method": x, "over": y, "tasks": len(shared),
                               "probability": probability_of_improvement(x_scores, y_scores), "low": low, "high": high,
-                              "p_value": improvement_p_value(x_scores, y_scores)})
+                              "p_value": improvement_p_value(x_scores, y_scores), "runs": x_scores.shape[0],
+                              "over_runs": y_scores.shape[0]})
     return lines
