@@ -1,9 +1,10 @@
-"""Per-step cost of the Distracting Control Suite's skybox video against vigen's screen-space default, in the same run.
+"""Per-step cost of the Distracting Control Suite's skybox video (the DCS levels' default) against the screen-space composite, in the same run.
 
 The DCS level (``dcs_0.2`` by default) is built twice on the same task, seed and video folder:
-with the video composited into the frame's background pixels (vigen's default) and written into
-the skybox texture as DCS does (one 800×800 face, re-uploaded to the render context at every new
-video frame), and once more with a smaller sky face (``--sky-size``, 256 by default). ``train``
+with the video written into the skybox texture as DCS does (the default: one 800×800 face,
+re-uploaded to the render context at every new video frame) and composited into the frame's
+background pixels (``level_options={"skybox": False}``), and once more with a smaller sky face
+(``--sky-size``, 256 by default). ``train``
 (no perturbation) is timed too. Each is stepped with zero actions; the
 figure is the median ms per agent step over ``--repeats`` blocks of ``--steps`` steps, timed in
 alternation, and the ratio of the two DCS variants. First resets (which decode the episode's
@@ -61,12 +62,12 @@ def main() -> None:
         videos = args.videos or str(write_davis_like(Path(scratch) / "DAVIS"))
         builds = {
             "train": dict(generalization="train"),
-            "composite (default)": dict(generalization=args.level, level_options={"videos": videos}),
-            "skybox (DCS)": dict(generalization=args.level, level_options={"videos": videos, "skybox": True}),
+            "composite (skybox=False)": dict(generalization=args.level, level_options={"videos": videos, "skybox": False}),
+            "skybox (DCS, default)": dict(generalization=args.level, level_options={"videos": videos}),
         }
         if args.sky_size:
             builds[f"skybox, sky_size={args.sky_size}"] = dict(
-                generalization=args.level, level_options={"videos": videos, "skybox": True, "sky_size": args.sky_size})
+                generalization=args.level, level_options={"videos": videos, "sky_size": args.sky_size})
         envs = {name: make_env(args.task, seed=0, image_size=args.image_size, **kwargs) for name, kwargs in builds.items()}
         medians, resets = median_step_ms(envs, args.steps, args.repeats)
         print(f"{args.task} {args.level}, {args.image_size}px, default rendering, median of {args.repeats} blocks of "
@@ -76,7 +77,7 @@ def main() -> None:
         for name in envs:
             print(f"| {name} | {medians[name]:.1f} | {medians[name] / medians['train']:.2f}x | {resets[name]:.0f} |")
         for name in list(envs)[2:]:
-            print(f"{name} / composite: {medians[name] / medians['composite (default)']:.2f}x per step")
+            print(f"{name} / composite: {medians[name] / medians['composite (skybox=False)']:.2f}x per step")
         for env in envs.values():
             env.close()
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 
 from vigen.envs.registry import get_suite
@@ -62,7 +64,26 @@ def test_every_protocol_level_is_a_vigen_level(name):
         wanted = {*protocol.train_eval.levels, *protocol.test_levels(env)}
         assert wanted <= set(levels), wanted - set(levels)
     settings = protocol.settings(f"{protocol.suites[0]}/{'walker-walk' if protocol.suites[0] == 'dmc' else 'door'}")
-    assert settings["frames"] > 0 and settings["eval_every"] > 0 and protocol.describe("dmc/walker-walk")[0].startswith(f"protocol {name}")
+    example = f"{protocol.suites[0]}/{get_suite(protocol.suites[0]).example_task}"
+    assert settings["frames"] > 0 and settings["eval_every"] > 0 and protocol.describe(example)[0].startswith(f"protocol {name}")
+
+
+def test_rlvigen_loco_protocol_trains_on_the_sources_path_and_evaluates_as_locoeval():
+    """RL-ViGen's published loco rows: train.py through loco_wrapper.py (raw clipped actions, ``_convert_action`` commented
+    out, dmc2gym/wrappers.py:177; discount 0 at the time limit, loco_wrapper.py:37-39), evaluated by locoeval.py (scaled
+    actions, :113; each episode's return clipped at 0, :96)."""
+    protocol = get_protocol("rlvigen_loco")
+    assert protocol.suites == ("loco",) and protocol.test.levels == ("easy", "hard") and protocol.test.episodes == 100
+    assert dict(protocol.train_env_options) == {"action_mapping": "rlvigen_train", "time_limit_as": "terminated"}
+    assert protocol.test_env_options["action_mapping"] == "scaled" and protocol.clip_returns_at == 0
+    assert "locoeval.py" in protocol.evaluator and "locodmc_eval.py" in protocol.evaluator
+    assert protocol.frames("loco/unitree-walk") == get_protocol("rlvigen").frames("loco/unitree-walk")
+    options = get_suite("loco").env_options
+    assert set(protocol.train_env_options) <= set(options) and set(protocol.test_env_options) <= set(options)
+    settings = protocol.settings("loco/unitree-stand")
+    assert settings["train_env_options"]["action_mapping"] == "rlvigen_train" and settings["clip_returns_at"] == 0
+    with pytest.raises(ValueError, match="clip_returns_at"):
+        dataclasses.replace(protocol, clip_returns_at="zero")
 
 
 def test_bad_names_say_what_exists():

@@ -82,6 +82,14 @@ class Protocol:
         notes: what else a reader must know (caveats, known deviations between the papers that use it).
         batch_size: the training batch of the source's code (its default config), so that a run trained with
             another one is marked beside the published numbers; ``None`` where the source does not fix one.
+        train_env_options: env options of the training envs beyond :meth:`env_options` (e.g. RL-ViGen's loco
+            training path: ``action_mapping="rlvigen_train"``, ``time_limit_as="terminated"``).
+        test_env_options: env options of the evaluation envs beyond :meth:`env_options`.
+        clip_returns_at: each episode's return is raised to this floor before averaging (RL-ViGen's
+            ``locoeval.py``: 0); ``None``: no clip.
+        evaluator: the source's evaluation script the published numbers are assumed to come from, and why.
+        published_as: the protocol names the published rows of this protocol carry (:mod:`vigen.results`),
+            besides its own name.
 
     Examples:
         >>> from vigen.protocols import PROTOCOLS
@@ -109,10 +117,20 @@ class Protocol:
     level_differences: Mapping[str, str] = field(default_factory=dict)
     notes: str = ""
     batch_size: int | None = None
+    train_env_options: Mapping[str, Any] = field(default_factory=dict)
+    test_env_options: Mapping[str, Any] = field(default_factory=dict)
+    clip_returns_at: float | None = None
+    evaluator: str = ""
+    published_as: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if self.budget_unit not in BUDGET_UNITS:
             raise ValueError(f"budget_unit must be one of {BUDGET_UNITS}, got {self.budget_unit!r}.")
+        if self.clip_returns_at is not None and (isinstance(self.clip_returns_at, bool)
+                                                 or not isinstance(self.clip_returns_at, (int, float))):
+            raise ValueError(f"clip_returns_at is a return floor (a number) or None, got {self.clip_returns_at!r}.")
+        object.__setattr__(self, "train_env_options", _frozen(self.train_env_options))
+        object.__setattr__(self, "test_env_options", _frozen(self.test_env_options))
         object.__setattr__(self, "action_repeat_by_task", _frozen(self.action_repeat_by_task))
         object.__setattr__(self, "budget_by_task", _frozen(self.budget_by_task))
         object.__setattr__(self, "test_levels_by_suite", _frozen(self.test_levels_by_suite))
@@ -194,6 +212,9 @@ class Protocol:
             "eval_every": self.eval_every_frames(env), "eval_episodes": self.train_eval.episodes,
             "eval_levels": list(self.train_eval.levels), "test_episodes": self.test.episodes,
             "test_levels": list(self.test_levels(env)), "seeds": self.seeds,
+            **({"train_env_options": dict(self.train_env_options)} if self.train_env_options else {}),
+            **({"test_env_options": dict(self.test_env_options)} if self.test_env_options else {}),
+            **({"clip_returns_at": self.clip_returns_at} if self.clip_returns_at is not None else {}),
         }
 
     def describe(self, env: str) -> list[str]:
@@ -206,6 +227,11 @@ class Protocol:
             f"{self.eval_every_frames(env):,} frames",
             f"  final test: {self.test.episodes} episodes per level on {', '.join(self.test_levels(env))}",
             f"  reported: {self.statistic}, {self.seeds} seeds",
+            *([f"  training envs: {dict(self.train_env_options)}"] if self.train_env_options else []),
+            *([f"  test envs: {dict(self.test_env_options)}"] if self.test_env_options else []),
+            *([f"  episode returns below {self.clip_returns_at:g} count as {self.clip_returns_at:g}"]
+              if self.clip_returns_at is not None else []),
+            *([f"  evaluator: {self.evaluator}"] if self.evaluator else []),
             *([f"  note: {self.notes}"] if self.notes else []),
         ]
 
@@ -215,6 +241,13 @@ DMCGB2_LEVELS = tuple(f"{mode}_{difficulty}" for mode in ("rotate", "shift", "ro
                       for difficulty in ("easy", "hard"))
 RLVIGEN_LEVELS = ("color_easy", "color_hard", "objects_color_easy", "objects_color_hard", "video_easy", "video_hard",
                   "light_easy", "light_hard", "camera_easy", "camera_hard")
+
+RLVIGEN_LOCO_EVALUATOR = (
+    "locoeval.py (argparse; scripts/locoeval.sh): scaled actions (:113) and each episode's return clipped at 0 (:96). "
+    "Assumed, not recorded: the sheet reports the loco tasks at Easy and Hard, two settings, and the other evaluator, "
+    "locodmc_eval.py (raw actions, no clip), hard-codes type='video', difficulty='hard' (:67-69), so it cannot have "
+    "given the Easy column; locoeval.py takes any --domain_name / --task_name.")
+"""Which of RL-ViGen's two DMC evaluators the published loco rows are assumed to come from, and why."""
 
 DRQV2_MEDIUM_TASKS = ("acrobot-swingup", "cheetah-run", "finger-turn_easy", "finger-turn_hard", "hopper-hop",
                       "quadruped-run", "quadruped-walk", "reacher-easy", "reacher-hard", "walker-run")
@@ -244,8 +277,10 @@ PROTOCOLS: Mapping[str, Protocol] = _frozen({protocol.name: protocol for protoco
         train_eval=Evaluation(episodes=10, levels=("train", "color_hard", "rotate_hard"), every=20_000),
         test=Evaluation(episodes=100, levels=DMCGB2_LEVELS),
         seeds=5, statistic="mean ± std over seeds of each seed's mean episode return",
-        level_differences={level: "vigen keys the video into the sky (and floor) as DMC-GB does; DMC-GB2 renders it on an "
-                                  "in-simulation back cube and its video_hard also drops the floor and rails"
+        level_differences={level: "by default vigen keys the video into the sky (and floor) as DMC-GB does; DMC-GB2 renders "
+                                  "it on an in-simulation back cube (level_options={'screen': True}) and its video_hard "
+                                  "also drops the floor and rails" + ("; video_* take DMC-GB's video order unless "
+                                  "level_options={'draw': 'dmcgb2'}" if level.startswith("video") else "")
                            for level in ("video_easy", "video_hard", "color_video_easy", "color_video_hard")},
         notes="DMC-GB2's video levels show the video on an in-simulation back cube and video_hard also drops the floor "
               "and rails: they are not DMC-GB's video levels.",
@@ -272,6 +307,27 @@ PROTOCOLS: Mapping[str, Protocol] = _frozen({protocol.name: protocol for protoco
               "budgets blank; robosuite runs at 20 Hz control without action repeat and evaluates 10 scenes x 10 trials per "
               "level; the paper's figures show 95 % CIs, its results sheet mean ± std.",
         batch_size=256,  # cfgs/config.yaml and every algorithm's config
+    ),
+    Protocol(
+        name="rlvigen_loco",
+        title="RL-ViGen's published locomotion rows (Yuan et al. 2023: Unitree and Franka)",
+        url="https://github.com/gemcollector/RL-ViGen",
+        suites=("loco",), budget=3_100_000, budget_unit="frames", action_repeat=2,
+        episode_length={"loco": 1000},
+        frame_stack=3, image_size=84,
+        train_eval=Evaluation(episodes=10, levels=("train",), every=10_000),
+        test=Evaluation(episodes=100, levels=("easy", "hard")),
+        seeds=5, statistic="per seed, the mean over a category's tasks; then mean ± sample std (ddof=1) over seeds",
+        train_env_options={"action_mapping": "rlvigen_train", "time_limit_as": "terminated"},
+        test_env_options={"action_mapping": "scaled", "time_limit_as": "truncated"},
+        clip_returns_at=0.0,
+        evaluator=RLVIGEN_LOCO_EVALUATOR,
+        published_as=("rlvigen",),
+        notes="the published loco rows combine two paths: agents trained on raw clipped actions with discount 0 at the "
+              "10 s limit (train.py through loco_wrapper.py / dmc2gym), evaluated by locoeval.py with scaled actions "
+              "and returns clipped at 0; budgets as protocol rlvigen (medium.yaml: 3.1M frames for unitree_* and "
+              "franka_reach).",
+        batch_size=256,  # cfgs/config.yaml
     ),
     Protocol(
         name="drqv2",

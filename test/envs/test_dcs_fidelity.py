@@ -149,7 +149,27 @@ def test_skybox_mode_writes_the_frame_into_the_sky_texture_as_dcs(tmp_path):
         VideoBackground(sky_size=16)
 
 
-# -- 4. stepping: moves per simulator step, counted from the reset, shown in the step's frame ---------------------------
+@pytest.mark.render
+def test_dcs_levels_draw_the_video_in_the_sky_texture_by_default(tmp_path):
+    """background.py:160-215: DCS sets texture 0's height to its width (800 for dm_control's sky) and writes the frame,
+    resized to that square face, into it; the camera then sees a part of the sky cube that pans as it walks."""
+    root = write_davis(tmp_path / "DAVIS", frames=2)
+    env = make_env("dmc/walker-walk", generalization="dcs_static_0.05", seed=0, frame_stack=1, image_size=16,
+                   render_settings=FAST, level_options={"videos": str(root)})
+    model = env.base_env.scene.model
+    source_sky = int(np.flatnonzero(model.tex_type == mujoco.mjtTexture.mjTEXTURE_SKYBOX)[0])
+    width = int(model.tex_width[source_sky])
+    env.reset()
+    video = env.transform[2]
+    assert isinstance(video, VideoBackground) and video.skybox
+    assert model.tex_width[source_sky] == model.tex_height[source_sky] == width == 800
+    clip = video.videos.frames(video.params["video"], width, width)[video.params["frame"]]
+    assert np.array_equal(texture_pixels(model, source_sky), clip.numpy().reshape(-1))
+    composite = DMC.level_transforms("walker-walk", "dcs_0.05", seed=0, skybox=False, videos=str(root))[2]
+    assert not composite.skybox, "the screen-space composite stays a named option"
+
+
+# -- 4. stepping: moves per control step, counted from the reset, shown in the step's frame ---------------------------
 
 def bounce(index: int, direction: int, length: int, moves: int) -> tuple[int, int]:
     """background.py step(): i += d; i <= 0 -> i = 0, d = +1; i >= n -> i = n - 1, d = -1."""
@@ -225,8 +245,8 @@ def test_dynamic_distractions_move_on_the_sources_simulator_steps(update_every, 
 
 def test_dcs_presets_state_the_stepping_they_follow():
     dynamic = DMC.level_transforms("walker-walk", "dcs_0.2", seed=0)
-    assert [t.update_every for t in dynamic] == [2, 2, 2], "DMC-GB's copy: every 2nd simulator step"
-    assert "every 2nd simulator step" in DMC.levels["dcs_0.2"].what and "DMC-GB" in DMC.levels["dcs_0.2"].source
+    assert [t.update_every for t in dynamic] == [2, 2, 2], "DMC-GB's copy: every 2nd control step"
+    assert "every 2nd control step" in DMC.levels["dcs_0.2"].what and "DMC-GB" in DMC.levels["dcs_0.2"].source
     original = DMC.level_transforms("walker-walk", "dcs_0.2", seed=0, update_every=1)
     assert [t.update_every for t in original] == [1, 1, 1]
     assert all(t.update_every is None for t in DMC.level_transforms("walker-walk", "dcs_static_0.2", seed=0))

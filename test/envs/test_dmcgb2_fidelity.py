@@ -244,6 +244,46 @@ def test_colour_video_share_the_start_index(preset_file, seed):
     assert shown_videos == source_video_indices(seed, len(video.videos), 3)
 
 
+def dmcgb_video_indices(count: int, episodes: int) -> list[int]:
+    """DMC-GB's VideoWrapper (src/env/wrappers.py): ``_current_vid_idx`` starts at 0 and moves on by one before each
+    episode's video is loaded, whatever the seed: episode k plays video (k + 1) mod n."""
+    index, shown = 0, []
+    for _ in range(episodes):
+        index = (index + 1) % count
+        shown.append(index)
+    return shown
+
+
+@pytest.mark.parametrize("level", ["video_easy", "video_hard"])
+@pytest.mark.parametrize("seed", [0, 42])
+def test_video_levels_start_where_dmcgb2_starts_with_its_draw(level, seed):
+    """dmcgb_photometric.py:53, 62, 120: DMC-GB2's video_* start at RandomState(seed).randint(100) and move on by one
+    before each episode; the same level names follow DMC-GB's order by default."""
+    (video,) = DMC.level_transforms("walker-walk", level, seed=seed, draw="dmcgb2")
+    shown = []
+    for _ in range(4):
+        video.params = video.sample(video.generator())
+        shown.append(video.params["video"])
+    assert shown == source_video_indices(seed, len(video.videos), 4)
+    (default,) = DMC.level_transforms("walker-walk", level, seed=seed)
+    shown = []
+    for _ in range(4):
+        default.params = default.sample(default.generator())
+        shown.append(default.params["video"])
+    assert shown == dmcgb_video_indices(len(default.videos), 4)
+    with pytest.raises(ValueError, match="draw"):
+        DMCGB2VideoBackground(draw="random")
+
+
+@pytest.mark.parametrize("level", ["video_easy", "video_hard"])
+def test_video_levels_offer_dmcgb2s_screen(level):
+    """dmcgb_photometric.py:45-46, 63, 263-284: every mode with 'video' in its name (video_easy and video_hard too)
+    projects the video on the in-scene screen box; video_hard also removes the grid (line 47)."""
+    (video,) = DMC.level_transforms("walker-walk", level, seed=0, draw="dmcgb2", screen=True)
+    assert video.video_screen is not None and video.video_screen.domain == "walker"
+    assert video.video_screen.remove_floor == (level == "video_hard")
+
+
 # -- 4. the in-scene screen (an option) -----------------------------------------------------------------------------
 @pytest.mark.render
 def test_screen_shows_the_video_on_a_box_that_follows_the_torso(preset_file):

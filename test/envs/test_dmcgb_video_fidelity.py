@@ -57,7 +57,8 @@ def dmcgb_folder(tmp_path_factory) -> Path:
 def test_the_levels_set_dmcgb_start():
     for level in ("video_easy", "video_hard"):
         (video,) = DMC.level_transforms("walker-walk", level, seed=0)
-        assert type(video) is VideoBackground and video.playback == "forward" and video.first_video == 1
+        assert isinstance(video, VideoBackground) and video.playback == "forward" and video.first_video == 1
+        assert video.draw == "dmcgb" and video.video_screen is None, "DMC-GB's order and composite by default"
 
 
 @pytest.mark.parametrize("seed", [0, 7])

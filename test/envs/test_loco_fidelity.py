@@ -190,7 +190,101 @@ def test_color_levels_leave_the_robot_alone_and_objects_color_recolours_only_the
             color = LOCO.level_transforms(task, f"color_{difficulty}")
             assert [type(t) for t in color] == [RandomSceneColors], (task, difficulty)
             objects = LOCO.level_transforms(task, f"objects_color_{difficulty}")
-            assert [type(t) for t in objects] == [RandomMaterialColors] and objects[0].include == ("robot",), (task, difficulty)
+            assert [type(t) for t in objects] == [RandomMaterialColors] and objects[0].include[0].startswith("robot"), (task, difficulty)
+
+
+# RL-ViGen's scene_{walk,stand}.xml:38-41, verbatim: the Unitree's floor material
+RLVIGEN_GROUNDPLANE = """<mujoco><asset>
+    <texture type="2d" name="groundplane" builtin="checker" mark="edge" rgb1="0.2 0.3 0.4"
+        rgb2="0.1 0.2 0.3" markrgb="0.8 0.8 0.8" width="300" height="300"/>
+    <material name="groundplane" texture="groundplane" texuniform="true" texrepeat="5 5"
+        reflectance="0.2"/>
+  </asset><worldbody><geom name="floor" size="0 0 0.05" type="plane" material="groundplane"/></worldbody></mujoco>"""
+
+
+@pytest.mark.parametrize("task", ["unitree-stand", "unitree-walk"])
+def test_unitree_floor_is_rl_vigens_groundplane(task):
+    """scene_{walk,stand}.xml:48: ``<geom name="floor" material="groundplane">``, its own checker, not dm_control's ``grid``."""
+    source = mujoco.MjModel.from_xml_string(RLVIGEN_GROUNDPLANE)
+    model = build_scene(task).model
+    material = model.geom_matid[model.geom("floor").id]
+    assert model.material(material).name == "groundplane"
+    mine, theirs = model.mat_texid[material][mujoco.mjtTextureRole.mjTEXROLE_RGB], source.mat_texid[0][mujoco.mjtTextureRole.mjTEXROLE_RGB]
+    assert model.texture(mine).name == "groundplane"
+    for field in ("mat_texrepeat", "mat_texuniform", "mat_reflectance", "mat_rgba"):
+        np.testing.assert_array_equal(getattr(model, field)[material], getattr(source, field)[0], err_msg=field)
+    assert (model.tex_width[mine], model.tex_height[mine]) == (source.tex_width[theirs], source.tex_height[theirs])
+    size = 3 * source.tex_width[theirs] * source.tex_height[theirs]
+    np.testing.assert_array_equal(model.tex_data[model.tex_adr[mine]:][:size], source.tex_data[source.tex_adr[theirs]:][:size])
+
+
+def test_franka_floor_stays_dm_controls_grid():
+    """scene_{reach,push}.xml: ``<geom name="floor" size="2 2 0.05" type="plane" material="grid"/>``."""
+    model = build_scene("franka-push").model
+    assert model.material(model.geom_matid[model.geom("floor").id]).name == "grid"
+
+
+RLVIGEN_FLOOR_MATERIAL = {"unitree": "groundplane", "franka": "grid"}
+
+
+def rlvigen_keyed_geoms(model) -> set[int]:
+    """RL-ViGen's video_hard blacks out the ``grid`` texture (and the sky) and keys on black: the geoms drawn in ``grid``."""
+    grid = model.material("grid").id
+    return {g for g in range(model.ngeom) if model.geom_matid[g] == grid}
+
+
+@pytest.mark.parametrize("task", ["unitree-walk", "franka-reach"])
+def test_video_hard_replaces_what_rl_vigens_key_replaces(task):
+    """dmcvgb/wrappers.py:58–78: the sky always, and at hard whatever ``grid`` draws: the Franka's floor, not the Unitree's."""
+    model = build_scene(task).model
+    video = LOCO.level_transforms(task, "video_hard")[0]
+    replaced = set(np.flatnonzero(video.background_geoms(model)))
+    assert replaced == rlvigen_keyed_geoms(model)
+    # the floor's material in RL-ViGen's scene files: scene_{walk,stand}.xml:48 groundplane, scene_{reach,push}.xml grid
+    assert (model.geom("floor").id in replaced) == (RLVIGEN_FLOOR_MATERIAL[task.partition("-")[0]] == "grid")
+
+
+@pytest.mark.render
+@pytest.mark.parametrize("task, floor_changes", [("unitree-stand", False), ("franka-reach", True)])
+def test_color_levels_change_the_floor_only_where_it_is_grid(task, floor_changes):
+    """settings.py:29–38, 79–83: ``grid_rgb1/2`` rewrite the ``grid`` texture, ``skybox_rgb`` the sky; the Unitree's floor
+    is ``groundplane`` (scene_{walk,stand}.xml:48), so there the sky alone changes."""
+    env = loco(task, "color_hard", seed=1)
+    model = env.base_env.physics.model.ptr
+    floor = model.mat_texid[model.geom_matid[model.geom("floor").id]][mujoco.mjtTextureRole.mjTEXROLE_RGB]
+    sky = int(np.flatnonzero(model.tex_type == mujoco.mjtTexture.mjTEXTURE_SKYBOX)[0])
+
+    def pixels(texture):
+        return model.tex_data[model.tex_adr[texture]:][:3 * model.tex_width[texture] * model.tex_height[texture]].copy()
+
+    floor_before, sky_before = pixels(floor), pixels(sky)
+    env.reset()
+    assert not np.array_equal(pixels(sky), sky_before)
+    assert (not np.array_equal(pixels(floor), floor_before)) == floor_changes
+
+
+def rlvigen_franka_objects_color(default_rgb: np.ndarray, self_rgb: np.ndarray) -> np.ndarray:
+    """settings.py:58–61 on the Franka: ``white`` (rgba 1 1 1) becomes ``self_rgb − (0.7, 0.5, 0.3) + 1``; the Panda's own
+    materials (panda_{reach,push}.xml: off_white, black, green, light_blue) keep theirs. Rendered colours clip at 1."""
+    white = np.all(default_rgb == 1.0, axis=1)
+    offset = self_rgb - np.array([0.7, 0.5, 0.3])
+    return np.where(white[:, None], np.clip(1.0 + offset, 0.0, 1.0), default_rgb)
+
+
+@pytest.mark.render
+@pytest.mark.parametrize("task", ["franka-reach", "franka-push"])
+def test_franka_objects_color_shifts_the_white_material_only(task):
+    env = loco(task, "objects_color_hard", seed=3)
+    model = env.base_env.physics.model.ptr
+    robot = [i for i in range(model.nmat) if model.material(i).name.startswith("robot")]
+    before = model.mat_rgba[robot, :3].astype(np.float64)
+    env.reset()
+    after = model.mat_rgba[robot, :3].astype(np.float64)
+    white = np.all(before == 1.0, axis=1)
+    assert white.sum() >= 1 and (~white).sum() >= 1
+    self_rgb = after[white][0] - 1.0 + np.array([0.7, 0.5, 0.3])  # the episode's draw, read back from one white part
+    np.testing.assert_allclose(after, rlvigen_franka_objects_color(before, self_rgb), atol=1e-6)
+    assert not np.allclose(after[white], 1.0)
 
 
 @pytest.mark.slow

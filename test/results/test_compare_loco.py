@@ -31,3 +31,14 @@ def test_other_sources_are_not_clipped():
     dmc = [dict(row, action_repeat=4, frames=2_000_000) for row in rows("dmc/walker-stand", "video_hard", [[-100.0, 300.0]], "svea")]
     line = compare(dmc, source="sgqn", protocol="dmcgb")[0]
     assert line["mean"] == pytest.approx(100.0) and "below 0" not in line["notes"]
+
+
+@pytest.mark.parametrize("protocol", ["rlvigen", "rlvigen_loco"])
+def test_loco_lines_name_the_published_loco_protocol_and_its_evaluator(protocol):
+    """The sheet's loco rows combine RL-ViGen's training path and locoeval.py's evaluation (protocol rlvigen_loco);
+    compare() accepts that protocol against the rows published as rlvigen's and names it on each loco line."""
+    returns = [[-100.0, 300.0], [200.0, 400.0]]
+    line = compare(rows("loco/unitree-stand", "easy", returns), source="rlvigen", protocol=protocol)[0]
+    assert line["mean"] == pytest.approx(np.mean([150.0, 300.0]))
+    assert "protocol rlvigen_loco" in line["notes"] and "'action_mapping': 'rlvigen_train'" in line["notes"]
+    assert "locoeval.py" in line["notes"] and "locodmc_eval.py" in line["notes"]

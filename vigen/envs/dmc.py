@@ -95,26 +95,32 @@ DCS_CAMERA = {"camera": ByDomain({"quadruped": 2}, 0), "limit_to_upper_quadrant"
 def dcs_level(scale: float, dynamic: bool) -> Level:
     """DMC-GB's Distracting Control Suite setting at intensity ``scale``: camera, colours and background video together.
 
-    The dynamic levels move camera, colours and video on every 2nd simulator step, counted from the
-    reset, as DMC-GB's copy does (``update_every=2``; the original suite moves on every one:
-    ``level_options={"update_every": 1}``). A video folder is read as DAVIS 2017 and its ``train``
-    split played, as DCS does (``level_options={"split": None}``: every video under the folder).
-    ``level_options={"skybox": True}`` draws the video into the sky texture as DCS does.
+    The dynamic levels move camera, colours and video on every 2nd control step (a dm_control
+    physics step of the task's ``control_timestep``; the walker takes 10 MuJoCo steps per control
+    step), counted from the reset, as DMC-GB's copy does (``update_every=2``; the original suite
+    moves on every one: ``level_options={"update_every": 1}``). A video folder is read as DAVIS 2017
+    and its ``train`` split played, as DCS does (``level_options={"split": None}``: every video under
+    the folder). The video is drawn into the sky texture, as DCS draws it (one square face on every
+    side of the sky cube, so the camera's walk pans across it; ``sky_size`` sets the face's side,
+    default the texture's width, 800 as in DCS for videos from a folder); ``level_options={"skybox":
+    False}`` pastes it into the frame's sky pixels in screen space instead (vigen's earlier default,
+    the ``"composite"``; cost of each in ``docs/fidelity.md``).
     """
     videos = DCS_NUM_VIDEOS[scale]
-    motion = "drifting every 2nd simulator step" if dynamic else "drawn per episode"
+    motion = "drifting every 2nd control step" if dynamic else "drawn per episode"
     every = {"update_every": 2} if dynamic else {}
     clips = f"the first {videos} DAVIS train videos" if videos else "every DAVIS train video"
     return Level(
         f"DCS at intensity {scale}: camera pose and every material colour {motion}, background video "
         f"({clips}, once fetched: python -m vigen.data fetch davis2017; procedural stand-ins without it; "
-        f"{'playing back and forth' if dynamic else 'one still frame'})",
+        f"{'playing back and forth' if dynamic else 'one still frame'}) in the sky texture, panning with the camera as in DCS "
+        "(screen-space composite with level_options={'skybox': False})",
         DCS_SOURCE + ("" if dynamic else ", static variant"),
         (Step(DistractingCamera, {"scale": scale, "dynamic": dynamic, **DCS_CAMERA, **every}),
          Step(DistractingColors, {"scale": scale, "dynamic": dynamic, **every}),
          Step(VideoBackground, {"playback": "bounce" if dynamic else "static", "num_videos": videos, "split": "train",
                                 "videos": FetchedData("davis2017", subfolder="DAVIS"),
-                                "ground_plane_alpha": GroundPlaneAlpha(), **every})),
+                                "ground_plane_alpha": GroundPlaneAlpha(), "skybox": True, **every})),
     )
 
 
@@ -161,16 +167,24 @@ LEVELS: dict[str, Level] = {
         (Step(RandomTextures),),
     ),
     "video_easy": Level(
-        "sky replaced by a video, new frame every step; episode k plays video (k + 1) mod n, as DMC-GB does",
+        "sky replaced by a video, new frame every step; episode k plays video (k + 1) mod n, as DMC-GB does "
+        "(DMC-GB2's order, (start + 1 + k) mod n from start = RandomState(seed).randint(100), with "
+        "level_options={'draw': 'dmcgb2'}; DMC-GB2's in-scene screen with {'screen': True})",
         "DMC-GB video_easy (its 10 videos once fetched: python -m vigen.data fetch dmcgb-videos; procedural stand-ins "
-        "until then, or a folder given as level_options={'videos': ...})",
-        (Step(VideoBackground, {"floor": False, "first_video": 1, "videos": FetchedData("dmcgb-videos", "video_easy")}),),
+        "until then, or a folder given as level_options={'videos': ...}); DMC-GB2 video_easy (the same videos, its "
+        "order and screen by level option)",
+        (Step(DMCGB2VideoBackground, {"floor": False, "draw": "dmcgb", "domain": Domain(),
+                                      "videos": FetchedData("dmcgb-videos", "video_easy")}),),
     ),
     "video_hard": Level(
-        "sky and floor replaced by a video, new frame every step; episode k plays video (k + 1) mod n, as DMC-GB does",
+        "sky and floor replaced by a video, new frame every step; episode k plays video (k + 1) mod n, as DMC-GB does "
+        "(DMC-GB2's order, (start + 1 + k) mod n from start = RandomState(seed).randint(100), with "
+        "level_options={'draw': 'dmcgb2'}; DMC-GB2's in-scene screen with {'screen': True})",
         "DMC-GB video_hard (its 100 videos once fetched: python -m vigen.data fetch dmcgb-videos; procedural stand-ins "
-        "until then, or a folder given as level_options={'videos': ...})",
-        (Step(VideoBackground, {"floor": True, "first_video": 1, "videos": FetchedData("dmcgb-videos", "video_hard")}),),
+        "until then, or a folder given as level_options={'videos': ...}); DMC-GB2 video_hard (the same videos, its "
+        "order and screen by level option)",
+        (Step(DMCGB2VideoBackground, {"floor": True, "draw": "dmcgb", "domain": Domain(),
+                                      "videos": FetchedData("dmcgb-videos", "video_hard")}),),
     ),
     "light_easy": Level(
         "light position +{3, 4}, diffuse ± 0.2, light moving 0.01/step within ± 5",

@@ -6,17 +6,24 @@ the A1, see :mod:`vigen.envs.robot_models`; ``model_dir=`` loads Menagerie's), w
 frames (84×84, a stack of 3, action repeat 2, 10 s episodes) and its generalization knobs as
 levels:
 
-* ``color_*``: floor and sky (DMC-GB's colour noise), as RL-ViGen's ``background`` colour, which
-  leaves the robot alone (``dmcvgb/wrappers.py:45–56``); ``objects_color_*``: the robot shifted by
-  one colour offset (RL-ViGen's Menagerie materials). On ``franka-push`` RL-ViGen also recolours the
-  box's material, which the box's own ``rgba`` overrides (``scene_push.xml``): its box never changes
-  colour, and vigen's does not either (the ``object_color`` factor recolours it);
-* ``video_*``: the sky (easy) or sky and floor (hard) replaced by a video;
+* ``color_*``: the background colours (DMC-GB's colour noise), as RL-ViGen's ``background`` colour,
+  which rewrites dm_control's ``grid`` and skybox and leaves the robot alone (``dmcvgb/wrappers.py:45–56``).
+  The Unitree stands on RL-ViGen's own ``groundplane`` (``scene_{walk,stand}.xml:38-41``), not on ``grid``,
+  so there only the sky changes; the Franka's floor is ``grid`` and changes with the sky;
+* ``objects_color_*``: the robot shifted by one colour offset, as RL-ViGen's ``self_rgb`` edits of its
+  shared materials (``suite/common/settings.py:50-70``): the Unitree's every material, the Franka's
+  shared ``white`` only (:data:`~vigen.envs.loco_scene.WHITE_MATERIAL`; at 1 already, it can only get
+  darker). On ``franka-push`` RL-ViGen also recolours the box's material, which the box's own ``rgba``
+  overrides (``scene_push.xml``): its box never changes colour, and vigen's does not either (the
+  ``object_color`` factor recolours it);
+* ``video_*``: the sky replaced by a video; ``video_hard`` also the floor on the Franka. RL-ViGen's
+  ``video_hard`` keys its video on black and blacks out ``grid``, which the Unitree does not stand
+  on: there both levels replace the sky only;
 * ``light_position_*``, ``light_color_*``, ``moving_light_*``: RL-ViGen's light offsets and motion;
 * ``camera_*``: RL-ViGen's ``cam_pos``: every camera's world position pinned at its start plus one
   U(±0.08) or U(±0.15) offset per axis, drawn once per seed; a camera on the trunk then stays where
   the robot started while turning with it (the env option ``camera_offset``);
-* ``texture_*``: one of 10 textures per level on the Unitree's ground or the Franka's table
+* ``texture_*``: one of 10 textures per level on the Unitree's ground (``groundplane``) or the Franka's table
   (RL-ViGen's ``table_texture``): photographs (easy) or generated patterns (hard);
 * ``easy`` / ``hard``: all of the appearance and lighting knobs at once (colours of the background
   and the robot, texture, lights). RL-ViGen's results sheet
@@ -42,7 +49,7 @@ from torchrl.envs import DoubleToFloat, EnvBase
 
 from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
 from vigen.envs.level_types import ByTask, Choice, Derived, Factor, Level, LevelContext, Scaled, StandInImages, Step
-from vigen.envs.loco_scene import MAX_MESH_FACES
+from vigen.envs.loco_scene import FLOOR_MATERIAL, MAX_MESH_FACES, WHITE_MATERIAL
 from vigen.envs.suite import Suite
 from vigen.transforms import (
     DistractingCamera,
@@ -62,6 +69,11 @@ SOURCE = "RL-ViGen DMCVGB (gemcollector/RL-ViGen, envs/DMCVGB/cfg/config.yaml an
 ROBOT_PARTS = ("robot",)
 """Name prefix of the robot's materials (every visible robot geom has one, see :mod:`vigen.envs.loco_scene`)."""
 
+RECOLOURED_PARTS = {task: ("robot",) if task.startswith("unitree") else (WHITE_MATERIAL,) for task in TASKS}
+"""What RL-ViGen's ``objects_color`` recolours per task: the Unitree's materials (``dark`` and ``carbonfibre``, its
+only ones), the Franka's shared ``white`` only (``suite/common/settings.py:58-61``; its other materials are the
+Panda's own)."""
+
 OBJECT_PARTS = {task: ("robot", "object") if task == "franka-push" else ("robot",) for task in TASKS}
 """What the ``object_color`` factor recolours per task: the robot, and the Franka's box (which RL-ViGen's level leaves red)."""
 
@@ -79,13 +91,49 @@ NO_LIGHT_SHIFT = {"position_offset": None, "diffuse_offset": None}
 
 @dataclass(frozen=True, repr=False)
 class Surface(Derived):
-    """The texture RL-ViGen's ``table_texture`` replaces: the Unitree's ground (``grid``) or the Franka's table."""
+    """The texture RL-ViGen's ``table_texture`` replaces: the Unitree's ground (``groundplane``, RL-ViGen's
+    ``ground_texture``) or the Franka's table (``table``).
+
+    Examples:
+        >>> Surface()(LevelContext("unitree-walk")), Surface()(LevelContext("franka-push"))
+        (('groundplane',), ('table',))
+    """
 
     def __call__(self, context: LevelContext) -> tuple[str, ...]:
-        return ("grid",) if context.task.startswith("unitree") else ("table",)
+        return (FLOOR_MATERIAL["quadruped"],) if context.task.startswith("unitree") else ("table",)
 
     def __repr__(self) -> str:
-        return "unitree: ('grid',), franka: ('table',)"
+        return "unitree: ('groundplane',), franka: ('table',)"
+
+
+@dataclass(frozen=True, repr=False)
+class ByRobot(Derived):
+    """One value for the Unitree tasks, another for the Franka tasks.
+
+    Examples:
+        >>> ByRobot(("skybox",), ("grid", "skybox"))(LevelContext("unitree-stand"))
+        ('skybox',)
+    """
+
+    unitree: Any
+    franka: Any
+
+    def __call__(self, context: LevelContext) -> Any:
+        return self.unitree if context.task.startswith("unitree") else self.franka
+
+    def __repr__(self) -> str:
+        return f"unitree: {self.unitree!r}, franka: {self.franka!r}"
+
+
+BACKGROUND_PARTS = ByRobot(("skybox",), ("grid", "skybox"))
+"""What RL-ViGen's ``background`` colour changes on screen: the sky on the Unitree (its floor is ``groundplane``),
+the floor ``grid`` and the sky on the Franka."""
+
+VIDEO_FLOOR = ByRobot(False, True)
+"""Whether RL-ViGen's ``video_hard`` replaces the floor: it blacks out ``grid`` for its key, the Franka's floor only."""
+
+FLOOR_TEXTURE = ByRobot((FLOOR_MATERIAL["quadruped"],), (FLOOR_MATERIAL["arm"],))
+"""The floor's texture: RL-ViGen's ``groundplane`` on the Unitree, dm_control's ``grid`` on the Franka."""
 
 
 @dataclass(frozen=True, repr=False)
@@ -99,8 +147,9 @@ class MainCamera(Derived):
         return "unitree: 'back_above', franka: 'side_table'"
 
 
-def robot_colors(difficulty: str, parts: Any = ROBOT_PARTS) -> Step:
-    """RL-ViGen's Menagerie recolouring: every robot material shifted by one offset N(0, σ²) per channel."""
+def robot_colors(difficulty: str, parts: Any = ByTask(RECOLOURED_PARTS)) -> Step:
+    """RL-ViGen's Menagerie recolouring: the recoloured materials (:data:`RECOLOURED_PARTS`) shifted by one offset
+    N(0, σ²) per channel, clipped to [0, 1]."""
     return Step(RandomMaterialColors, {"mix": 0.0, "shift": COLOR_SCALE[difficulty], "shared": True, "include": parts})
 
 
@@ -122,28 +171,32 @@ def lighting(difficulty: str) -> Step:
 
 
 def combined(difficulty: str) -> tuple[Step, ...]:
-    """``easy`` / ``hard``: floor and sky colours (``color``), robot colours (``objects_color``), texture and lights, at one difficulty."""
-    return (Step(RandomSceneColors, {"scale": COLOR_SCALE[difficulty], "parts": ("grid", "skybox")}), robot_colors(difficulty),
+    """``easy`` / ``hard``: background colours (``color``), robot colours (``objects_color``), texture and lights, at one difficulty."""
+    return (Step(RandomSceneColors, {"scale": COLOR_SCALE[difficulty], "parts": BACKGROUND_PARTS}), robot_colors(difficulty),
             textures(difficulty), lighting(difficulty))
 
 
 LEVELS: dict[str, Level] = {
     "train": Level("the clean training scene", "all"),
     **{
-        f"color_{d}": Level(f"floor and sky colours default + N(0, {s}²) per channel (the robot keeps its colours)",
-                            f"RL-ViGen background color {d} (DMC-GB's colour statistics; dmcvgb/wrappers.py:45-56)",
-                            (Step(RandomSceneColors, {"scale": s, "parts": ("grid", "skybox")}),))
+        f"color_{d}": Level(f"sky (Unitree) or floor and sky (Franka) colours default + N(0, {s}²) per channel (the robot keeps "
+                            "its colours)",
+                            f"RL-ViGen background color {d} (DMC-GB's colour statistics; dmcvgb/wrappers.py:45-56; the "
+                            "Unitree's floor is its own groundplane, scene_{walk,stand}.xml:38-41)",
+                            (Step(RandomSceneColors, {"scale": s, "parts": BACKGROUND_PARTS}),))
         for d, s in COLOR_SCALE.items()
     },
     **{
-        f"objects_color_{d}": Level(f"robot shifted by one N(0, {s}²) colour offset (the push box stays red, as in RL-ViGen)",
-                                    f"RL-ViGen objects_color {d}", (robot_colors(d),))
+        f"objects_color_{d}": Level(f"robot shifted by one N(0, {s}²) colour offset: the Unitree's materials, the Franka's "
+                                    "white ones (the push box stays red, as in RL-ViGen)",
+                                    f"RL-ViGen objects_color {d} (suite/common/settings.py:50-70)", (robot_colors(d),))
         for d, s in COLOR_SCALE.items()
     },
     "video_easy": Level("sky replaced by a video, new frame every step", "RL-ViGen video easy (procedural videos unless a folder is given)",
                         (Step(VideoBackground, {"floor": False}),)),
-    "video_hard": Level("sky and floor replaced by a video, new frame every step", "RL-ViGen video hard (procedural videos unless a folder is given)",
-                        (Step(VideoBackground, {"floor": True}),)),
+    "video_hard": Level("sky (Unitree) or sky and floor (Franka) replaced by a video, new frame every step",
+                        "RL-ViGen video hard (procedural videos unless a folder is given; it blacks out grid, the Franka's floor only)",
+                        (Step(VideoBackground, {"floor": VIDEO_FLOOR}),)),
     **{
         f"texture_{d}": Level(f"ground (Unitree) or table (Franka) texture: one of 10 {kind}",
                               f"RL-ViGen table_texture {d} (vigen's images; RL-ViGen's are its own files)", (textures(d),))
@@ -191,9 +244,9 @@ GROUPS: dict[str, list[str]] = {
 }
 
 FACTORS: dict[str, Factor] = {
-    "background_color": Factor((Step(RandomSceneColors, {"scale": Scaled(1.0), "parts": ("grid", "skybox")}),)),
+    "background_color": Factor((Step(RandomSceneColors, {"scale": Scaled(1.0), "parts": BACKGROUND_PARTS}),)),
     "object_color": Factor((Step(RandomMaterialColors, {"mix": 0.0, "shift": Scaled(1.0), "shared": True, "include": ByTask(OBJECT_PARTS)}),)),
-    "floor_texture": Factor((Step(RandomTextures, {"textures": ("grid",), "blend": Scaled(1.0)}),)),
+    "floor_texture": Factor((Step(RandomTextures, {"textures": FLOOR_TEXTURE, "blend": Scaled(1.0)}),)),
     "table_texture": Factor((Step(RandomTextures, {"textures": Surface(), "blend": Scaled(1.0)}),)),
     "video_background": Factor((Step(VideoBackground, {"alpha": Scaled(1.0)}),)),
     "light_position": Factor((Step(RandomLighting, {**NO_LIGHT_SHIFT, "position_jitter": Scaled((10.0, 10.0, 10.0))}),)),

@@ -3,7 +3,9 @@
 RL-ViGen edits Menagerie's files by hand (``scene_{stand,walk,reach,push}.xml``, ``a1_{stand,walk}.xml``,
 ``panda_{reach,push}.xml``). vigen builds the same scenes in memory with ``mujoco.MjSpec``: a
 dm_control-style world (its skybox, ``grid`` floor material and visual settings, read from the
-installed dm_control), RL-ViGen's light, cameras, table and task objects, and the robot attached
+installed dm_control), RL-ViGen's light, cameras, table and task objects, the Unitree's own floor
+(RL-ViGen's ``groundplane`` material, :data:`GROUNDPLANE_XML`; the Franka stands on dm_control's ``grid``,
+as in RL-ViGen), and the robot attached
 from :func:`~vigen.envs.robot_models.robot_model_path`. Then the robot is given RL-ViGen's
 actuation, whatever its source file had:
 
@@ -119,6 +121,20 @@ WORLD_XML = """<mujoco model="vigen loco {task}">
 </mujoco>"""
 """vigen's world around the robot; dm_control's ``common/{skybox,visual,materials}.xml`` are added to it."""
 
+GROUNDPLANE_XML = """<asset>
+    <texture type="2d" name="groundplane" builtin="checker" mark="edge" rgb1="0.2 0.3 0.4" rgb2="0.1 0.2 0.3"
+             markrgb="0.8 0.8 0.8" width="300" height="300"/>
+    <material name="groundplane" texture="groundplane" texuniform="true" texrepeat="5 5" reflectance="0.2"/>
+  </asset>"""
+"""RL-ViGen's Unitree floor, ``scene_{walk,stand}.xml:38-41``: its own checker ``groundplane``, not dm_control's ``grid``.
+
+The Unitree scenes still hold dm_control's ``grid`` material (``common/materials.xml``), unused, so
+RL-ViGen's ``color_*`` (which rewrites ``grid`` and the skybox) changes only the sky there, and its
+``video_hard`` (which blacks out ``grid`` for its key) replaces only the sky; the Franka's floor is ``grid``."""
+
+FLOOR_MATERIAL = {"quadruped": "groundplane", "arm": "grid"}
+"""The floor's material per robot kind, as in RL-ViGen's ``scene_{stand,walk}.xml`` and ``scene_{reach,push}.xml``."""
+
 
 @dataclass
 class LocoScene:
@@ -198,13 +214,16 @@ def default_robot(task: str, model_dir: str | os.PathLike | None = None) -> str:
 
 # -- the world -----------------------------------------------------------------------------------
 def _world(task: str) -> mujoco.MjSpec:
-    """vigen's world XML with dm_control's skybox, visual settings and materials (``grid``, ``self``, ...) merged in."""
+    """vigen's world XML with dm_control's skybox, visual settings and materials (``grid``, ``self``, ...) merged in,
+    and RL-ViGen's ``groundplane`` (:data:`GROUNDPLANE_XML`) in the Unitree scenes."""
     import dm_control.suite
 
     push = task == "franka-push"
     text = WORLD_XML.format(task=task, diffuse=".1 .1 .1" if push else ".7 .7 .7", light_pos="1 -1 4" if push else "-1 -1 4",
                             light_dir="0 0 -1" if push else "1 1 -4")
     root = ET.fromstring(text)
+    if TASK_ROBOT_KIND[task] == "quadruped":
+        root.find("asset").extend(list(ET.fromstring(GROUNDPLANE_XML)))
     common = Path(dm_control.suite.__file__).parent / "common"
     for name in ("skybox", "visual", "materials"):
         for child in ET.parse(common / f"{name}.xml").getroot():
@@ -263,6 +282,30 @@ def _name_robot_materials(world: mujoco.MjSpec, bodies: list) -> None:
             geom.material = material.name
 
 
+WHITE_MATERIAL = "robot_white"
+"""Name prefix of the arm's white materials: the parts RL-ViGen draws in its shared ``white`` (``common/materials.xml``,
+rgba 1 1 1), the only material its Franka ``objects_color`` shifts (``suite/common/settings.py:58-61``)."""
+
+
+def _name_white_materials(world: mujoco.MjSpec) -> None:
+    """Rename the robot's untextured pure-white materials ``robot_white``, ``robot_white_1``, ... (Menagerie's Panda has
+    one ``white``, already ``robot_white``; robosuite's splits it over its meshes' materials); geoms follow the rename."""
+    renamed: dict[str, str] = {}
+    taken = {material.name for material in world.materials}
+    for material in world.materials:
+        if (material.name == WHITE_MATERIAL or not material.name.startswith("robot_") or any(material.textures)
+                or tuple(np.round(material.rgba[:3], 4)) != (1.0, 1.0, 1.0)):
+            continue
+        new = next(name for name in (f"{WHITE_MATERIAL}_{i}" if i else WHITE_MATERIAL for i in range(len(taken) + 1))
+                   if name not in taken)
+        taken.add(new)
+        renamed[material.name] = new
+        material.name = new
+    for geom in world.geoms:
+        if geom.material in renamed:
+            geom.material = renamed[geom.material]
+
+
 def _subtree(body: object) -> list:
     found = [body]
     for child in body.bodies:
@@ -309,7 +352,8 @@ def _quadruped_scene(task: str, robot: str, path: Path, max_mesh_faces: int | No
     world = _world(task)
     world.stat.center = [0.0, 0.0, 0.1]
     world.stat.extent = 0.8
-    world.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05], material="grid")
+    world.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05],
+                             material=FLOOR_MATERIAL["quadruped"])
     source, base = _attach(world, path, "quadruped")
     _drop_source_elements(world)
     world.worldbody.add_light(name="spotlight", mode=mujoco.mjtCamLight.mjCAMLIGHT_TARGETBODYCOM, targetbody=base.name,
@@ -405,7 +449,7 @@ def _arm_scene(task: str, robot: str, path: Path, gripper: Path | None, source: 
     world = _world(task)
     world.stat.center = [0.3, 0.0, 0.4]
     world.stat.extent = 1.0
-    world.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[2, 2, 0.05], material="grid")
+    world.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[2, 2, 0.05], material=FLOOR_MATERIAL["arm"])
     world.worldbody.add_light(name="top", pos=[0, 0, 2], mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM)
     _, arm = _attach(world, path, "arm", pos=(0.0, 0.0, 0.02))
     if gripper is not None:
@@ -434,6 +478,7 @@ def _arm_scene(task: str, robot: str, path: Path, gripper: Path | None, source: 
                                  size=[0.032, 0.032, 0.032], material="goal")
     _hide_collision_doubles(list(bodies.values()))
     _name_robot_materials(world, list(bodies.values()))
+    _name_white_materials(world)
 
     joints = {joint.name: joint for joint in world.joints}
     for index, name in enumerate(ARM_JOINTS):

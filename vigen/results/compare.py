@@ -31,6 +31,8 @@ CLIPPED_AT_ZERO: Mapping[str, tuple[str, ...]] = MappingProxyType({"rlvigen": ("
 """Source -> env prefixes whose published scores average episode returns clipped below at 0 (RL-ViGen's
 ``locoeval.py:96`` sets a negative episode return to 0 before the mean); the run's returns are clipped the same way."""
 CLIP_NOTE = "episode returns below 0 counted as 0 before averaging, as the source's evaluator does"
+LOCO_PROTOCOL: Mapping[str, str] = MappingProxyType({"rlvigen": "rlvigen_loco"})
+"""Source -> the protocol its ``loco/`` rows follow (:data:`vigen.protocols.PROTOCOLS`), named on every ``loco/`` line."""
 
 
 class ProtocolMismatch(ValueError):
@@ -219,8 +221,10 @@ def compare(
         (a different budget, a budget not published, a training batch other than the source's where the rows
         carry ``batch_size``, another implementation, a level vigen approximates, an unverified source, returns
         clipped at 0). Where the source clips each episode's return at 0 before
-        averaging (:data:`CLIPPED_AT_ZERO`: RL-ViGen's ``loco`` scores), the run's returns are clipped the same way
-        and the line's ``notes`` say so.
+        averaging (:data:`CLIPPED_AT_ZERO`: RL-ViGen's ``loco`` scores, or a protocol with ``clip_returns_at=0``), the
+        run's returns are clipped the same way and the line's ``notes`` say so. A ``loco/`` line of RL-ViGen names the
+        protocol its rows follow (:data:`LOCO_PROTOCOL`: ``rlvigen_loco``, which ``protocol`` may be, since its rows are
+        published as ``rlvigen``'s), and the evaluator the sheet's rows are assumed to come from, and why.
 
     Raises:
         ProtocolMismatch: the protocols, a setting, the budget or the unit differ (each difference listed).
@@ -256,7 +260,8 @@ def compare(
     candidates = published(source=sources, unit=VALUE_UNITS[value], statistic=["mean", "seed"])
     if not candidates:
         raise ProtocolMismatch([f"{', '.join(sources)} publish(es) no {value} ({VALUE_UNITS[value]}) numbers"])
-    others = {name: sorted({row.protocol for row in candidates if row.source == name} - {protocol.name}) for name in sources}
+    same = {protocol.name, *protocol.published_as}
+    others = {name: sorted({row.protocol for row in candidates if row.source == name} - same) for name in sources}
     differences = [f"source {name} publishes under protocol {', '.join(found)}, the run follows {protocol.name}"
                    for name, found in others.items() if found]
     differences += check_protocol(rows, protocol)
@@ -296,10 +301,14 @@ def compare(
             if point is None:  # shown, with no published number beside it
                 point = PublishedPoint(float("nan"), None, None, None,
                                        f"no published point at the run's {run_frames or 0:,} frames: the source publishes {problem}")
-            clip = value == "return" and env.startswith(CLIPPED_AT_ZERO.get(source_name, ()))
+            clip = value == "return" and (env.startswith(CLIPPED_AT_ZERO.get(source_name, ())) or protocol.clip_returns_at == 0)
             scores = _run_scores(members, value, clip_at_zero=clip)
             mean, spread, seeds, published_frames = point.mean, point.spread, point.seeds, point.frames
             notes = [CLIP_NOTE] if clip else []
+            if env.startswith("loco/") and source_name in LOCO_PROTOCOL:
+                loco = get_protocol(LOCO_PROTOCOL[source_name])
+                notes.append(f"published under protocol {loco.name} (trained with {dict(loco.train_env_options)}, evaluated "
+                             f"with {dict(loco.test_env_options)}); evaluator: {loco.evaluator}")
             if point.note:
                 notes.append(point.note)
             elif published_frames is None:

@@ -56,7 +56,7 @@ def _check_common(name: str, scale: float, walk_steps: int, update_every: int | 
     check_update_every(name, update_every)
     if update_every is not None and walk_steps != 1:
         raise ValueError(f"{name}: walk_steps={walk_steps} and update_every={update_every} both set the walks per env step; "
-                         "pass update_every (walks counted in simulator steps, as DCS) or walk_steps, not both.")
+                         "pass update_every (walks counted in control steps, as DCS) or walk_steps, not both.")
 
 
 # -- spherical coordinates and look-at rotations (distracting_control/camera.py's conventions) ------------------------
@@ -165,24 +165,24 @@ class DistractionWalk(ScenePerturbation):
     Subclasses write :meth:`walk` (one random-walk step of ``params``, in place) besides the
     :class:`~vigen.transforms.scene.ScenePerturbation` methods. With ``dynamic``, each env step
     walks ``walk_steps`` times, or, with ``update_every`` set, once per ``update_every``
-    simulator steps counted from the reset (:func:`~vigen.transforms.scene.schedule.updates_due`;
-    the env's ``action_repeat`` simulator steps make one env step). The walks happen before the
+    control steps counted from the reset (:func:`~vigen.transforms.scene.schedule.updates_due`;
+    the env's ``action_repeat`` control steps make one env step). The walks happen before the
     env steps (TorchRL's ``inv`` pass runs before the base env steps and renders), so the frame of
-    an env step shows them, as in DCS, whose wrappers move after each simulator step and whose
+    an env step shows them, as in DCS, whose wrappers move after each control step and whose
     pixel wrapper renders after the last one of the action repeat.
 
     Args:
         scale: the suite's scale ``s`` in [0, 1].
         dynamic: walk every step.
         walk_steps: random-walk steps per env step, with ``update_every=None``.
-        update_every: simulator steps per walk step (DMC-GB's copy of DCS: 2, the original: 1), or
+        update_every: control steps per walk step (DMC-GB's copy of DCS: 2, the original: 1), or
             ``None`` for ``walk_steps`` per env step whatever the action repeat.
         seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
 
     Paper: https://arxiv.org/abs/2101.02722.
 
     Examples:
-        >>> colors = DistractingColors(0.1, dynamic=True, update_every=2)  # DMC-GB: every 2nd simulator step
+        >>> colors = DistractingColors(0.1, dynamic=True, update_every=2)  # DMC-GB: every 2nd control step
         >>> params = {}
         >>> isinstance(colors, DistractionWalk), [updates_due(params, colors.update_every, 4) for _ in range(2)]
         (True, [2, 2])
@@ -198,7 +198,7 @@ class DistractionWalk(ScenePerturbation):
         raise NotImplementedError
 
     def walks_due(self, params: SceneParams) -> int:
-        """Random-walk steps of the coming env step (counts the simulator steps in ``params`` with ``update_every``)."""
+        """Random-walk steps of the coming env step (counts the control steps in ``params`` with ``update_every``)."""
         if self.update_every is None:
             return self.walk_steps
         return updates_due(params, self.update_every, action_repeat_of(self))
@@ -261,7 +261,7 @@ class DistractingCamera(DistractionWalk):
     step, vigen writes the pose into the model fields the camera's mode reads (``cam_pos`` /
     ``cam_quat``, ``cam_pos0`` / ``cam_mat0``, ``cam_poscom0`` / ``cam_mat0``), so every renderer
     sees it (with an odd action repeat, DMC-GB's copy renders the undisturbed camera after every
-    env step that ends on an odd simulator step, since the physics step rewrites the data's camera
+    env step that ends on an odd control step, since the physics step rewrites the data's camera
     and its wrapper writes it back only on even ones; vigen always shows the walked camera);
     ``d`` is measured at the model's reference pose (``qpos0``), not at the episode's first state;
     scale 0 leaves the camera exactly as it was. Target-body camera modes are refused.
@@ -276,7 +276,7 @@ class DistractingCamera(DistractionWalk):
         camera: camera id or name (DCS: the render camera, 0; quadruped 2).
         limit_to_upper_quadrant: keep the camera above the ground and on the -y side (DCS: every domain but reacher).
         walk_steps: random-walk steps per env step (dynamic only, with ``update_every=None``).
-        update_every: simulator steps per walk step (DMC-GB: 2, the original: 1), or ``None``.
+        update_every: control steps per walk step (DMC-GB: 2, the original: 1), or ``None``.
         seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
 
     Examples:
@@ -387,7 +387,7 @@ class DistractingColors(DistractionWalk):
     (a material's colour multiplies its texture), the skybox (a texture, no material) keeps its colours.
 
     When it walks: see :class:`DistractionWalk` (``update_every=2``: DMC-GB's ``color.py:75-89``,
-    which adds no change on odd simulator steps; ``1``: the original, every simulator step;
+    which adds no change on odd control steps; ``1``: the original, every control step;
     ``None``: ``walk_steps`` per env step). The reset draws no walk step, as in the source.
 
     Departure from the source: draws come from ``seed`` (the original ``color.py`` ignores its seed).
@@ -400,7 +400,7 @@ class DistractingColors(DistractionWalk):
         dynamic: walk the colours every step.
         parts: name prefixes of the materials to recolour; ``None`` (DCS) recolours every material.
         walk_steps: random-walk steps per env step (dynamic only, with ``update_every=None``).
-        update_every: simulator steps per walk step (DMC-GB: 2, the original: 1), or ``None``.
+        update_every: control steps per walk step (DMC-GB: 2, the original: 1), or ``None``.
         seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
 
     Examples:

@@ -15,8 +15,12 @@ from vigen.transforms.scene.video import VideoBackground
 from vigen.transforms.scene.video_screen import TEXTURE_SIZE, VideoScreen, check_screen_domain
 
 
+DRAWS = ("dmcgb2", "dmcgb")
+"""The video orders: DMC-GB2's cycle from a seeded start, or DMC-GB's (episode ``k`` plays video ``(k + 1) mod n``)."""
+
+
 class DMCGB2VideoBackground(VideoBackground):
-    """:class:`~vigen.transforms.VideoBackground` playing its videos in DMC-GB2's order (``color_video_*``).
+    """:class:`~vigen.transforms.VideoBackground` playing its videos in DMC-GB2's order (``video_*``, ``color_video_*``).
 
     DMC-GB2's ``ColorVideoWrapper`` draws one start index ``start = np.random.RandomState(s).randint(100)``
     for the env seed ``s`` and uses it for the colours and the videos together
@@ -32,9 +36,15 @@ class DMCGB2VideoBackground(VideoBackground):
     around it: ``screen=True`` does that (:mod:`~vigen.transforms.scene.video_screen`; it reloads the
     dm_control physics with the box once, at the first reset, and renders each frame a second time
     after moving the box, so it needs a ``dmc/`` env of one of DMC-GB2's domains and costs one extra
-    render per step: 2.1-2.4x the time per step of the composite for walker-walk at 84 px, and a
-    first reset twice as long; measured on a loaded 2-core CPU machine). With ``screen=True``, ``floor=True`` makes the floor transparent, as DMC-GB2's
-    ``video_hard`` does. The reload replaces the model, so a screen transform goes after the other
+    render per step: 1.41x the time per step of the composite for walker-walk at 84 px, the figure of
+    ``docs/fidelity.md`` measured with ``benchmarks/dmcgb2_screen_cost.py``). With ``screen=True``,
+    ``floor=True`` makes the floor transparent, as DMC-GB2's ``video_hard`` does.
+
+    DMC-GB2's ``video_easy`` / ``video_hard`` take the same wrapper, order and screen as its
+    ``color_video_*`` (``dmcgb_photometric.py:45-63, 263-284``). Those level names are DMC-GB's too,
+    whose ``VideoWrapper`` plays episode ``k`` on video ``(k + 1) mod n`` whatever the seed; vigen's
+    ``video_*`` levels follow DMC-GB by default (``draw="dmcgb"``) and DMC-GB2 with
+    ``level_options={"draw": "dmcgb2"}`` (and ``{"screen": True}`` for its screen). The reload replaces the model, so a screen transform goes after the other
     scene transforms of its env: TorchRL prepares a reset from the last transform to the first, so
     it reloads before they edit the model (the ``color_video_*`` levels put it last).
 
@@ -46,6 +56,8 @@ class DMCGB2VideoBackground(VideoBackground):
         screen: show the video on DMC-GB2's in-scene screen instead of compositing it.
         domain: the dm_control domain (needed by ``screen``).
         source_seed: DMC-GB2's env seed; ``None``: the seed of the vigen env this transform sits in.
+        draw: ``"dmcgb2"`` (DMC-GB2's order, the default) or ``"dmcgb"`` (DMC-GB's: episode ``k`` plays
+            video ``(k + 1) mod n``, no seed involved).
         seed: see :class:`~vigen.transforms.scene.SceneTransform`.
 
     Examples:
@@ -55,6 +67,8 @@ class DMCGB2VideoBackground(VideoBackground):
         >>> _ = env.reset()
         >>> video.params["video"] == (44 + 1) % len(video.videos)  # np.random.RandomState(0).randint(100) == 44
         True
+        >>> DMCGB2VideoBackground(draw="dmcgb").sample(None)  # DMC-GB's order: the first episode plays video 1
+        {'video': 1, 'frame': 0}
     """
 
     def __init__(
@@ -64,18 +78,26 @@ class DMCGB2VideoBackground(VideoBackground):
         screen: bool = False,
         domain: str | None = None,
         source_seed: int | None = None,
+        draw: str = "dmcgb2",
         seed: int | None = None,
     ) -> None:
+        if draw not in DRAWS:
+            raise ValueError(f"DMCGB2VideoBackground: unknown draw {draw!r}; choose 'dmcgb2' (DMC-GB2's order: episode k plays "
+                             "video (start + 1 + k) mod n, start = RandomState(seed).randint(100)) or 'dmcgb' (DMC-GB's: "
+                             "video (k + 1) mod n).")
         source_seed = check_source_seed(source_seed, "DMCGB2VideoBackground")
         if not isinstance(screen, bool):
             raise TypeError(f"DMCGB2VideoBackground: screen is True (DMC-GB2's in-scene screen) or False, got {screen!r}.")
         video_screen = VideoScreen(check_screen_domain(domain, "DMCGB2VideoBackground(screen=True)"), remove_floor=floor) \
             if screen else None
-        super().__init__(videos=videos, floor=floor, seed=seed)
-        self.source_seed, self.domain, self.video_screen = source_seed, domain, video_screen
+        super().__init__(videos=videos, floor=floor, first_video=1 if draw == "dmcgb" else None, seed=seed)
+        self.source_seed, self.domain, self.video_screen, self.draw = source_seed, domain, video_screen, draw
 
     def sample(self, rng: np.random.Generator) -> SceneParams:
-        """The episode's video, ``(start + 1 + k) % len(videos)`` at episode ``k``, from its first frame."""
+        """The episode's video, ``(start + 1 + k) % len(videos)`` at episode ``k``, from its first frame
+        (``draw="dmcgb"``: ``(k + 1) % len(videos)``, :class:`~vigen.transforms.VideoBackground` with ``first_video=1``)."""
+        if self.draw == "dmcgb":
+            return super().sample(rng)
         if self.params is not None and "start" in self.params:
             start, episode = self.params["start"], self.params["episode"] + 1
         else:
@@ -121,4 +143,5 @@ class DMCGB2VideoBackground(VideoBackground):
     def extra_repr(self) -> str:
         source = "" if self.source_seed is None else f", source_seed={self.source_seed}"
         screen = "" if self.video_screen is None else f", screen=True, domain={self.video_screen.domain!r}"
-        return super().extra_repr() + screen + source
+        draw = "" if self.draw == "dmcgb2" else f", draw={self.draw!r}"
+        return super().extra_repr() + screen + source + draw

@@ -87,7 +87,7 @@ class VideoBackground(SceneTransform):
       (``benchmarks/dcs_skybox_cost.py``).
 
     ``update_every`` says how often the playback moves: ``None`` once per env step (DMC-GB's
-    ``video_easy`` / ``video_hard``), an int ``k`` once per ``k`` simulator steps counted from the
+    ``video_easy`` / ``video_hard``), an int ``k`` once per ``k`` control steps counted from the
     reset (DCS: DMC-GB's copy 2, ``background.py:225``; the original 1), so ``action_repeat / k``
     frames per env step.
 
@@ -120,7 +120,7 @@ class VideoBackground(SceneTransform):
         sky_size: with ``skybox``, the side of the square sky face the frames are resized to;
             ``None`` keeps the texture's width for videos from a folder (DCS: 800 for dm_control)
             and uses 256 for procedural ones (stand-ins, slow to generate at 800). Smaller is cheaper.
-        update_every: simulator steps per playback move (DCS: 2 in DMC-GB's copy, 1 in the
+        update_every: control steps per playback move (DCS: 2 in DMC-GB's copy, 1 in the
             original), or ``None`` for one move per env step.
         seed: see :class:`~vigen.transforms.scene.SceneTransform`.
 
@@ -308,7 +308,7 @@ class VideoBackground(SceneTransform):
         return params["frame"]
 
     def moves_due(self) -> int:
-        """Playback moves of the coming env step: one, or those of its simulator steps with ``update_every``."""
+        """Playback moves of the coming env step: one, or those of its control steps with ``update_every``."""
         if self.update_every is None:
             return 1
         return updates_due(self.params, self.update_every, action_repeat_of(self))
