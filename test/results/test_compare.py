@@ -78,7 +78,7 @@ def test_a_level_vigen_only_approximates_is_noted():
     """DMC-GB2 shows its videos on an in-simulation cube; vigen's video_hard keys them in as DMC-GB does."""
     run = rows(method="sada", env="dmc/walker-walk", frames=1_000_000, action_repeat=2)
     line = compare(run, source="dmcgb2", protocol="dmcgb2")[0]
-    assert line["published"] == 270.0 and line["notes"].startswith("video_hard differs: vigen keys the video")
+    assert line["published"] == 270.0 and line["notes"].startswith("video_hard differs: by default vigen keys the video")
     rotated = compare([dict(row, level="rotate_hard") for row in run], source="dmcgb2", protocol="dmcgb2")[0]
     assert rotated["notes"] == ""
 
