@@ -1,8 +1,14 @@
 """Packaging for vigen: TorchRL modules for visual generalization in reinforcement learning.
 
-The core pins the stack measured to work together on a CPU-only machine (torch 2.13, torchrl
-0.14.1, tensordict 0.14.3, mujoco 3.8.1, dm-control 1.0.41). Two pins resolve conflicts with the
-optional extras so that ``pip install -e ".[all]"`` gives one working environment:
+The core pins the stack measured to work together on a CPU-only machine (torchrl 0.14.1,
+tensordict 0.14.3, mujoco 3.8.1, dm-control 1.0.41). torch is a range, ``TORCH_RANGE``: 2.11 to
+2.13. CI and ``scripts/setup_env.sh`` install 2.13.0, the top of the range; the lent GPU machine has
+2.11 with CUDA. torchrl 0.14.1 and tensordict 0.14.3 ask only for torch >= 2.1, and torch 2.11
+has what the compiled update uses (``torch._dynamo.config.trace_autograd_ops``,
+``torch.compiler.is_compiling``, ``torch.compiler.assume_constant_result``): under 2.11 the tests
+pass but SGQN's and SCPL's compiled updates, whose saliency probe calls ``requires_grad_()``,
+which 2.11's dynamo does not trace (docs/testing.md, "Under the lowest torch"). Two pins resolve
+conflicts with the optional extras so that ``pip install -e ".[all]"`` gives one working environment:
 
 * ``numpy<2``: robosuite 1.5.2 pins numpy below 2 (through mink), so the core does too.
 * ``opencv-*<4.12``: OpenCV 4.12 and newer require numpy 2. robosuite asks for ``opencv-python``
@@ -22,9 +28,10 @@ ROOT = Path(__file__).parent
 VERSION = re.search(r'^__version__ = "([^"]+)"', (ROOT / "vigen" / "__init__.py").read_text(), re.M).group(1)
 
 OPENCV_RANGE = ">=4.8,<4.12"
+TORCH_RANGE = ">=2.11,<2.14"  # tested: 2.13.0 (CI), 2.11.0 (docs/testing.md); scripts/setup_env.sh installs 2.13.0
 
 install_requires = [
-    "torch==2.13.*",
+    f"torch{TORCH_RANGE}",
     "torchrl==0.14.1",
     "tensordict==0.14.3",
     "mujoco==3.8.1",
