@@ -124,6 +124,24 @@ def dcs_level(scale: float, dynamic: bool) -> Level:
     )
 
 
+def dmcgb_video_level(difficulty: str, floor: bool) -> Level:
+    """DMC-GB's ``video_easy`` (the sky) or ``video_hard`` (sky and floor): its videos once fetched, in DMC-GB's order.
+
+    DMC-GB2's order and in-scene screen are level options (``draw``, ``screen``) of the same level.
+    """
+    count = {"easy": 10, "hard": 100}[difficulty]
+    return Level(
+        f"{'sky and floor' if floor else 'sky'} replaced by a video, new frame every step; episode k plays video (k + 1) "
+        "mod n, as DMC-GB does (DMC-GB2's order, (start + 1 + k) mod n from start = RandomState(seed).randint(100), with "
+        "level_options={'draw': 'dmcgb2'}; DMC-GB2's in-scene screen with {'screen': True})",
+        f"DMC-GB video_{difficulty} (its {count} videos once fetched: python -m vigen.data fetch dmcgb-videos; procedural "
+        f"stand-ins until then, or a folder given as level_options={{'videos': ...}}); DMC-GB2 video_{difficulty} (the same "
+        "videos, its order and screen by level option)",
+        (Step(DMCGB2VideoBackground, {"floor": floor, "draw": "dmcgb", "domain": Domain(),
+                                      "videos": FetchedData("dmcgb-videos", f"video_{difficulty}")}),),
+    )
+
+
 def dmcgb2_level(mode: str, difficulty: str) -> Level:
     what = {"rotate": "camera turned about its view axis", "shift": "camera panned and tilted towards the image corners",
             "rotate_shift": "camera panned, tilted and turned"}[mode]
@@ -166,26 +184,7 @@ LEVELS: dict[str, Level] = {
         "RL-ViGen table_texture (generated stand-in textures)",
         (Step(RandomTextures),),
     ),
-    "video_easy": Level(
-        "sky replaced by a video, new frame every step; episode k plays video (k + 1) mod n, as DMC-GB does "
-        "(DMC-GB2's order, (start + 1 + k) mod n from start = RandomState(seed).randint(100), with "
-        "level_options={'draw': 'dmcgb2'}; DMC-GB2's in-scene screen with {'screen': True})",
-        "DMC-GB video_easy (its 10 videos once fetched: python -m vigen.data fetch dmcgb-videos; procedural stand-ins "
-        "until then, or a folder given as level_options={'videos': ...}); DMC-GB2 video_easy (the same videos, its "
-        "order and screen by level option)",
-        (Step(DMCGB2VideoBackground, {"floor": False, "draw": "dmcgb", "domain": Domain(),
-                                      "videos": FetchedData("dmcgb-videos", "video_easy")}),),
-    ),
-    "video_hard": Level(
-        "sky and floor replaced by a video, new frame every step; episode k plays video (k + 1) mod n, as DMC-GB does "
-        "(DMC-GB2's order, (start + 1 + k) mod n from start = RandomState(seed).randint(100), with "
-        "level_options={'draw': 'dmcgb2'}; DMC-GB2's in-scene screen with {'screen': True})",
-        "DMC-GB video_hard (its 100 videos once fetched: python -m vigen.data fetch dmcgb-videos; procedural stand-ins "
-        "until then, or a folder given as level_options={'videos': ...}); DMC-GB2 video_hard (the same videos, its "
-        "order and screen by level option)",
-        (Step(DMCGB2VideoBackground, {"floor": True, "draw": "dmcgb", "domain": Domain(),
-                                      "videos": FetchedData("dmcgb-videos", "video_hard")}),),
-    ),
+    **{f"video_{difficulty}": dmcgb_video_level(difficulty, floor) for difficulty, floor in (("easy", False), ("hard", True))},
     "light_easy": Level(
         "light position +{3, 4}, diffuse ± 0.2, light moving 0.01/step within ± 5",
         "RL-ViGen light_position + light_color + moving_light, easy",
