@@ -11,10 +11,9 @@ replay buffer (memory-mapped in ``replay_buffer/storage``). ``--frames`` counts 
 (agent steps × action repeat), as in DrQ-v2's curves. Presets: ``paper`` is DrQ-v2 / RL-ViGen's
 setup (batch 256, 1M-transition buffer, lr 1e-4, 3-step returns, τ = 0.01, 4000 seed frames, an
 update every 2 agent steps); ``cpu`` is the same agent with batch 64 and a 100k buffer, to learn
-easy tasks on a laptop CPU. An algorithm whose paper changes some of these settings gets them from
-``vigen.run.algo_defaults`` (VRL3: a fixed exploration std of 0.01 and, on Adroit, RL-ViGen's
-reward scale, door ×1/20, hammer ×1/100, pen ×1/50); flags override them and ``config.json``
-records them.
+easy tasks on a laptop CPU. Settings an algorithm's paper fixes are fields of its record in
+``vigen.losses.ALGOS``, taken where the flags leave them unset (VRL3: a fixed exploration std of
+0.01 and, on Adroit, RL-ViGen's reward scale, door ×1/20, hammer ×1/100, pen ×1/50).
 
 ``--collector ray --workers N`` collects with TorchRL's ``RayCollector``: N Ray actors, each with
 its own env (levels and perturbations run inside them), a batch from each per step, the policy's
@@ -90,7 +89,7 @@ from vigen.losses import UpdateStep, update_metrics
 from vigen.protocols import PROTOCOLS
 from vigen.ray_cluster import ray_session
 from vigen.rendering import RenderSettings
-from vigen.run import TrainConfig, add_flags, build_agent, given_flags, new_config, resumed_config, setting
+from vigen.run import TrainConfig, add_flags, build_agent, check_runnable, given_flags, new_config, resumed_config, setting
 from vigen.seeding import ENV_SEED_LIMIT, derive_seed
 
 
@@ -123,6 +122,7 @@ def parse_args(argv: list[str] | None = None) -> tuple[TrainConfig, Launch]:
     try:
         config = new_config(flags) if launch.resume is None else resumed(launch, flags)
         config.check()
+        check_runnable(config)
     except ValueError as error:
         raise SystemExit(str(error)) from None
     if launch.threads is not None and launch.threads < 1:
@@ -276,8 +276,8 @@ class Training:
             batch["next", "done"][..., -1, :] = True  # its n-step targets bootstrap there
         transitions = self.n_step.inv(batch)  # [time] or [workers, time], with n-step rewards and next pixels
         if transitions is not None:
-            if self.config.reward_scale != 1:
-                transitions.set(("next", "reward"), transitions["next", "reward"] * self.config.reward_scale)
+            if self.agent.reward_scale != 1:
+                transitions.set(("next", "reward"), transitions["next", "reward"] * self.agent.reward_scale)
             self.journal.protect(transitions.numel())
             self.buffer.extend(transitions.reshape(-1))
         if self.noise is not None:
