@@ -238,3 +238,11 @@ def test_masker_convolves_large_batches_in_passes_with_the_same_result():
     frames = pixels.float().reshape(40 * 3, 3, 8, 8) / 255
     whole = masker.net(frames).reshape(40, 3, 1, 8, 8)
     torch.testing.assert_close(masker.masks(pixels), whole)
+
+
+@pytest.mark.parametrize("old, new", [("masker_lr", "param_groups"), ("masker_beta", "param_groups"), ("std_clip", "clip="),
+                                      ("dynamics_lr", "param_groups"), ("encoder_lr_scale", "lr_scale"),
+                                      ("pretanh_penalty", "pretanh_weight="), ("policy", "sampler=")])
+def test_an_option_renamed_by_issue_42_is_refused_with_its_new_spelling(old, new):
+    with pytest.raises(TypeError, match=f"{old}= is now .*{new}"):
+        make_loss("madi", **{old: 0.5})

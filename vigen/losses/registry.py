@@ -198,6 +198,19 @@ ALGOS: Mapping[str, Algorithm] = MappingProxyType({
 })
 """Algorithm name -> :class:`Algorithm`."""
 
+RENAMED_OPTIONS: Mapping[str, str] = MappingProxyType({
+    "policy": "sampler=",
+    "std_clip": "clip=",
+    "masker": "input_mask= (MaDi's masker is the loss's input mask)",
+    "masker_lr": 'param_groups={"input_mask": {"lr": ...}}',
+    "masker_beta": 'param_groups={"input_mask": {"betas": (..., 0.999)}}',
+    "dynamics_lr": 'param_groups={"dynamics": {"lr": ...}}',
+    "encoder_lr_scale": 'param_groups={"encoder": {"lr_scale": ...}}',
+    "pretanh_penalty": "pretanh_weight= (pretanh_penalty is the penalty function)",
+})
+"""Options of :func:`make_loss` and :func:`build_loss` before one name per concept and coefficient (issue 42) → today's
+spelling; an old name is refused with the new one. (Checkpoints' renamed state keys: ``vigen.losses.base.LEGACY_STATE_KEYS``.)"""
+
 SAMPLER_OPTIONS: Mapping[type, tuple[str, ...]] = MappingProxyType({
     NoisyDeterministic: ("std", "clip"),
     SquashedGaussian: ("init_temperature", "target_entropy", "squash_epsilon"),
@@ -367,6 +380,9 @@ def build_loss(algo: str, encoder: nn.Module, actor: nn.Module, critic: nn.Modul
         ['RandomOverlay', 'RandomFrequencyMask']
     """
     record = algorithm(algo)
+    renamed = [f"{old}= is now {RENAMED_OPTIONS[old]}" for old in options if old in RENAMED_OPTIONS]
+    if renamed:
+        raise TypeError(f"{algo}: {'; '.join(renamed)}.")
     names = list(record.networks)
     if len(extra) > len(names):
         raise TypeError(f"{algo}: {len(extra)} extra networks given, but it takes {len(names)} ({', '.join(names) or 'none'}).")
