@@ -157,3 +157,18 @@ def test_a_cuda_update_never_synchronizes_with_the_host(compile):
     finally:
         torch.cuda.set_sync_debug_mode("default")
     update.raise_if_diverged()
+
+
+def test_a_loss_without_its_own_check_gets_the_tensor_guard_and_the_update_never_changes_the_loss():
+    """check_finite=False (build_agent's choice off the CPU): a NaN update is zeroed and counted, not raised inside the call."""
+    loss, optimizer, target = build("drqv2")
+    loss.check_finite = False
+    update = UpdateStep(loss, optimizer, target)
+    update(make_batch(reward=torch.full((6, 1), math.nan)))
+    assert loss.check_finite is False and int(update.diverged_updates) == 1
+    assert all(torch.isfinite(parameter).all() for parameter in loss.parameters())
+    with pytest.raises(FloatingPointError, match="1 update\\(s\\) had a NaN or inf loss"):
+        update.raise_if_diverged()
+    checked, optimizer, target = build("drqv2")
+    UpdateStep(checked, optimizer, target)(make_batch())
+    assert checked.check_finite is True, "UpdateStep leaves the caller's loss as it was"
