@@ -52,9 +52,9 @@ class Agent:
 def check_runnable(config: TrainConfig) -> None:
     """Raise a ``ValueError`` naming the flag and the fix for what :meth:`TrainConfig.check` cannot see alone.
 
-    The algorithm, the env's name (with the closest matches), the evaluation levels on its suite,
-    the Ray collector's import, and whether the algorithm has a pretrained encoder for
-    ``--encoder-weights``: the checks that need the losses, the simulators' registry or Ray.
+    The algorithm, whether it has a pretrained encoder for ``--encoder-weights`` (and the file),
+    the env's name (with the closest matches), the evaluation levels on its suite and the Ray
+    collector's import: the checks that need the losses, the simulators' registry or Ray.
 
     Examples:
         >>> check_runnable(TrainConfig(algo="svea", encoder_weights=None))
@@ -68,6 +68,8 @@ def check_runnable(config: TrainConfig) -> None:
     if config.encoder_weights is not None and ALGOS[config.algo].encoder_weights is None:
         pretrained = [name for name, record in ALGOS.items() if record.encoder_weights is not None]
         raise ValueError(f"--encoder-weights: {config.algo} has no pretrained encoder; it applies to {', '.join(pretrained)}.")
+    if config.encoder_weights is not None and not Path(config.encoder_weights).expanduser().is_file():
+        raise ValueError(f"--encoder-weights {config.encoder_weights}: no such file; give the path of the weights file.")
     if config.collector == "ray":
         try:
             import_ray()

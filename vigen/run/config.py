@@ -19,7 +19,6 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass, replace
-from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Literal
 
@@ -168,8 +167,6 @@ class TrainConfig:
         if not (stds_ok and (self.reward_scale is None or 0 < self.reward_scale < float("inf"))):
             raise ValueError(f"--std-init and --std-final must be >= 0 and --reward-scale positive, got {self.std_init}, "
                              f"{self.std_final} and {self.reward_scale}.")
-        if self.encoder_weights is not None and not Path(self.encoder_weights).expanduser().is_file():
-            raise ValueError(f"--encoder-weights {self.encoder_weights}: no such file; give the path of the weights file.")
         if self.episode_length is not None and self.episode_length < 1:
             raise ValueError(f"--episode-length must be >= 1, got {self.episode_length}.")
 
