@@ -36,7 +36,6 @@ from torchrl.data import Bounded
 from vigen.checkpoint import load_checkpoint
 from vigen.evaluation import evaluate
 from vigen.losses import make_loss
-from vigen.policies import make_policy
 from vigen.rendering import RenderSettings
 
 
@@ -67,7 +66,7 @@ def main() -> None:
         return curve(args, config, returns)
     zero = TensorDictModule(lambda pixels: torch.zeros(*pixels.shape[:-3], dims), in_keys=["pixels"], out_keys=["action"])
     rows = {"random": returns(None, args.episodes), "zero action": returns(zero, 1),
-            "untrained": returns(make_policy(initial_loss(config), Bounded(-1.0, 1.0, shape=(dims,))), 1)}
+            "untrained": returns(initial_loss(config).make_policy(Bounded(-1.0, 1.0, shape=(dims,))), 1)}
     print(f"{env}, train level, seed {args.seed}")
     print("| policy | mean return | episodes |")
     print("|---|---|---|")
@@ -86,7 +85,7 @@ def initial_loss(config: dict):
 def curve(args: argparse.Namespace, config: dict, returns) -> None:
     """Deterministic and fixed-σ noisy returns of the untrained network and of every checkpoint of the run."""
     loss = initial_loss(config)
-    policy = make_policy(loss, Bounded(-1.0, 1.0, shape=(config["action_dim"],)))
+    policy = loss.make_policy(Bounded(-1.0, 1.0, shape=(config["action_dim"],)))
     generator = torch.Generator()
 
     def noisy(tensordict):

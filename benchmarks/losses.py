@@ -164,7 +164,7 @@ class Reference:
 
     def __init__(self, algo: str, nets: dict[str, nn.Module], overlay_images: Tensor) -> None:
         self.algo = algo
-        masker = nets.get("masker")
+        masker = nets.get("input_mask")
         if masker is not None:
             masker.max_value = 255.0
         self.encoder, self.actor, self.critic = RLViGenEncoder(nets["encoder"], masker), nets["actor"], nets["critic"]
@@ -430,9 +430,8 @@ class Vigen:
                  "madi": {"strong_augmentation": overlay()}, "simgrl": {"strong_augmentation": RandomShiftedOverlay(images=bank)},
                  "pieg": {"strong_augmentation": overlay()}, "scpl": {"strong_augmentation": overlay()}}
         nets = dict(nets)
-        masker = {"masker": nets.pop("masker")} if "masker" in nets else {}
-        policy = {"std": STD} if VIGEN_ALGOS[algo].takes_std else {}
-        self.loss: ActorCriticLoss = build_loss(algo, *nets.values(), **masker, **policy, **views.get(algo, {}))
+        sampler = {"std": STD} if VIGEN_ALGOS[algo].takes_std else {}
+        self.loss: ActorCriticLoss = build_loss(algo, *nets.values(), **sampler, **views.get(algo, {}))
         self.loss.to(device)
         self.loss.make_value_estimator(gamma=GAMMA)
         # as examples/train.py: eager steps a fused Adam, a compiled update fuses the step itself (capturable for a CUDA graph)

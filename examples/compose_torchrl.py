@@ -25,7 +25,6 @@ from torchrl.objectives import SoftUpdate
 from vigen.devices import resolve_device  # vigen
 from vigen.evaluation import evaluate, markdown_table, summarize  # vigen
 from vigen.losses import make_loss  # vigen
-from vigen.policies import make_policy  # vigen
 from vigen.transforms import PixelCorruption  # vigen
 
 
@@ -58,7 +57,7 @@ def main() -> None:
     loss = make_loss("svea", env.observation_spec["pixels"].shape, env.action_spec.shape[-1], hidden_dim=256,
                      device=device)  # vigen
     loss.make_value_estimator(gamma=0.99)
-    policy = make_policy(loss, env.action_spec)  # vigen: actor(encoder(pixels)) + scheduled Gaussian noise
+    policy = loss.make_policy(env.action_spec)  # vigen: actor(encoder(pixels)) + scheduled Gaussian noise
     optimizer = torch.optim.Adam(loss.parameters(), lr=1e-4, fused=True)
     target_update = SoftUpdate(loss, tau=0.01)
 

@@ -11,10 +11,14 @@ replay buffer (memory-mapped in ``replay_buffer/storage``). ``--frames`` counts 
 (agent steps × action repeat), as in DrQ-v2's curves. Presets: ``paper`` is DrQ-v2 / RL-ViGen's
 setup (batch 256, 1M-transition buffer, lr 1e-4, 3-step returns, τ = 0.01, 4000 seed frames, an
 update every 2 agent steps); ``cpu`` is the same agent with batch 64 and a 100k buffer, to learn
-easy tasks on a laptop CPU. An algorithm whose paper changes some of these settings gets them from
-``vigen.run.algo_defaults`` (VRL3: a fixed exploration std of 0.01 and, on Adroit, RL-ViGen's
-reward scale, door ×1/20, hammer ×1/100, pen ×1/50); flags override them and ``config.json``
-records them.
+easy tasks on a laptop CPU. Settings an algorithm's paper fixes are fields of its record in
+``vigen.losses.ALGOS``, taken where the flags leave them unset (VRL3: a fixed exploration std of
+0.01 and, on Adroit, RL-ViGen's reward scale, door ×1/20, hammer ×1/100, pen ×1/50).
+
+One process writes a run folder at a time: a second ``--resume`` of a run in use stops at once,
+naming the process that holds it (a lock that the OS drops when that process ends, so a killed
+run never blocks its resume). The run trains whole collector batches: when ``--frames`` is not a
+whole number of them, it says before it starts how many frames it trains, and why.
 
 ``--collector ray --workers N`` collects with TorchRL's ``RayCollector``: N Ray actors, each with
 its own env (levels and perturbations run inside them), a batch from each per step, the policy's
@@ -85,12 +89,12 @@ from vigen.checkpoint import (CheckpointError, ReplayJournal, checkpoint_path, g
 from vigen.devices import resolve_device
 from vigen.envs import make_env
 from vigen.evaluation import evaluate
-from vigen.io import atomic_write, unused_path
+from vigen.io import FolderInUse, RunFolderLock, atomic_write, unused_path
 from vigen.losses import UpdateStep, update_metrics
 from vigen.protocols import PROTOCOLS
 from vigen.ray_cluster import ray_session
 from vigen.rendering import RenderSettings
-from vigen.run import TrainConfig, add_flags, build_agent, given_flags, new_config, resumed_config, setting
+from vigen.run import TrainConfig, add_flags, build_agent, check_runnable, given_flags, new_config, resumed_config, setting
 from vigen.seeding import ENV_SEED_LIMIT, derive_seed
 
 
@@ -123,6 +127,7 @@ def parse_args(argv: list[str] | None = None) -> tuple[TrainConfig, Launch]:
     try:
         config = new_config(flags) if launch.resume is None else resumed(launch, flags)
         config.check()
+        check_runnable(config)
     except ValueError as error:
         raise SystemExit(str(error)) from None
     if launch.threads is not None and launch.threads < 1:
@@ -144,6 +149,32 @@ def resumed(launch: Launch, flags: dict) -> TrainConfig:
         raise SystemExit(f"--resume {launch.resume}: {error}") from None
 
 
+def hold(run_dir: Path) -> RunFolderLock:
+    """The run folder's writer lock, or stop naming the process that holds it."""
+    try:
+        return RunFolderLock(run_dir).acquire()
+    except FolderInUse as error:
+        raise SystemExit(f"{run_dir}: {error}") from None
+
+
+def frames_note(frames: int, action_repeat: int, steps: int, eval_every: int, batch_steps: int) -> str | None:
+    """What the run trains when it is not ``frames``: the collector gathers whole batches of ``batch_steps`` agent steps.
+
+    ``None`` when the run trains exactly ``frames`` (from ``steps`` agent steps already done).
+    """
+    total = frames // action_repeat
+    done = steps
+    while done < total:
+        done += segment_batches(done, total, eval_every, batch_steps) * batch_steps
+    if done * action_repeat == frames:
+        return None
+    if done == steps:
+        return f"--frames {frames}: the run has trained {steps * action_repeat} frames already; nothing to train."
+    rounded = f"; {frames} frames are {total} whole agent steps" if frames % action_repeat else ""
+    return (f"--frames {frames}: training {done * action_repeat} frames, not {frames}: the collector gathers whole batches "
+            f"of {batch_steps} agent steps ({batch_steps * action_repeat} frames at action repeat {action_repeat}){rounded}.")
+
+
 def training_env(name: str, seed: int, **options) -> TransformedEnv:
     """The suite's pixels (uint8 [9, 84, 84]; DrQ-v2's action repeat 2 on dm_control), rendered fast, with episode returns summed."""
     env = make_env(name, seed=seed, render_settings=RenderSettings.fast(), **options)
@@ -152,6 +183,7 @@ def training_env(name: str, seed: int, **options) -> TransformedEnv:
 
 def main() -> None:
     config, launch = parse_args()
+    lock = None if launch.resume is None else hold(launch.resume)  # a second writer stops before any work
     try:
         device = resolve_device(launch.device)
     except ValueError as error:
@@ -175,6 +207,7 @@ def main() -> None:
         config = dataclasses.replace(config, observation_shape=observation_shape, action_dim=action_spec.shape[-1])
         run_dir = unused_path(launch.out or Path("runs") / f"{config.algo}-{config.env.split('/', 1)[-1]}-s{config.seed}")
         run_dir.mkdir(parents=True)
+        lock = hold(run_dir)
         atomic_write(run_dir / "config.json", json.dumps(config.to_json(), indent=2))
     else:
         run_dir = launch.resume
@@ -182,7 +215,11 @@ def main() -> None:
     training = Training(config, run_dir, make, action_spec, action_repeat, device)
     if launch.resume is not None:
         training.resume()
-    with contextlib.ExitStack() as session:
+    note = frames_note(config.frames, action_repeat, training.steps, training.eval_every,
+                       training.steps_per_batch * config.workers)
+    if note:
+        print(note, flush=True)
+    with lock, contextlib.ExitStack() as session:
         if config.collector == "ray":  # one cluster for the whole run; collectors come and go with segments
             session.enter_context(ray_session(launch.ray_address))
         training.run()
@@ -276,8 +313,8 @@ class Training:
             batch["next", "done"][..., -1, :] = True  # its n-step targets bootstrap there
         transitions = self.n_step.inv(batch)  # [time] or [workers, time], with n-step rewards and next pixels
         if transitions is not None:
-            if self.config.reward_scale != 1:
-                transitions.set(("next", "reward"), transitions["next", "reward"] * self.config.reward_scale)
+            if self.agent.reward_scale != 1:
+                transitions.set(("next", "reward"), transitions["next", "reward"] * self.agent.reward_scale)
             self.journal.protect(transitions.numel())
             self.buffer.extend(transitions.reshape(-1))
         if self.noise is not None:

@@ -33,7 +33,7 @@ def build_sada(reference: Path, setup: Setup) -> Case:
                      strong_augmentation=replay_augmentation(strong_pairs, "strong"))
     loss.make_value_estimator(gamma=setup.gamma)
     modules = [ModuleMap("encoder", "encoder"), ModuleMap("actor", "actor"),
-               ModuleMap("critic", "critic", (("Q1", "q1"), ("Q2", "q2"))), ModuleMap("log_alpha", "policy.log_alpha")]
+               ModuleMap("critic", "critic", (("Q1", "q1"), ("Q2", "q2"))), ModuleMap("log_alpha", "sampler.log_alpha")]
     steps = [
         StepMap("critic", "loss_critic", (("critic_opt", 0), ("encoder_opt", 0))),
         StepMap("actor", "loss_actor", (("actor_opt", 0),)),

@@ -33,13 +33,11 @@ def build_madi(reference: Path, setup: Setup) -> Case:
     overlay_pairs: Pairs = [(views.obs, views.overlay(0, views.obs))]
     networks = sac_networks(SharedCNN(setup.channels, max_value=255, centered=False), setup)
     masker = MaDiMasker(num_filters=32, max_value=255)
-    networks["masker"] = masker
+    networks["input_mask"] = masker  # the madi preset puts it in front of the encoder
     maps = dmcgb_maps([shared_cnn_map("agent.critic.encoder.shared.layers", "encoder.convnet")])  # MaDi renames shared_cnn
-    maps.append(ModuleMap("agent.masker.layers", "masker.net", (("2", "0"), ("4", "2"), ("6", "4"))))
+    maps.append(ModuleMap("agent.masker.layers", "input_mask.net", (("2", "0"), ("4", "2"), ("6", "4"))))
     load_original_weights(networks, maps, driver)
-    maps[-1] = ModuleMap("agent.masker.layers", "input_mask.net", (("2", "0"), ("4", "2"), ("6", "4")))  # the loss's name
-    del networks["masker"]  # the madi preset puts it in front of the encoder (input_mask)
-    loss = build_loss("madi", *networks.values(), masker=masker, init_temperature=0.1,
+    loss = build_loss("madi", *networks.values(), init_temperature=0.1,
                       augmentation=replay_augmentation(views.weak(), "shift"),
                       strong_augmentation=replay_augmentation(overlay_pairs, "overlay"))
     loss.make_value_estimator(gamma=setup.gamma)

@@ -63,7 +63,7 @@ def actor_and_critic(setup: Setup, repr_dim: int) -> tuple[nn.Module, nn.Module]
 def ddpg_options() -> dict[str, Any]:
     from vigen.losses import LinearSchedule, NoisyDeterministic
 
-    return dict(policy=NoisyDeterministic(LinearSchedule(1.0, 0.1, 100_000), clip=0.3))
+    return dict(sampler=NoisyDeterministic(LinearSchedule(1.0, 0.1, 100_000), clip=0.3))
 
 
 def finish(loss: Any, setup: Setup) -> Any:
@@ -201,10 +201,10 @@ def build_drq(reference: Path, setup: Setup) -> Case:
     loss = DrQLoss(DrQv2Encoder(setup.channels, max_value=255),
                    GaussianActor(repr_dim, setup.action_dim, setup.hidden_dim, hidden_depth=2, log_std_bounds=(-10.0, 2.0)),
                    Critic(repr_dim, setup.action_dim, setup.feature_dim, setup.hidden_dim),
-                   policy=SquashedGaussian(init_temperature=0.1), augmentation=replay_augmentation(views.weak(), "shift"))
+                   sampler=SquashedGaussian(init_temperature=0.1), augmentation=replay_augmentation(views.weak(), "shift"))
     loss.make_value_estimator(gamma=setup.gamma)
     modules = [ModuleMap("encoder", "encoder"), ModuleMap("actor", "actor", (("trunk", "policy"),)),
-               ModuleMap("critic", "critic", (("Q1", "q1"), ("Q2", "q2"))), ModuleMap("log_alpha", "policy.log_alpha")]
+               ModuleMap("critic", "critic", (("Q1", "q1"), ("Q2", "q2"))), ModuleMap("log_alpha", "sampler.log_alpha")]
     steps = [
         StepMap("critic", "loss_critic", (("critic_opt", 0), ("encoder_opt", 0))),
         StepMap("actor", "loss_actor", (("actor_opt", 0),)),

@@ -42,7 +42,7 @@ def build_vrl3(reference: Path, setup: Setup) -> Case:
         encoder = VRL3Encoder(setup.channels, max_value=255)
     loss = VRL3Loss(encoder, *actor_and_critic(setup, encoder.output_size), augmentation=replay_augmentation(views.weak(), "shift"),
                     safe_q_threshold=VRL3_SAFE_Q_THRESHOLD, pretanh_threshold=VRL3_PRETANH_THRESHOLD,
-                    policy=NoisyDeterministic(std=0.01, clip=0.3))
+                    sampler=NoisyDeterministic(std=0.01, clip=0.3))
     loss = finish(loss, setup)
     modules = [ModuleMap("encoder.model", "encoder"), *CRITIC_MODULES]
     metrics = [*DDPG_METRICS, ("abs_pretanh", "abs_pretanh"), ("max_abs_pretanh", "max_abs_pretanh")]

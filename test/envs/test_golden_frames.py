@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-RASTER_TOLERANCE = 0.02  # of 255, in a frame's channel mean: two units of the stored rounding
+RASTER_TOLERANCE = 0.25  # of 255, in a frame's channel mean (see the comment in the test)
 GOLDEN = json.loads((ROOT / "test" / "data" / "golden_frames.json").read_text())
 SAMPLE = {
     "dmc/walker-walk:train", "dmc/walker-walk:color_hard", "dmc/walker-walk:video_hard", "dmc/walker-walk:camera_hard",
@@ -63,7 +63,12 @@ def test_level_frames_equal_the_golden_frames(key: str):
     # A level whose draws or factors changed moves frame means by whole units of 255. A fresh install
     # (2026-11-24, same pinned mujoco and robosuite) moved every frame of robosuite/door:camera_easy by
     # 0.01 of 255, the stored rounding unit; cause not found (the GL stack or an unpinned dependency).
-    # Differences that small pass, with a warning.
+    # robosuite/two-arm-peg-in-hole:robot_iiwa later moved by 0.02, measured as 0.020000000000010: the
+    # means are stored rounded to 0.01, and the difference of two such decimals in binary floating point
+    # lands just above or below a whole number of hundredths, so a bound at a multiple of the rounding
+    # unit is crossed by the arithmetic itself. The bound sits between the two kinds of change, far from
+    # both: 0.25 of 255 is 12 times the largest rasterizer-level change seen (0.02) and a quarter of the
+    # smallest change a different draw makes (one unit). Differences below it pass, with a warning.
     assert difference <= RASTER_TOLERANCE, f"{key}: frames changed (largest change of a frame's channel mean: {difference:.2f} of 255)"
     warnings.warn(f"{key}: frames differ from the golden ones by at most {difference:.2f} of 255 in a channel mean "
                   "(rasterizer-level); the level's draws are unchanged", stacklevel=1)

@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 import importlib.util
+import json
+import os
+import socket
+import subprocess
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -59,3 +63,49 @@ def test_resume_needs_a_run_folder_and_no_out(train, tmp_path):
         train.parse_args(["--resume", str(tmp_path)])
     with pytest.raises(SystemExit, match="--out and --resume: a resumed run stays in its folder"):
         train.parse_args(["--resume", str(tmp_path), "--out", str(tmp_path / "elsewhere")])
+
+
+HOLDER = """
+import sys, time
+from vigen.io import RunFolderLock
+RunFolderLock(sys.argv[1]).acquire()
+print("holding", flush=True)
+time.sleep(600)
+"""
+
+
+def test_a_second_writer_is_refused_at_once_naming_the_holder_and_a_killed_holders_lock_does_not_block(train, tmp_path):
+    run = tmp_path / "run"
+    run.mkdir()
+    config = replace(PRESETS["cpu"], observation_shape=(9, 84, 84), action_dim=1)
+    (run / "config.json").write_text(json.dumps(config.to_json()))
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    holder = subprocess.Popen([sys.executable, "-c", HOLDER, str(run)], stdout=subprocess.PIPE, text=True, cwd=ROOT, env=env)
+    try:
+        assert holder.stdout.readline().strip() == "holding"
+        second = subprocess.run([sys.executable, str(ROOT / "examples" / "train.py"), "--resume", str(run), "--threads", "1"],
+                                capture_output=True, text=True, cwd=ROOT, env=env, timeout=300)
+        assert second.returncode != 0
+        assert f"is in use by process {holder.pid} on {socket.gethostname()}, started " in second.stderr, second.stderr
+        assert "run folder:" not in second.stdout, "refused before any work (no env, no checkpoint read)"
+        with pytest.raises(SystemExit, match=f"in use by process {holder.pid}"):
+            train.hold(run)
+    finally:
+        holder.kill()  # SIGKILL: the holder cleans nothing up; the OS drops its flock
+        holder.wait()
+    assert json.loads((run / ".writer.json").read_text())["pid"] == holder.pid, "the killed holder's record is left behind"
+    lock = train.hold(run)  # ... and does not block
+    assert json.loads((run / ".writer.json").read_text())["pid"] == os.getpid()
+    lock.release()
+
+
+def test_the_run_says_before_it_starts_how_many_frames_it_trains(train):
+    """Collector batches of 100 agent steps (--update-every 2) at action repeat 2: the run trains 200 frames at a time."""
+    note = train.frames_note(300, 2, 0, eval_every=5000, batch_steps=100)
+    assert note.startswith("--frames 300: training 400 frames, not 300: the collector gathers whole batches of 100 agent "
+                           "steps (200 frames at action repeat 2)")
+    assert train.frames_note(400, 2, 0, eval_every=5000, batch_steps=100) is None, "a whole number of batches: no note"
+    assert "301 frames are 150 whole agent steps" in train.frames_note(301, 2, 0, eval_every=5000, batch_steps=100)
+    # a checkpoint every 150 agent steps ends a segment at the first batch past it: 200 steps, then 300
+    assert "training 600 frames, not 500" in train.frames_note(500, 2, 0, eval_every=150, batch_steps=100)
+    assert train.frames_note(600, 2, 200, eval_every=150, batch_steps=100) is None, "resumed at 200 steps"

@@ -24,8 +24,11 @@ LOSSES = ["drqv2", "svea", "srm", "sgqn", "curl", "drq", "sada", "madi", "simgrl
 SAC_LOSSES = ("drq", "sada", "scpl", "madi", "simgrl")  # sample from their policy: no std
 
 
-def make_loss(name: str, max_value: float | None = None, **kwargs: Any) -> ActorCriticLoss:
-    """A loss of each kind on networks small enough for unit tests (``max_value`` goes to the encoder)."""
+def make_loss(name: str, max_value: float | None = None, *, gaussian: bool | None = None, **kwargs: Any) -> ActorCriticLoss:
+    """A loss of each kind on networks small enough for unit tests (``max_value`` goes to the encoder).
+
+    ``gaussian``: a SAC actor (mean, log σ) rather than a deterministic one; default: the algorithm's.
+    """
     kwargs.setdefault("augmentation", RandomShift(pad=1))
     scale = {} if max_value is None else {"max_value": max_value}
     if name in ("sgqn", "curl"):
@@ -44,8 +47,11 @@ def make_loss(name: str, max_value: float | None = None, **kwargs: Any) -> Actor
         encoder = DrQv2Encoder(9, **scale)
     features = encoder.output_dim(9, SIZE, SIZE)
     critic = Critic(features, ACTIONS, feature_dim=8, hidden_dim=16)
-    actor = Actor(features, ACTIONS, feature_dim=8, hidden_dim=16)
-    kwargs = _policy_options(name, kwargs)
+    if name in SAC_LOSSES if gaussian is None else gaussian:  # DrQ's and DMC-GB2's SAC actors have no trunk
+        actor = GaussianActor(features, ACTIONS, hidden_dim=16, **({} if name in ("drq", "sada") else {"feature_dim": 8}))
+    else:
+        actor = Actor(features, ACTIONS, feature_dim=8, hidden_dim=16)
+    kwargs = _sampler_options(name, kwargs)
     if name == "drqv2":
         loss = DrQv2Loss(encoder, actor, critic, **kwargs)
     elif name == "svea":
@@ -58,21 +64,18 @@ def make_loss(name: str, max_value: float | None = None, **kwargs: Any) -> Actor
     elif name == "curl":
         loss = CURLLoss(encoder, actor, critic, CURLHead(EMBEDDING), **kwargs)
     elif name == "drq":
-        loss = DrQLoss(encoder, GaussianActor(features, ACTIONS, hidden_dim=16), critic, **kwargs)
+        loss = DrQLoss(encoder, actor, critic, **kwargs)
     elif name == "sada":
-        loss = SADALoss(encoder, GaussianActor(features, ACTIONS, hidden_dim=16), critic, **kwargs)
+        loss = SADALoss(encoder, actor, critic, **kwargs)
     elif name == "madi":
-        actor = GaussianActor(features, ACTIONS, hidden_dim=16, feature_dim=8)
-        loss = build_loss("madi", encoder, actor, critic, masker=MaDiMasker(num_filters=4, max_value=max_value), **kwargs)
+        loss = build_loss("madi", encoder, actor, critic, input_mask=MaDiMasker(num_filters=4, max_value=max_value), **kwargs)
     elif name == "simgrl":
-        actor = GaussianActor(features, ACTIONS, hidden_dim=16, feature_dim=8)
         loss = build_loss("simgrl", encoder, actor, critic, **kwargs)
     elif name == "vrl3":
         loss = VRL3Loss(encoder, actor, critic, **kwargs)
     elif name == "pieg":
         loss = PIEGLoss(encoder, actor, critic, **kwargs)
     elif name == "scpl":
-        actor = GaussianActor(features, ACTIONS, hidden_dim=16, feature_dim=8)
         loss = SCPLLoss(encoder, actor, critic, LatentDynamics(8, ACTIONS, hidden_dim=16), **kwargs)
     else:
         raise ValueError(name)
@@ -80,15 +83,15 @@ def make_loss(name: str, max_value: float | None = None, **kwargs: Any) -> Actor
     return loss
 
 
-def _policy_options(name: str, kwargs: dict[str, Any]) -> dict[str, Any]:
-    """The policy's shorthand options (``std``, ``init_temperature``, ...) as ``policy=``, as ``make_loss`` takes them."""
-    from vigen.losses.registry import NOISY_OPTIONS, SAC_OPTIONS, make_policy_head
+def _sampler_options(name: str, kwargs: dict[str, Any]) -> dict[str, Any]:
+    """The sampler's shorthand options (``std``, ``init_temperature``, ...) as ``sampler=``, as ``make_loss`` takes them."""
+    from vigen.losses.registry import SAMPLER_OPTIONS, make_sampler
 
-    if "policy" in kwargs or not any(key in kwargs for key in (*NOISY_OPTIONS, *SAC_OPTIONS)):
+    if "sampler" in kwargs or not any(key in kwargs for names in SAMPLER_OPTIONS.values() for key in names):
         return kwargs
     options = dict(kwargs)
-    policy = make_policy_head(name, options)  # takes the policy's options out of options
-    return {**options, "policy": policy}
+    sampler = make_sampler(name, options)  # takes the sampler's options out of options
+    return {**options, "sampler": sampler}
 
 
 def make_batch(batch: int = 6, seed: int = 0, **next_entries: torch.Tensor) -> TensorDict:

@@ -9,6 +9,8 @@ import pytest
 import torch
 from torchrl.objectives import SoftUpdate
 
+from vigen.losses import NoisyDeterministic, SquashedGaussian
+
 from loss_helpers import LOSSES, make_batch, make_loss
 
 pytestmark = pytest.mark.filterwarnings("ignore:No target network updater")
@@ -42,6 +44,42 @@ def test_outputs_are_losses_and_detached_metrics(name):
     assert {"loss_critic", "loss_actor"} <= set(out.keys())
     if name in AUX_LOSSES:
         assert AUX_LOSSES[name] in out.keys()
+
+
+REFUSES = {("vrl3", "SquashedGaussian"), ("scpl", "NoisyDeterministic")}
+"""VRL3 is DDPG (its penalty reads the deterministic actor's pre-tanh action); SCPL's policy KL needs SAC's Gaussians."""
+
+
+@pytest.mark.parametrize("sampler", ["NoisyDeterministic", "SquashedGaussian"])
+@pytest.mark.parametrize("name", LOSSES)
+def test_every_loss_takes_either_sampler_with_all_its_terms_or_refuses_it_by_name(name, sampler):
+    """A sampler's terms are never dropped: with SAC every loss outputs SAC's ``loss_alpha = mean α·(−log π − H̄)``.
+
+    (Before issue 42, DrQ-v2, SGQN, CURL and VRL3 given a SquashedGaussian dropped ``loss_alpha``, which
+    ``out_keys`` still listed.)
+    """
+    gaussian = sampler == "SquashedGaussian"
+    chosen = SquashedGaussian(init_temperature=0.5) if gaussian else NoisyDeterministic(std=0.2)
+    if (name, sampler) in REFUSES:
+        with pytest.raises(TypeError, match=sampler):
+            make_loss(name, gaussian=gaussian, sampler=chosen)
+        return
+    loss = make_loss(name, gaussian=gaussian, sampler=chosen)
+    SoftUpdate(loss, tau=0.01)
+    assert loss.sampler is chosen
+    out = loss(make_batch())
+    missing = {key for key in loss.out_keys if key not in out.keys()} - {"actor_pretanh_penalty", "abs_pretanh", "max_abs_pretanh"}
+    assert not missing, f"out_keys lists {sorted(missing)}, which the output lacks"
+    assert set(out.keys()) <= set(loss.out_keys)
+    if gaussian:
+        # SAC's temperature loss, by its definition, from the entropy the output reports: α·(−log π − H̄) with H̄ = −|A|
+        target_entropy = -make_batch()["action"].shape[-1]
+        assert torch.allclose(out["loss_alpha"], out["alpha"] * (out["entropy"] - target_entropy), rtol=1e-5, atol=1e-6)
+        loss.zero_grad(set_to_none=True)
+        out["loss_alpha"].backward()
+        assert chosen.log_alpha.grad is not None and chosen.log_alpha.grad != 0, "loss_alpha trains the temperature"
+    else:
+        assert "loss_alpha" not in out.keys() and out["std"] == pytest.approx(0.2)
 
 
 @pytest.mark.parametrize("name", LOSSES)

@@ -12,7 +12,6 @@ from torchrl.objectives import SoftUpdate
 
 from loss_helpers import SAC_LOSSES, LOSSES, SIZE, make_batch, make_loss
 from vigen.losses import make_loss as make_paper_loss
-from vigen.policies import make_policy
 from vigen.transforms import ImageAugmentation, RandomShift
 
 pytestmark = pytest.mark.filterwarnings("ignore:No target network updater")
@@ -112,7 +111,7 @@ def test_make_loss_gives_max_value_to_the_encoder_and_views():
 @pytest.mark.parametrize("name", ["drqv2", "drq"])
 def test_the_acting_policy_takes_the_same_pixels(name):
     loss = make_loss(name)
-    policy = make_policy(loss, Bounded(-1, 1, shape=(2,)))
+    policy = loss.make_policy(Bounded(-1, 1, shape=(2,)))
     pixels = make_batch(batch=3)["pixels"]  # uint8, as the env writes them
     with set_interaction_type(InteractionType.DETERMINISTIC):
         action = policy(make_batch(batch=3).select("pixels"))["action"]

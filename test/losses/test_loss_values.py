@@ -261,7 +261,7 @@ def test_sgqn_consistency_term_and_saliency():
 def test_sgqn_critic_gradients_are_the_plain_ones():
     """The guided switch only changes the saliency pass, never the loss's own backward."""
     sgqn = make_loss("sgqn", augmentation=None, std=0.0, consistency_weight=0.0)
-    drqv2 = DrQv2Loss(sgqn.encoder, sgqn.actor, sgqn.critic, augmentation=None, policy=NoisyDeterministic(std=0.0))
+    drqv2 = DrQv2Loss(sgqn.encoder, sgqn.actor, sgqn.critic, augmentation=None, sampler=NoisyDeterministic(std=0.0))
     drqv2.make_value_estimator(gamma=GAMMA)
     drqv2.target_critic_params.data.update_(sgqn.target_critic_params.data)
     batch = make_batch()
@@ -367,7 +367,7 @@ def test_drq_temperature_gradient_goes_to_log_alpha_only():
     loss = make_loss("drq")
     out = loss(make_batch())
     out["loss_alpha"].backward()
-    assert loss.policy.log_alpha.grad is not None and loss.policy.log_alpha.grad != 0
+    assert loss.sampler.log_alpha.grad is not None and loss.sampler.log_alpha.grad != 0
     assert all(p.grad is None for p in loss.actor_params.values(True, True))
 
 

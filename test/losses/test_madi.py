@@ -15,7 +15,6 @@ from loss_helpers import SIZE, dmcgb_squashed_sample, make_batch, make_loss
 from vigen.losses import ALGOS, SquashedGaussian, SVEALoss, build_loss
 from vigen.losses import make_loss as make_paper_loss
 from vigen.models import Critic, DrQv2Encoder, GaussianActor, MaDiMasker, SharedCNN
-from vigen.policies import make_policy
 from vigen.transforms import ImageAugmentation, RandomOverlay
 
 pytestmark = pytest.mark.filterwarnings("ignore:No target network updater")
@@ -146,7 +145,7 @@ def test_loss_is_sac_sveas_on_masked_views():
     assert torch.allclose(out["loss_critic"], 0.5 * weak_td + 0.5 * strong_td, atol=1e-6)
     assert torch.allclose(out["loss_actor"], (ALPHA * log_prob - actor_q).mean(), atol=1e-6)
     assert torch.allclose(out["loss_alpha"], (ALPHA * (-log_prob + 2)).mean(), atol=1e-6), "target entropy −|A|"
-    unmasked = SVEALoss(encoder, actor, critic, policy=SquashedGaussian(squash_epsilon=1e-6), augmentation=None,
+    unmasked = SVEALoss(encoder, actor, critic, sampler=SquashedGaussian(squash_epsilon=1e-6), augmentation=None,
                         strong_augmentation=Invert(), augment_next=False, target_encoder=True)
     unmasked.make_value_estimator(gamma=GAMMA)
     unmasked.load_state_dict({k: v for k, v in loss.state_dict().items() if not k.startswith("input_mask")}, strict=False)
@@ -178,7 +177,7 @@ def test_the_target_passes_through_the_masker_have_no_gradient():
 
 def test_the_acting_policy_masks_its_pixels():
     loss = _madi()
-    policy = make_policy(loss, Bounded(-1, 1, shape=(2,)))
+    policy = loss.make_policy(Bounded(-1, 1, shape=(2,)))
     pixels = make_batch(batch=3)["pixels"]
     with set_interaction_type(InteractionType.DETERMINISTIC), torch.no_grad():
         action = policy(make_batch(batch=3).select("pixels"))["action"]
@@ -195,8 +194,10 @@ def test_the_masker_has_its_own_learning_rate_and_betas():
     assert {id(p) for p in groups[1]["params"]} == masker
     assert not masker & {id(p) for p in groups[0]["params"]}
     assert {id(p) for g in groups for p in g["params"]} == {id(p) for p in loss.parameters()}
-    other = make_loss("madi", masker_lr=5e-4, masker_beta=0.5).optimizer_groups(lr=1e-4)[1]
+    other = make_loss("madi", param_groups={"input_mask": {"lr": 5e-4, "betas": (0.5, 0.999)}}).optimizer_groups(lr=1e-4)[1]
     assert other["lr"] == 5e-4 and other["betas"] == (0.5, 0.999)
+    lr_only = make_loss("madi", param_groups={"input_mask": {"lr": 5e-4}}).optimizer_groups(lr=1e-4)[1]
+    assert lr_only["lr"] == 5e-4 and lr_only["betas"] == (0.9, 0.999), "merged over MaDi's group"
     optimizer = torch.optim.Adam(groups)
     assert optimizer.param_groups[0]["betas"] == (0.9, 0.999)
 
@@ -208,23 +209,23 @@ def test_the_masker_takes_the_encoders_max_value():
     features = encoder.output_dim(9, SIZE, SIZE)
     heads = GaussianActor(features, 2, hidden_dim=16, feature_dim=8), Critic(features, 2, feature_dim=8, hidden_dim=16)
     with pytest.raises(ValueError, match="max_value"):
-        build_loss("madi", encoder, *heads, masker=MaDiMasker(max_value=1.0))
+        build_loss("madi", encoder, *heads, MaDiMasker(max_value=1.0))
     with pytest.raises(ValueError, match="max_value"):
-        build_loss("madi", encoder, *heads, masker=MaDiMasker())  # a loss never changes what the caller passed
-    assert build_loss("madi", encoder, *heads).input_mask.max_value == 255, "the default masker"
-    with pytest.raises(TypeError, match="masker="):
-        build_loss("madi", encoder, *heads, input_mask=MaDiMasker())
-    with pytest.raises(ValueError, match="masker_lr"):
-        build_loss("madi", encoder, *heads, masker_lr=0.0)
+        build_loss("madi", encoder, *heads, input_mask=MaDiMasker())  # a loss never changes what the caller passed
+    assert build_loss("madi", encoder, *heads, MaDiMasker(max_value=255)).input_mask.max_value == 255
+    with pytest.raises(TypeError, match="input_mask network"):
+        build_loss("madi", encoder, *heads)  # MaDi without its masker would be SVEA
+    with pytest.raises(ValueError, match="'lr'"):
+        build_loss("madi", encoder, *heads, MaDiMasker(max_value=255), param_groups={"input_mask": {"lr": 0.0}})
 
 
 def test_make_loss_builds_madi_on_dmcgbs_networks():
-    assert ALGOS["madi"].loss is SVEALoss and ALGOS["madi"].policy == "sac"
+    assert ALGOS["madi"].loss is SVEALoss and ALGOS["madi"].sampler is SquashedGaussian
     loss = make_paper_loss("madi", (9, 44, 44), action_dim=2, hidden_dim=8, max_value=255)
     assert isinstance(loss, SVEALoss) and isinstance(loss.encoder, SharedCNN) and isinstance(loss.input_mask, MaDiMasker)
     assert loss.input_mask.max_value == 255 and not loss.encoder.centered, "DMC-GB's x / 255"
     assert isinstance(loss.actor, GaussianActor) and isinstance(loss.actor.trunk, torch.nn.Sequential), "its own projection"
-    assert loss.scores_on_target_encoder and not loss.augment_next and loss.policy.squash_epsilon == 1e-6, "DMC-GB's SVEA"
+    assert loss.scores_on_target_encoder and not loss.augment_next and loss.sampler.squash_epsilon == 1e-6, "DMC-GB's SVEA"
     assert isinstance(loss.strong_augmentation[0], RandomOverlay)
 
 
@@ -237,3 +238,11 @@ def test_masker_convolves_large_batches_in_passes_with_the_same_result():
     frames = pixels.float().reshape(40 * 3, 3, 8, 8) / 255
     whole = masker.net(frames).reshape(40, 3, 1, 8, 8)
     torch.testing.assert_close(masker.masks(pixels), whole)
+
+
+@pytest.mark.parametrize("old, new", [("masker_lr", "param_groups"), ("masker_beta", "param_groups"), ("std_clip", "clip="),
+                                      ("dynamics_lr", "param_groups"), ("encoder_lr_scale", "lr_scale"),
+                                      ("pretanh_penalty", "pretanh_weight="), ("policy", "sampler=")])
+def test_an_option_renamed_by_issue_42_is_refused_with_its_new_spelling(old, new):
+    with pytest.raises(TypeError, match=f"{old}= is now .*{new}"):
+        make_loss("madi", **{old: 0.5})

@@ -10,7 +10,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from loss_helpers import ACTIONS, dmcgb_squashed_sample, make_batch, make_loss
-from vigen.losses import ALGOS, GuidedBackprop, SCPLLoss, attribution_mask, diagonal_gaussian_kl, squashed_normal_sample
+from vigen.losses import ALGOS, GuidedBackprop, NoisyDeterministic, SCPLLoss, attribution_mask, diagonal_gaussian_kl, squashed_normal_sample
 from vigen.losses import make_loss as make_paper_loss
 from vigen.models import Critic, DrQv2Encoder, GaussianActor, LatentDynamics, SharedCNN
 from vigen.transforms import ImageAugmentation, RandomOverlay
@@ -199,7 +199,7 @@ def test_dynamics_term_trains_the_model_the_critic_trunk_and_the_encoder():
 
     assert all(p.grad is not None and p.grad.abs().sum() > 0 for p in loss.dynamics.parameters())
     assert reached(loss.critic_params) == {"trunk"}, "not the Q heads"
-    assert reached(loss.encoder_params) and not reached(loss.actor_params) and loss.policy.log_alpha.grad is None
+    assert reached(loss.encoder_params) and not reached(loss.actor_params) and loss.sampler.log_alpha.grad is None
 
 
 def test_kl_weight_and_covariance():
@@ -221,7 +221,7 @@ def test_make_loss_builds_scpls_networks():
     assert isinstance(loss.encoder, SharedCNN) and not loss.encoder.centered, "DMC-GB's x / 255"
     assert isinstance(loss.actor, GaussianActor) and isinstance(loss.actor.trunk, nn.Sequential), "its own projection"
     assert isinstance(loss.dynamics, LatentDynamics) and loss.dynamics.hidden.in_features == 106
-    assert loss.policy.squash_epsilon == 1e-6 and loss.scores_on_target_encoder
+    assert loss.sampler.squash_epsilon == 1e-6 and loss.scores_on_target_encoder
     groups = loss.optimizer_groups(1e-4)
     assert [g["lr"] for g in groups] == [1e-4, 3e-4]
     assert {id(p) for p in groups[1]["params"]} == {id(p) for p in loss.dynamics.parameters()}
@@ -244,8 +244,10 @@ def test_bad_arguments_are_explained():
         SCPLLoss(encoder, actor, critic, dynamics, quantile=1.5)
     with pytest.raises(ValueError, match="kl_covariance"):
         SCPLLoss(encoder, actor, critic, dynamics, kl_covariance="cov")
-    with pytest.raises(ValueError, match="dynamics_lr"):
-        SCPLLoss(encoder, actor, critic, dynamics, dynamics_lr=-1.0)
+    with pytest.raises(ValueError, match="'lr'"):
+        SCPLLoss(encoder, actor, critic, dynamics, param_groups={"dynamics": {"lr": -1.0}})
+    with pytest.raises(TypeError, match="NoisyDeterministic"):
+        SCPLLoss(encoder, actor, critic, dynamics, sampler=NoisyDeterministic())
     with pytest.raises(TypeError, match="std"):
         SCPLLoss(encoder, actor, critic, dynamics, std=0.1)
     assert math.isclose(SCPLLoss(encoder, actor, critic, dynamics).quantile, 0.9)

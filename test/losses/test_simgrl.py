@@ -10,7 +10,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from loss_helpers import dmcgb_squashed_sample, make_batch, make_loss
-from vigen.losses import ALGOS, SVEALoss
+from vigen.losses import ALGOS, SquashedGaussian, SVEALoss
 from vigen.losses import make_loss as make_paper_loss
 from vigen.models import PerFrameEncoder
 from vigen.transforms import ImageBank, RandomShiftedOverlay
@@ -126,11 +126,11 @@ def test_loss_is_half_clean_plus_half_shifted_overlay_on_sac():
 
 
 def test_make_loss_builds_simgrl_on_the_per_frame_encoder():
-    assert ALGOS["simgrl"].loss is SVEALoss and ALGOS["simgrl"].policy == "sac"
+    assert ALGOS["simgrl"].loss is SVEALoss and ALGOS["simgrl"].sampler is SquashedGaussian
     loss = make_paper_loss("simgrl", (9, 44, 44), action_dim=2, hidden_dim=8, max_value=255, seed=0)
     assert isinstance(loss, SVEALoss) and isinstance(loss.encoder, PerFrameEncoder)
     assert loss.encoder.max_value == 255 and loss.strong_augmentation[0].max_value == 255
-    assert not loss.encoder.centered and loss.scores_on_target_encoder and loss.policy.squash_epsilon == 1e-6, "SimGRL's DMC-GB SAC"
+    assert not loss.encoder.centered and loss.scores_on_target_encoder and loss.sampler.squash_epsilon == 1e-6, "SimGRL's DMC-GB SAC"
 
 
 def test_per_frame_encoder_on_simgrls_pixel_scale():

@@ -16,7 +16,8 @@ from torchrl.objectives import SoftUpdate
 from loss_helpers import ACTIONS, SIZE, make_batch, make_loss
 from vigen.losses import VRL3Loss
 from vigen.losses import make_loss as make_paper_loss
-from vigen.losses.vrl3 import ADROIT_REWARD_SCALES, RunningStatistics, pretanh_penalty, safe_q_target
+from vigen.losses.base import RunningStatistics
+from vigen.losses.vrl3 import ADROIT_REWARD_SCALES, pretanh_penalty, safe_q_target
 from vigen.models import Actor, Critic, VRL3Encoder
 
 pytestmark = [pytest.mark.filterwarnings("ignore:No target network updater"),
@@ -81,7 +82,7 @@ def _saturated(loss: VRL3Loss, scale: float = 200.0) -> None:
 
 
 def test_the_actor_loss_adds_the_weighted_penalty():
-    loss = _deterministic(pretanh_penalty=0.01, pretanh_threshold=2.0)
+    loss = _deterministic(pretanh_weight=0.01, pretanh_threshold=2.0)
     _saturated(loss)
     SoftUpdate(loss, tau=0.01)
     batch = make_batch()
@@ -99,7 +100,7 @@ def test_the_actor_loss_adds_the_weighted_penalty():
 
 
 def test_the_penalty_trains_the_actor_only_and_shrinks_the_pre_tanh_output():
-    loss = make_loss("vrl3", pretanh_penalty=1.0)
+    loss = make_loss("vrl3", pretanh_weight=1.0)
     _saturated(loss)
     SoftUpdate(loss, tau=0.01)
     out = loss(make_batch())
@@ -108,17 +109,17 @@ def test_the_penalty_trains_the_actor_only_and_shrinks_the_pre_tanh_output():
     for part in ("encoder", "critic"):
         assert all(g.grad is None or not g.grad.any() for g in getattr(loss, f"{part}_params").values(True, True)), part
     assert all(p.grad is None for p in loss.target_critic_params.values(True, True))
-    free = make_loss("vrl3", pretanh_penalty=1.0, std=0.0, augmentation=None)
+    free = make_loss("vrl3", pretanh_weight=1.0, std=0.0, augmentation=None)
     free.load_state_dict(loss.state_dict())
     optimizer = torch.optim.SGD(free.actor_params.values(True, True), lr=1e-4)
     pixels = make_batch()["pixels"]
-    before = free.pre_tanh(free.encoder(pixels).detach()).abs().max()
+    before = free.actor.policy(free.actor.trunk(free.encoder(pixels).detach())).abs().max()
     for _ in range(5):
         optimizer.zero_grad()
         out = free(make_batch())
         out["loss_actor"].backward()
         optimizer.step()
-    after = free.pre_tanh(free.encoder(pixels).detach()).abs().max()
+    after = free.actor.policy(free.actor.trunk(free.encoder(pixels).detach())).abs().max()
     assert after < before
 
 
@@ -134,9 +135,9 @@ def test_without_penalty_any_actor_works_and_with_it_the_actor_must_expose_pre_t
             return torch.tanh(self.net(h))
 
     critic = Critic(32, ACTIONS, feature_dim=8, hidden_dim=16)
-    with pytest.raises(TypeError, match="pre_tanh"):
+    with pytest.raises(TypeError, match="before its tanh"):
         VRL3Loss(encoder, Plain(), critic)
-    loss = VRL3Loss(encoder, Plain(), critic, pretanh_penalty=0.0, augmentation=None)
+    loss = VRL3Loss(encoder, Plain(), critic, pretanh_weight=0.0, augmentation=None)
     loss.make_value_estimator(gamma=0.9)
     out = loss(make_batch())
     assert "actor_pretanh_penalty" not in out.keys() and torch.isfinite(out["loss_actor"])
@@ -144,8 +145,9 @@ def test_without_penalty_any_actor_works_and_with_it_the_actor_must_expose_pre_t
 
 @pytest.mark.parametrize("options, match", [
     ({"safe_q_factor": 1.5}, "safe_q_factor"), ({"safe_q_factor": -0.1}, "safe_q_factor"),
-    ({"safe_q_threshold": math.inf}, "safe_q_threshold"), ({"pretanh_penalty": -1.0}, "pretanh_penalty"),
-    ({"pretanh_threshold": -1.0}, "pretanh_threshold"), ({"encoder_lr_scale": -0.1}, "encoder_lr_scale"),
+    ({"safe_q_threshold": math.inf}, "safe_q_threshold"), ({"pretanh_weight": -1.0}, "pretanh_weight"),
+    ({"pretanh_threshold": -1.0}, "pretanh_threshold"), ({"param_groups": {"encoder": {"lr_scale": -0.1}}}, "lr_scale"),
+    ({"param_groups": {"encoder": {"learning_rate": 0.1}}}, "unknown options"),
 ])
 def test_bad_options_are_refused(options, match):
     with pytest.raises(ValueError, match=match):
@@ -157,16 +159,16 @@ def test_vrl3_defaults():
     loss = make_paper_loss("vrl3", (9, SIZE, SIZE), ACTIONS, hidden_dim=8, feature_dim=8)
     assert isinstance(loss, VRL3Loss) and isinstance(loss.encoder, VRL3Encoder)
     loss.set_step(10**6)
-    assert loss.stddev == 0.01 and loss.policy.clip == 0.3
-    assert (loss.safe_q_threshold, loss.safe_q_factor, loss.pretanh_threshold, loss.pretanh_penalty) == (200.0, 0.5, 5.0, 1e-3)
-    assert loss.encoder_lr_scale == 1.0 and len(loss.optimizer_groups(1e-4)) == 1
+    assert loss.stddev == 0.01 and loss.sampler.clip == 0.3
+    assert (loss.safe_q_threshold, loss.safe_q_factor, loss.pretanh_threshold, loss.pretanh_weight) == (200.0, 0.5, 5.0, 1e-3)
+    assert len(loss.optimizer_groups(1e-4)) == 1, "the encoder at the base lr (VRL3's encoder_lr_scale 1)"
     assert ADROIT_REWARD_SCALES["door"] == 1 / 20
     policy = loss.make_policy(Bounded(-1, 1, shape=(ACTIONS,)))
     assert policy[-1].sigma == pytest.approx(0.01), "acting noise: the same fixed std"
 
 
 def test_encoder_learning_rate_scale():
-    loss = make_loss("vrl3", encoder_lr_scale=0.01)
+    loss = make_loss("vrl3", param_groups={"encoder": {"lr_scale": 0.01}})
     groups = loss.optimizer_groups(1e-4)
     assert [group["lr"] for group in groups] == [1e-4, pytest.approx(1e-6)]
     assert pickle.loads(pickle.dumps(loss)).optimizer_groups(1e-4)[1]["lr"] == pytest.approx(1e-6), "the scale pickles"
@@ -300,8 +302,8 @@ def test_make_loss_passes_stage1_weights_to_the_encoder(tmp_path):
 
 
 def test_the_actor_reads_the_same_actor_as_vigens():
-    """``pre_tanh`` is the input of vigen's Actor's final tanh."""
+    """The penalty's ``u = actor.policy(actor.trunk(h))`` is the input of vigen's Actor's final tanh."""
     actor = Actor(32, ACTIONS, feature_dim=8, hidden_dim=16)
     loss = VRL3Loss(_encoder(channels=4), actor, Critic(32, ACTIONS, feature_dim=8, hidden_dim=16))
     features = torch.randn(5, 32)
-    assert torch.allclose(torch.tanh(loss.pre_tanh(features)), loss.actor_output(features))
+    assert torch.allclose(torch.tanh(actor.policy(actor.trunk(features))), loss.actor_output(features))

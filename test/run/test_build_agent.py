@@ -10,7 +10,8 @@ from tensordict import TensorDict
 from torchrl.data import Bounded
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-from vigen.run import TrainConfig, build_agent, explores_with_noise
+from vigen.losses import ALGOS
+from vigen.run import TrainConfig, build_agent
 
 SMALL = TrainConfig(hidden_dim=16, feature_dim=8, observation_shape=(9, 32, 32), action_dim=2)
 
@@ -46,7 +47,7 @@ def test_a_sac_agent_samples_instead_of_adding_noise():
     assert agent.exploration_noise is None, "DrQ takes no std (it would refuse one)"
     build_agent(SMALL, Bounded(-1.0, 1.0, shape=(2,)))
     noisy = {algo for algo in ("drqv2", "svea", "srm", "sgqn", "curl", "drq", "sada", "vrl3", "madi", "simgrl", "pieg", "scpl")
-             if explores_with_noise(algo)}
+             if ALGOS[algo].takes_std}
     assert noisy == {"drqv2", "svea", "srm", "sgqn", "curl", "vrl3", "pieg"}, "DDPG's; the rest are SAC (DrQ, DMC-GB, DMC-GB2)"
 
 

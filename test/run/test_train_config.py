@@ -4,13 +4,16 @@ from __future__ import annotations
 
 import argparse
 import json
+import subprocess
+import sys
 from dataclasses import replace
 from pathlib import Path
 
 import pytest
 
-from vigen.run import (DEFAULT_FRAMES, PRESETS, TrainConfig, add_flags, given_flags, new_config, resumed_config,
-                       with_protocol)
+from vigen.losses import ALGOS, LinearSchedule
+from vigen.run import (DEFAULT_FRAMES, PRESETS, TrainConfig, add_flags, check_runnable, exploration_std, given_flags,
+                       new_config, resumed_config, with_protocol)
 
 DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
 # the flags that wrote DATA / "config_2026-11.json" with examples/train.py as it was before TrainConfig
@@ -23,19 +26,33 @@ def test_paper_preset_is_drqv2s_hyperparameters():
     paper = PRESETS["paper"]
     assert (paper.batch_size, paper.buffer_size, paper.lr, paper.feature_dim, paper.hidden_dim) == (256, 10**6, 1e-4, 50, 1024)
     assert (paper.n_step, paper.gamma, paper.tau, paper.seed_frames, paper.update_every) == (3, 0.99, 0.01, 4000, 2)
-    assert (paper.std_init, paper.std_final, paper.std_duration) == (1.0, 0.1, 100_000), "linear(1.0, 0.1, 100000)"
+    assert exploration_std(paper) == LinearSchedule(1.0, 0.1, 100_000), "linear(1.0, 0.1, 100000), the algorithm's"
     cpu = PRESETS["cpu"]
     assert replace(cpu, preset="paper", batch_size=256, buffer_size=10**6, eval_episodes=10) == paper, \
         "cpu is the same agent with a smaller batch, buffer and evaluation"
     assert cpu == TrainConfig(), "the defaults are the cpu preset"
 
 
-def test_flags_override_the_algorithms_defaults_which_override_the_preset():
+def test_flags_override_the_algorithms_defaults_which_the_run_takes_where_a_setting_is_unset():
+    """VRL3 (RL-ViGen's Adroit setup): a fixed std of 0.01, door's rewards ×1/20; its record holds them, once."""
     vrl3 = new_config({"algo": "vrl3", "env": "adroit/door", "preset": "paper"})
-    assert (vrl3.batch_size, vrl3.std_init, vrl3.std_final, vrl3.reward_scale) == (256, 0.01, 0.01, 1 / 20)
-    assert new_config({"algo": "vrl3", "env": "adroit/door", "std_init": 0.2}).std_init == 0.2
-    assert new_config({"algo": "vrl3", "env": "dmc/walker-walk"}).reward_scale == 1.0, "rescaled on Adroit only"
+    assert (vrl3.batch_size, vrl3.std_init, vrl3.std_final, vrl3.reward_scale) == (256, None, None, None), "unset"
+    assert (exploration_std(vrl3).init, exploration_std(vrl3).final) == (0.01, 0.01)
+    assert ALGOS["vrl3"].reward_scale("adroit/door") == 1 / 20 and ALGOS["vrl3"].reward_scale("dmc/walker-walk") == 1.0
+    flagged = new_config({"algo": "vrl3", "env": "adroit/door", "std_init": 0.2})
+    assert (flagged.std_init, exploration_std(flagged).init, exploration_std(flagged).final) == (0.2, 0.2, 0.01)
     assert new_config({"algo": "svea"}) == replace(TrainConfig(), algo="svea")
+
+
+def test_the_config_module_imports_no_simulator_loss_torch_or_ray():
+    """vigen.run.config reads, checks and writes a config where none of them is installed (checks needing them run later)."""
+    code = ("import sys, vigen.run.config as c; c.TrainConfig(algo='svea').check(); c.new_config({'algo': 'vrl3'}); "
+            "heavy = sorted(m for m in sys.modules if m.split('.')[0] in {'torch', 'torchrl', 'tensordict', 'mujoco', "
+            "'dm_control', 'robosuite', 'ray', 'numpy'} or m.startswith(('vigen.losses', 'vigen.envs', 'vigen.run.agent'))); "
+            "print(heavy)")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                            cwd=Path(__file__).resolve().parents[2])
+    assert result.stdout.strip() == "[]", result.stdout
 
 
 def test_a_protocol_sets_its_settings_and_records_the_flags_that_override_it():
@@ -55,12 +72,26 @@ def test_a_protocol_sets_its_settings_and_records_the_flags_that_override_it():
         new_config({"protocol": "dmcgb", "env": "robosuite/door"})
 
 
+UNSET_SINCE_42 = ("std_duration", "std_init", "std_final", "reward_scale")
+"""Settings whose default became "the algorithm's" (``None``), resolved when the run is built (issue 42)."""
+
+
 def test_config_json_keeps_the_format_of_earlier_runs():
-    """A file written by train.py before TrainConfig existed: the same flags write the same keys, in order, and values."""
+    """A file written by train.py before TrainConfig existed: the same flags write the same keys, in order, and values.
+
+    But for the settings that now default to their algorithm's (written ``null``): an old file holds the values that
+    default resolves to, so old and new files build the same run.
+    """
     saved = json.loads((DATA / "config_2026-11.json").read_text())
     config = replace(new_config(TINY), observation_shape=(9, 84, 84), action_dim=1)
-    assert list(config.to_json().items()) == list(saved.items())
-    assert TrainConfig.from_json(saved) == replace(config, frames=DEFAULT_FRAMES)
+    written = config.to_json()
+    assert list(written) == list(saved), "the same keys in the same order"
+    assert {key: value for key, value in written.items() if key not in UNSET_SINCE_42} == \
+        {key: value for key, value in saved.items() if key not in UNSET_SINCE_42}
+    assert all(written[key] is None for key in UNSET_SINCE_42)
+    old = TrainConfig.from_json(saved)
+    assert old == replace(config, frames=DEFAULT_FRAMES, std_duration=100_000, std_init=1.0, std_final=0.1, reward_scale=1.0)
+    assert exploration_std(old) == exploration_std(config) == LinearSchedule(1.0, 0.1, 100_000), "the same run"
     assert TrainConfig.from_json(json.loads(json.dumps(config.to_json()))) == replace(config, frames=DEFAULT_FRAMES)
 
 
@@ -71,7 +102,7 @@ def test_a_config_older_than_a_setting_gets_its_default():
                   "std_init", "std_final", "reward_scale"):
         del saved[newer]
     config = resumed_config(saved, {})
-    assert (config.collector, config.protocol, config.compile, config.std_init, config.std_final) == ("local", None, False, 1.0, 0.1)
+    assert (config.collector, config.protocol, config.compile, config.std_init, config.std_final) == ("local", None, False, None, None)
     assert (config.batch_size, config.frames) == (8, DEFAULT_FRAMES)
 
 
@@ -98,15 +129,27 @@ def test_resume_refuses_contradicting_flags_and_takes_its_budget():
     (dict(lr=0.0), "--lr must be > 0"),
     (dict(std_final=-0.1), "--std-init and --std-final must be >= 0"),
     (dict(reward_scale=float("inf")), "--reward-scale positive"),
-    (dict(encoder_weights="resnet18.pth"), "drqv2 has no pretrained encoder; it applies to pieg, vrl3"),
-    (dict(algo="pieg", encoder_weights="no-such-file.pth"), "no such file"),
     (dict(episode_length=0), "--episode-length must be >= 1"),
-    (dict(env="dmc/cartpole-balanse"), "Unknown env"),
-    (dict(eval_levels=("colour_hard",)), "--eval-levels"),
+    (dict(std_duration=0), "--std-duration must be an integer >= 1"),
 ])
 def test_check_names_the_bad_setting(change, message):
     with pytest.raises(ValueError) as error:
         replace(TrainConfig(), **change).check()
+    assert message in str(error.value)
+
+
+@pytest.mark.parametrize("change, message", [
+    (dict(encoder_weights="resnet18.pth"), "drqv2 has no pretrained encoder; it applies to vrl3, pieg"),
+    (dict(algo="pieg", encoder_weights="no-such-file.pth"), "no such file"),
+    (dict(env="dmc/cartpole-balanse"), "Unknown env"),
+    (dict(eval_levels=("colour_hard",)), "--eval-levels"),
+    (dict(algo="sac"), "--algo sac: no such algorithm"),
+])
+def test_check_runnable_names_what_needs_the_simulators_losses_or_ray(change, message):
+    config = replace(TrainConfig(), **change)
+    config.check()  # fine on its own
+    with pytest.raises(ValueError) as error:
+        check_runnable(config)
     assert message in str(error.value)
 
 

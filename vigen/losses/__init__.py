@@ -19,9 +19,10 @@ name        loss                  what it adds to DrQ-v2's update               
 
 Each loss's ``forward`` is its paper's update, top to bottom, built from the pieces
 :class:`ActorCriticLoss` writes once (the critic target, the TD loss, the actor loss, the output
-and TorchRL's plumbing). How it draws actions is its ``policy``: :class:`NoisyDeterministic`
-(DrQ-v2's DDPG) or :class:`SquashedGaussian` (SAC, with its temperature); the same object makes
-the acting policy, ``loss.make_policy(action_spec)``. Algorithms that differ only in their parts
+and TorchRL's plumbing). How it draws actions is its ``sampler``: :class:`NoisyDeterministic`
+(DrQ-v2's DDPG) or :class:`SquashedGaussian` (SAC, with its temperature, whose terms
+:meth:`ActorCriticLoss.output` adds for every loss); the same object makes the acting policy
+explore, ``loss.make_policy(action_spec)`` (in vigen, "policy" is always that acting module). Algorithms that differ only in their parts
 (SRM, MaDi, SimGRL) are presets of :func:`make_loss` (:data:`ALGOS`), not classes.
 
 Each takes plain ``nn.Module`` networks (see :mod:`vigen.models`) and a TensorDict batch from a
@@ -35,17 +36,17 @@ pixels must follow :mod:`vigen.pixel_format` at the encoder's ``max_value``. A N
 raises before it can reach an optimizer (``check_finite=False`` turns that off).
 """
 
-from vigen.losses.base import ActorCriticLoss, per_sample_mean, squared_td_errors, weighted_td_errors
+from vigen.losses.base import ActorCriticLoss, example_batch, per_sample_mean, squared_td_errors, weighted_td_errors
 from vigen.losses.curl import CURLLoss
 from vigen.losses.drq import DrQLoss
 from vigen.losses.drqv2 import DrQv2Loss
 from vigen.losses.pieg import PIEGLoss
-from vigen.losses.policies import NoisyDeterministic, SquashedGaussian
 from vigen.losses.registry import ALGOS, Algorithm, build_loss, make_loss, make_networks
+from vigen.losses.samplers import NoisyDeterministic, Sampler, SquashedGaussian
 from vigen.losses.sada import SADALoss
 from vigen.losses.scpl import SCPLLoss, diagonal_gaussian_kl
 from vigen.losses.sampling import clipped_normal_sample, squashed_normal_sample
-from vigen.losses.saliency import GuidedBackprop, attribution_mask
+from vigen.losses.saliency import GuidedBackprop, GuidedForward, attribution_mask
 from vigen.losses.schedule import LinearSchedule
 from vigen.losses.sgqn import SGQNLoss
 from vigen.losses.svea import SVEALoss
@@ -60,6 +61,7 @@ __all__ = [
     "DrQLoss",
     "DrQv2Loss",
     "GuidedBackprop",
+    "GuidedForward",
     "LinearSchedule",
     "NoisyDeterministic",
     "PIEGLoss",
@@ -68,12 +70,14 @@ __all__ = [
     "SGQNLoss",
     "SquashedGaussian",
     "SVEALoss",
+    "Sampler",
     "UpdateStep",
     "VRL3Loss",
     "attribution_mask",
     "build_loss",
     "clipped_normal_sample",
     "diagonal_gaussian_kl",
+    "example_batch",
     "make_loss",
     "make_networks",
     "per_sample_mean",

@@ -9,16 +9,19 @@ building blocks are the update's pieces, written once:
   ``y = r + γⁿ·(1 − terminated)·V(h')`` (optionally scored on a target encoder);
 * :func:`squared_td_errors` and :func:`weighted_td_errors`: the critic's TD loss over one or more views;
 * :meth:`~ActorCriticLoss.actor_loss`: the actor's objective through a frozen critic;
-* ``loss.policy``: how actions are drawn in the update and in the environment, a
+* ``loss.sampler``: how actions are drawn in the update and how the acting policy explores, a
   :class:`~vigen.losses.NoisyDeterministic` (DrQ-v2) or a :class:`~vigen.losses.SquashedGaussian`
-  (SAC, with its temperature loss).
+  (SAC, with its temperature loss, which :meth:`~ActorCriticLoss.output` adds for every loss from
+  the log-probability it is handed).
 
 Each algorithm's ``forward`` strings these together in the order of its paper's update, top to
-bottom, as DrQ-v2's ``update`` reads (see :class:`~vigen.losses.DrQv2Loss`).
+bottom, as DrQ-v2's ``update`` reads (see :class:`~vigen.losses.DrQv2Loss`); nothing on the
+update's path is a hook a subclass overrides.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -32,20 +35,24 @@ from torchrl.data import TensorSpec
 from torchrl.objectives import LossModule
 from torchrl.objectives.utils import ValueEstimators, dispatch_value_estimator
 
-from vigen.losses.policies import ActingPolicy, ActorOutput
+from vigen.losses.samplers import ActorOutput, NoisyDeterministic, Sampler, SquashedGaussian
 from vigen.models import weight_init
 from vigen.pixel_format import check_pixels
 from vigen.seeding import derive_seed
-from vigen.transforms import ImageAugmentation, RandomShift
+from vigen.transforms import ImageAugmentation, RandomOverlay, RandomShift
 
 Augmentations = ImageAugmentation | Sequence[ImageAugmentation] | None
 
 LEGACY_STATE_KEYS = {
-    "log_alpha": "policy.log_alpha",
+    "log_alpha": "sampler.log_alpha", "policy.log_alpha": "sampler.log_alpha",
     "alpha": "weak_weight", "beta": "strong_weight",
     "svea_alpha": "weak_weight", "svea_beta": "strong_weight",
 }
-"""State-dict keys of vigen's losses before one name per coefficient (0.x checkpoints) → today's keys."""
+"""State-dict keys of vigen's older losses → today's: before one name per coefficient, and before the sampler
+was ``loss.sampler`` (it was ``loss.policy``, a name that now means the acting module only)."""
+
+PARAM_GROUP_OPTIONS = frozenset({"lr", "lr_scale", "betas", "eps", "weight_decay"})
+"""The options a per-module optimizer group (``param_groups``) may set; ``lr_scale`` is a multiple of the base lr."""
 
 BATCH_NORMS = (nn.BatchNorm1d, nn.BatchNorm2d, nn.BatchNorm3d, nn.SyncBatchNorm)
 """The BatchNorm module types whose statistics a loss's acting policy or views must manage (VRL3, PIE-G)."""
@@ -62,6 +69,32 @@ class Batch:
     @property
     def size(self) -> int:
         return self.pixels.shape[0]
+
+
+def example_batch(
+    batch_size: int = 4,
+    observation_shape: tuple[int, int, int] = (9, 84, 84),
+    action_dim: int = 2,
+    *,
+    seed: int = 0,
+) -> TensorDict:
+    """A replay-buffer batch of random uint8 frame stacks, as a TorchRL env writes it, for examples and quick checks.
+
+    ``pixels`` and ``("next", "pixels")`` ``[B, 3·k, H, W]`` (the same frames), actions in ``[-1, 1)``,
+    a reward of 1 and no episode end (``done`` and ``terminated`` all ``False``).
+
+    Examples:
+        >>> batch = example_batch(4)
+        >>> batch["pixels"].shape, batch["pixels"].dtype, batch["next", "terminated"].any().item()
+        (torch.Size([4, 9, 84, 84]), torch.uint8, False)
+    """
+    generator = torch.Generator().manual_seed(seed)
+    pixels = torch.randint(0, 256, (batch_size, *observation_shape), dtype=torch.uint8, generator=generator)
+    flags = torch.zeros(batch_size, 1, dtype=torch.bool)
+    return TensorDict({
+        "pixels": pixels, "action": torch.rand(batch_size, action_dim, generator=generator) * 2 - 1,
+        "next": {"pixels": pixels, "reward": torch.ones(batch_size, 1), "done": flags, "terminated": flags.clone()},
+    }, batch_size=[batch_size])
 
 
 def default_shift(augmentation: Augmentations | Literal["default"]) -> Augmentations:
@@ -139,7 +172,7 @@ class ActorCriticLoss(LossModule):
     A loss subclasses it with its ``__init__`` (its options) and its ``forward``: the update in its
     paper's order, built from :meth:`read_batch`, :meth:`augment`, :meth:`next_value`,
     :meth:`bootstrap`, :meth:`encode`, :meth:`q_values`, :func:`weighted_td_errors`,
-    :meth:`actor_loss` and :meth:`output`. How actions are drawn is ``policy``'s.
+    :meth:`actor_loss` and :meth:`output`. How actions are drawn is the ``sampler``'s.
 
     The batch (checked before any work, naming every missing key and the fix):
 
@@ -162,11 +195,11 @@ class ActorCriticLoss(LossModule):
 
     Args:
         encoder: pixels ``[B, 3·k, H, W]`` → features ``[B, D]``.
-        actor: features → the policy's parameters (an action for ``NoisyDeterministic``, mean and
+        actor: features → the sampler's parameters (an action for ``NoisyDeterministic``, mean and
             log σ for ``SquashedGaussian``).
         critic: (features, action) → (Q1, Q2); it gets target parameters (``target_critic_params``)
             for ``torchrl.objectives.SoftUpdate``.
-        policy: how actions are drawn, :class:`~vigen.losses.NoisyDeterministic` or
+        sampler: how actions are drawn, :class:`~vigen.losses.NoisyDeterministic` or
             :class:`~vigen.losses.SquashedGaussian`.
         augmentation: the weak augmentation (``None`` if the replay buffer already augments).
         input_mask: a module applied to the pixels before the encoder, in every view and in the
@@ -176,8 +209,11 @@ class ActorCriticLoss(LossModule):
             (DMC-GB's SAC, the original DrQ). ``"keys"`` keeps the copy without scoring on it
             (CURL's momentum key encoder).
         param_groups: per-module optimizer options, ``{attribute: {"lr": ..., ...}}`` for
-            :meth:`optimizer_groups` (MaDi's masker, SCPL's dynamics model); ``"lr_scale"`` sets the
-            group's lr as a multiple of the base one (VRL3's encoder).
+            :meth:`optimizer_groups`, the one spelling of every per-module setting: MaDi's masker
+            (``{"input_mask": {"lr": 1e-3, "betas": (0.9, 0.999)}}``), SCPL's dynamics model
+            (``{"dynamics": {"lr": 3e-4}}``), VRL3's encoder (``{"encoder": {"lr_scale": 0.01}}``:
+            ``"lr_scale"`` sets the group's lr as a multiple of the base one). The options are
+            :data:`PARAM_GROUP_OPTIONS`.
         channels_last: feed the convolutions channels-last pixels (:func:`~vigen.losses.make_loss`
             also puts vigen's networks in that layout; a loss never changes the caller's modules).
         reduction: ``"mean"``, ``"sum"`` or ``"none"`` (per-sample losses).
@@ -219,16 +255,14 @@ class ActorCriticLoss(LossModule):
     SUPPORTED_VALUE_ESTIMATORS = (ValueEstimators.TD0,)
     own_out_keys: tuple[str, ...] = ()
     """The losses and metrics an algorithm adds to the output."""
-    compiles_whole = True
-    """Whether ``torch.compile(fullgraph=True)`` traces the whole update (:class:`~vigen.losses.UpdateStep`)."""
 
-    policy: ActingPolicy
+    sampler: Sampler
     encoder: nn.Module
     encoder_params: TensorDictParams
     target_encoder_params: TensorDictParams
     actor: nn.Module
     actor_params: TensorDictParams
-    target_actor_params: TensorDictParams
+    target_actor_params: TensorDictParams  # never made: TorchRL's convert_to_functional warns unless it is declared
     critic: nn.Module
     critic_params: TensorDictParams
     target_critic_params: TensorDictParams
@@ -239,7 +273,7 @@ class ActorCriticLoss(LossModule):
         actor: nn.Module,
         critic: nn.Module,
         *,
-        policy: ActingPolicy,
+        sampler: Sampler,
         augmentation: Augmentations = None,
         input_mask: nn.Module | None = None,
         target_encoder: bool | Literal["keys"] = False,
@@ -265,7 +299,7 @@ class ActorCriticLoss(LossModule):
                 "the mask hands the encoder float pixels on its scale, so they must agree. Build it with "
                 f"max_value={self.max_value} (make_loss does)."
             )
-        self.policy = policy
+        self.sampler = sampler
         self.input_mask = input_mask
         self.convert_to_functional(encoder, "encoder", create_target_params=bool(target_encoder))
         self.convert_to_functional(actor, "actor")
@@ -273,13 +307,25 @@ class ActorCriticLoss(LossModule):
         self.scores_on_target_encoder = target_encoder is True
         self.augmentation = self._augmentations(augmentation)
         self.register_buffer("schedule_step", torch.zeros((), dtype=torch.long))
-        self.param_groups = dict(param_groups or {})
+        self.param_groups = self._checked_param_groups(param_groups or {})
         self._register_load_state_dict_pre_hook(_rename_legacy_keys)
 
     @property
     def out_keys(self) -> list[str]:
-        """Every entry of the output: the shared ones, the policy's (``std``, or ``loss_alpha``, ``alpha``, ``entropy``), the algorithm's."""
-        return ["loss_critic", "loss_actor", "q_mean", "target_mean", "target_std", *self.policy.out_keys, *self.own_out_keys]
+        """Every entry of the output: the shared ones, the sampler's (``std``, or ``loss_alpha``, ``alpha``, ``entropy``), the algorithm's."""
+        return ["loss_critic", "loss_actor", "q_mean", "target_mean", "target_std", *self.sampler.out_keys, *self.own_out_keys]
+
+    def add_strong_view(self, strong_augmentation: Augmentations, weak_weight: float, strong_weight: float) -> None:
+        """SVEA's second view for the losses that score it (SVEA, SADA, PIE-G, SCPL): its augmentation and both views' weights.
+
+        ``strong_augmentation`` is applied on top of the weak view (``None``: ``RandomOverlay(alpha=0.5)``,
+        vigen's built-in image bank); ``weak_weight`` and ``strong_weight`` weigh the two views' TD errors
+        (buffers, schedulable: ``loss.strong_weight = 0.3``).
+        """
+        self.strong_augmentation = self._augmentations(
+            RandomOverlay(alpha=0.5) if strong_augmentation is None else strong_augmentation)
+        self.register_coeff_buffer("weak_weight", weak_weight)
+        self.register_coeff_buffer("strong_weight", strong_weight)
 
     def set_step(self, step: int) -> None:
         """Evaluate the loss's schedules at ``step`` from now on (DrQ-v2: agent steps = frames / action repeat)."""
@@ -305,7 +351,7 @@ class ActorCriticLoss(LossModule):
         return pixels
 
     def next_value(self, next_obs: Tensor) -> Tensor:
-        """``V(h') = min(Q1', Q2')(h'_Q, a')`` (minus ``α·log π(a'|h')`` for SAC) with ``a'`` drawn by the policy at ``h'``.
+        """``V(h') = min(Q1', Q2')(h'_Q, a')`` (minus ``α·log π(a'|h')`` for SAC) with ``a'`` drawn by the sampler at ``h'``.
 
         ``h' = encoder(next_obs)`` is the *online* encoder's (DrQ-v2 has no target encoder); with
         ``target_encoder=True`` the target critic scores on the target encoder's ``h'_Q`` (DMC-GB's SAC).
@@ -313,8 +359,8 @@ class ActorCriticLoss(LossModule):
         """
         features = self.encode(next_obs)
         scored = self.encode(next_obs, params=self.target_encoder_params) if self.scores_on_target_encoder else features
-        action, log_prob = self.policy.sample(self.actor_output(features), self.schedule_step)
-        return self.policy.value(torch.min(*self.target_q_values(scored, action)), log_prob)
+        action, log_prob = self.sampler.sample(self.actor_output(features), self.schedule_step)
+        return self.sampler.value(torch.min(*self.target_q_values(scored, action)), log_prob)
 
     def critic_target(self, tensordict: TensorDictBase, next_obs: Tensor) -> Tensor:
         """The critic target ``y = r + γⁿ·(1 − terminated)·V(h')`` of the next view ``next_obs``, without gradient, ``[B, 1]``."""
@@ -334,15 +380,15 @@ class ActorCriticLoss(LossModule):
     ) -> tuple[Tensor, Tensor | None]:
         """The actor's per-sample objective at detached ``features``, and the log-probability of its actions.
 
-        ``ã`` is drawn by the policy from ``actor(features)`` (or the given ``actor_output``) and
+        ``ã`` is drawn by the sampler from ``actor(features)`` (or the given ``actor_output``) and
         scored by the critic, frozen (its parameters detached, so this trains the actor only), on
         ``critic_features`` (default ``features``): ``−min(Q1, Q2)(h, ã)``, or
         ``α·log π(ã|h) − min(Q1, Q2)(h, ã)`` for SAC.
         """
         output = self.actor_output(features) if actor_output is None else actor_output
-        action, log_prob = self.policy.sample(output, self.schedule_step)
+        action, log_prob = self.sampler.sample(output, self.schedule_step)
         q = torch.min(*self.q_values(features if critic_features is None else critic_features, action, frozen=True))
-        return self.policy.objective(q, log_prob).squeeze(-1), log_prob
+        return self.sampler.objective(q, log_prob).squeeze(-1), log_prob
 
     def output(
         self,
@@ -352,20 +398,34 @@ class ActorCriticLoss(LossModule):
         q2: Tensor,
         losses: Mapping[str, Tensor],
         metrics: Mapping[str, Tensor] | None = None,
+        *,
+        log_prob: Tensor | None = None,
     ) -> TensorDict:
-        """The loss's TensorDict: the reduced per-sample ``losses`` (``loss_critic`` weighted by ``priority_weight``), the metrics.
+        """The loss's TensorDict: the reduced per-sample ``losses`` (``loss_critic`` weighted by ``priority_weight``),
+        the sampler's terms, the metrics.
 
         ``q1``, ``q2`` are the critic's values of the batch's first view ``[B, 1]`` and ``target``
         its target ``y``: ``q_mean``, ``target_mean``, ``target_std`` and the ``td_error`` priority
         ``max(|Q1 − y|, |Q2 − y|)`` (written into ``tensordict``) come from them.
+
+        The sampler's losses and metrics are added here, for every loss, from ``log_prob``, the
+        log-probability of the actor step's actions (``None`` for a ``NoisyDeterministic``):
+        SAC's ``loss_alpha``, ``alpha`` and ``entropy``, or the noise ``std``. An actor step over
+        ``V`` views of the batch (``log_prob`` of ``[V·B, 1]``, view-major) gives per-sample
+        terms averaged over its views.
         """
         keys = self.tensor_keys
         priority = torch.maximum((q1 - target).abs(), (q2 - target).abs()).detach().squeeze(-1)
         tensordict.set(keys.priority, priority)
         weights = self._maybe_get_priority_weight(tensordict)
+        losses = dict(losses)
+        views = 1 if log_prob is None else log_prob.shape[0] // q1.shape[0]
+        for name, value in self.sampler.losses(log_prob, tensordict.get(keys.action).shape[-1]).items():
+            losses[name] = value if views == 1 else per_sample_mean(value, views)
         out = {name: self._reduce_loss(value, tensordict, weights=weights if name == "loss_critic" else None)
                for name, value in losses.items()}
         out.update(q_mean=q1.detach().mean(), target_mean=target.mean(), target_std=target.std())
+        out.update(self.sampler.metrics(self.schedule_step, log_prob))
         out.update({name: value.detach() for name, value in (metrics or {}).items()})
         if self.check_finite and not torch.compiler.is_compiling():  # a compiled update guards with tensor ops (UpdateStep)
             self._check_finite(out, tensordict)
@@ -405,24 +465,24 @@ class ActorCriticLoss(LossModule):
         with self.target_critic_params.to_module(self.critic, preserve_module_state=False):
             return self.critic(features, action)
 
-    def policy_metrics(self, log_prob: Tensor | None = None) -> dict[str, Tensor]:
-        """The policy's metrics (the noise std, or α and the entropy of the actor's samples)."""
-        return self.policy.metrics(self.schedule_step, log_prob)
-
     @property
     def stddev(self) -> float:
-        """The current noise std of a ``NoisyDeterministic`` policy (a Python float: reading it synchronizes)."""
-        stddev = getattr(self.policy, "stddev", None)
-        if stddev is None:
-            raise AttributeError(f"{type(self).__name__} samples from its SAC policy; it has no noise std.")
-        return stddev(self.schedule_step)
+        """The current noise std of a ``NoisyDeterministic`` sampler (a Python float: reading it synchronizes)."""
+        if not isinstance(self.sampler, NoisyDeterministic):
+            raise AttributeError(f"{type(self).__name__} samples from SAC's squashed Gaussian; it has no noise std.")
+        return self.sampler.stddev(self.schedule_step)
 
     @property
     def alpha(self) -> Tensor:
-        """The temperature α of a ``SquashedGaussian`` policy."""
-        if not isinstance(getattr(self.policy, "log_alpha", None), Tensor):
+        """The temperature α of a ``SquashedGaussian`` sampler."""
+        if not isinstance(self.sampler, SquashedGaussian):
             raise AttributeError(f"{type(self).__name__} acts with DrQ-v2's noisy deterministic actor; it has no temperature.")
-        return self.policy.alpha
+        return self.sampler.alpha
+
+    @property
+    def has_value_estimator(self) -> bool:
+        """Whether :meth:`make_value_estimator` was called (its ``gamma`` set); TorchRL would otherwise make a default one."""
+        return self._value_estimator is not None
 
     def prepare_compile(self) -> None:
         """Set up what a compiled update needs before it is traced (:class:`~vigen.losses.UpdateStep` calls it; nothing here)."""
@@ -430,7 +490,8 @@ class ActorCriticLoss(LossModule):
     def make_policy(self, action_spec: TensorSpec, *, pixels_key: NestedKey = "pixels") -> TensorDictModuleBase:
         """The acting policy (a TorchRL module, pixels → ``"action"``) on this loss's live networks.
 
-        With :class:`~vigen.losses.NoisyDeterministic`: ``actor(encoder(pixels))`` and TorchRL's
+        The module is the one name vigen gives "policy". With
+        :class:`~vigen.losses.NoisyDeterministic`: ``actor(encoder(pixels))`` and TorchRL's
         ``AdditiveGaussianModule`` whose σ follows the loss's std schedule (call
         ``policy[-1].step(frames)`` as frames are collected); the noise is added when the
         exploration type is ``RANDOM`` (collectors' default) and left out under ``DETERMINISTIC``
@@ -438,7 +499,7 @@ class ActorCriticLoss(LossModule):
         :class:`~vigen.losses.SquashedGaussian`: a ``ProbabilisticActor`` sampling the
         tanh-squashed Gaussian (its mean under ``DETERMINISTIC``).
         """
-        return self.policy.acting_module(PixelsToAction(self), action_spec, pixels_key, self.device)
+        return self.sampler.acting_module(PixelsToAction(self), action_spec, pixels_key, self.device)
 
     def optimizer_groups(self, lr: float) -> list[dict[str, Any]]:
         """Parameter groups for one optimizer over the whole loss: ``torch.optim.Adam(loss.optimizer_groups(lr))``.
@@ -608,11 +669,38 @@ class ActorCriticLoss(LossModule):
             "lower the learning rate, clip gradients or scale the rewards. Pass check_finite=False to skip this check."
         )
 
-    def _to_float(self, pixels: Tensor) -> Tensor:
-        """``pixels`` as floats on the encoder's float scale ``[0, max_value or 1]`` (the same features)."""
+    def float_pixels(self, pixels: Tensor) -> Tensor:
+        """``pixels`` as floats on the encoder's float scale ``[0, max_value or 1]`` (the same features).
+
+        Examples:
+            >>> import torch
+            >>> from vigen.losses import make_loss
+            >>> make_loss("drqv2", (9, 16, 16), 2, hidden_dim=8).float_pixels(torch.tensor([255], dtype=torch.uint8))
+            tensor([1.])
+        """
         if pixels.is_floating_point():
             return pixels
         return pixels.float() / (255.0 / (1.0 if self.max_value is None else self.max_value))
+
+    def _checked_param_groups(self, param_groups: Mapping[str, Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
+        """``param_groups`` checked: known options (:data:`PARAM_GROUP_OPTIONS`), a positive finite lr or lr scale."""
+        name = type(self).__name__
+        checked = {}
+        for module, options in param_groups.items():
+            unknown = sorted(set(options) - PARAM_GROUP_OPTIONS)
+            if unknown:
+                raise ValueError(f"{name}: param_groups[{module!r}] has unknown options {unknown}; "
+                                 f"the options are {sorted(PARAM_GROUP_OPTIONS)}.")
+            for key in ("lr", "lr_scale"):
+                value = options.get(key, 1.0)
+                if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
+                    raise ValueError(f"{name}: param_groups[{module!r}][{key!r}] must be a positive number, got {value!r}.")
+            betas = options.get("betas", (0.9, 0.999))
+            if not (len(betas) == 2 and all(isinstance(beta, (int, float)) and 0 <= beta < 1 for beta in betas)):
+                raise ValueError(f"{name}: param_groups[{module!r}]['betas'] are Adam's (β1, β2), each in [0, 1), got {betas!r}.")
+            checked[module] = {key: (tuple(float(beta) for beta in value) if key == "betas" else float(value))
+                               for key, value in options.items()}
+        return checked
 
     def _augmentations(self, augmentations: Augmentations) -> nn.ModuleList:
         """Private copies of ``augmentations``; those without a ``max_value`` get the loss's (its encoder's)."""
@@ -652,6 +740,37 @@ class PixelsToAction(nn.Module):
         if self.input_mask is not None:
             pixels = self.input_mask(pixels)
         return self.head(self.encoder(pixels))
+
+
+class RunningStatistics(nn.Module):
+    """Runs ``module`` with every BatchNorm in it on its running statistics, then puts them back in their mode.
+
+    VRL3 acts (and evaluates) with its agent in eval mode while its updates run in training mode;
+    a policy sharing the loss's encoder does the same through this wrapper, without touching the
+    rest of the module's mode.
+
+    Examples:
+        >>> import torch
+        >>> from torch import nn
+        >>> net = RunningStatistics(nn.Sequential(nn.Conv2d(3, 4, 3), nn.BatchNorm2d(4)))
+        >>> out = net(torch.rand(1, 3, 8, 8))
+        >>> net.module[1].training, int(net.module[1].num_batches_tracked)  # still training, stats untouched
+        (True, 0)
+    """
+
+    def __init__(self, module: nn.Module) -> None:
+        super().__init__()
+        self.module = module
+
+    def forward(self, *args: Any) -> Any:
+        norms = [m for m in self.module.modules() if isinstance(m, BATCH_NORMS) and m.training]
+        for norm in norms:
+            norm.train(False)
+        try:
+            return self.module(*args)
+        finally:
+            for norm in norms:
+                norm.train(True)
 
 
 def _rename_legacy_keys(state_dict: dict[str, Any], prefix: str, *args: Any) -> None:

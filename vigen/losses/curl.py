@@ -11,7 +11,7 @@ from tensordict.nn import dispatch
 from torch import nn
 
 from vigen.losses.base import ActorCriticLoss, Augmentations, default_shift, squared_td_errors
-from vigen.losses.policies import NoisyDeterministic
+from vigen.losses.samplers import NoisyDeterministic, Sampler
 from vigen.models import CURLHead
 from vigen.transforms import RandomShift
 
@@ -50,26 +50,20 @@ class CURLLoss(ActorCriticLoss):
         head: the bilinear head (:class:`~vigen.models.CURLHead`) of the encoder's output size.
         contrastive_augmentation: draws the anchor and positive views; default ``RandomShift(4)``.
         key_encoder: encode positives with a momentum copy of the encoder.
-        policy: DrQ-v2's :class:`~vigen.losses.NoisyDeterministic` (its default).
+        sampler: DrQ-v2's :class:`~vigen.losses.NoisyDeterministic` (its default) or
+            :class:`~vigen.losses.SquashedGaussian`.
         augmentation: the critic's view; ``"default"`` is ``RandomShift(pad=4)``.
         **kwargs: ``input_mask``, ``channels_last``, ``reduction``, ``check_finite`` (see
             :class:`~vigen.losses.ActorCriticLoss`).
 
     Examples:
-        >>> import torch
-        >>> from tensordict import TensorDict
         >>> from torchrl.objectives import SoftUpdate
+        >>> from vigen.losses import example_batch
         >>> from vigen.models import Actor, CURLHead, Critic, ProjectedEncoder
         >>> encoder = ProjectedEncoder(9, image_size=84)
         >>> loss = CURLLoss(encoder, Actor(512, 2, hidden_dim=32), Critic(512, 2, hidden_dim=32), CURLHead(512))
         >>> updater = SoftUpdate(loss, tau=0.01)
-        >>> pixels = torch.randint(0, 256, (4, 9, 84, 84), dtype=torch.uint8)
-        >>> batch = TensorDict({
-        ...     "pixels": pixels, "action": torch.zeros(4, 2),
-        ...     "next": {"pixels": pixels, "reward": torch.ones(4, 1),
-        ...              "done": torch.zeros(4, 1, dtype=torch.bool),
-        ...              "terminated": torch.zeros(4, 1, dtype=torch.bool)},
-        ... }, batch_size=[4])
+        >>> batch = example_batch(4)  # uint8 frame stacks [4, 9, 84, 84], actions of size 2
         >>> sorted(key for key in loss(batch).keys() if key.startswith("loss_"))
         ['loss_actor', 'loss_critic', 'loss_curl']
     """
@@ -83,13 +77,13 @@ class CURLLoss(ActorCriticLoss):
         critic: nn.Module,
         head: CURLHead,
         *,
-        policy: NoisyDeterministic | None = None,
+        sampler: Sampler | None = None,
         augmentation: Augmentations | Literal["default"] = "default",
         contrastive_augmentation: Augmentations = None,
         key_encoder: bool = False,
         **kwargs: Any,
     ) -> None:
-        super().__init__(encoder, actor, critic, policy=NoisyDeterministic() if policy is None else policy,
+        super().__init__(encoder, actor, critic, sampler=NoisyDeterministic() if sampler is None else sampler,
                          augmentation=default_shift(augmentation), target_encoder="keys" if key_encoder else False,
                          **kwargs)
         self.head = head
@@ -105,7 +99,7 @@ class CURLLoss(ActorCriticLoss):
         anchor_view = self.augment(batch.pixels, self.contrastive_augmentation)
         features, anchor = self.encode_views([obs, anchor_view])  # one encoder pass
         q1, q2 = self.q_values(features, batch.action)
-        loss_actor, _ = self.actor_loss(features.detach())
+        loss_actor, log_prob = self.actor_loss(features.detach())
         with torch.no_grad():  # the positives: a second draw, on the key encoder if there is one
             keys = self.target_encoder_params if self.key_encoder else None
             positive = self.encode(self.augment(batch.pixels, self.contrastive_augmentation), params=keys)
@@ -114,4 +108,4 @@ class CURLLoss(ActorCriticLoss):
         return self.output(tensordict, target, q1, q2,
                            {"loss_critic": squared_td_errors(q1, q2, target), "loss_actor": loss_actor,
                             "loss_curl": F.cross_entropy(logits, labels, reduction="none")},
-                           {**self.policy_metrics(), "curl_accuracy": (logits.argmax(dim=1) == labels).float().mean()})
+                           {"curl_accuracy": (logits.argmax(dim=1) == labels).float().mean()}, log_prob=log_prob)

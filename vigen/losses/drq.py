@@ -10,7 +10,7 @@ from tensordict.nn import dispatch
 from torch import Tensor, nn
 
 from vigen.losses.base import ActorCriticLoss, Augmentations, default_shift, weighted_td_errors
-from vigen.losses.policies import SquashedGaussian
+from vigen.losses.samplers import Sampler, SquashedGaussian
 
 
 class DrQLoss(ActorCriticLoss):
@@ -42,7 +42,8 @@ class DrQLoss(ActorCriticLoss):
     Args:
         encoder, critic: as in :class:`DrQv2Loss`.
         actor: features → (mean, log σ).
-        policy: SAC's :class:`~vigen.losses.SquashedGaussian`; default α₀ = 0.1, ``H̄ = −|A|``, DrQ's log π.
+        sampler: SAC's :class:`~vigen.losses.SquashedGaussian`; default α₀ = 0.1, ``H̄ = −|A|``, DrQ's log π
+            (a :class:`~vigen.losses.NoisyDeterministic` makes it DDPG on both views).
         augmentation: the shift; ``"default"`` is ``RandomShift(pad=4)``.
         clean_view: pair the raw observation with one shifted view (RL-ViGen); ``False`` draws
             two shifted views (the original DrQ's K = M = 2).
@@ -52,21 +53,14 @@ class DrQLoss(ActorCriticLoss):
             ``check_finite`` (see :class:`~vigen.losses.ActorCriticLoss`).
 
     Examples:
-        >>> import torch
-        >>> from tensordict import TensorDict
         >>> from torchrl.objectives import SoftUpdate
+        >>> from vigen.losses import example_batch
         >>> from vigen.models import Critic, DrQv2Encoder, GaussianActor
         >>> encoder = DrQv2Encoder(9)
         >>> repr_dim = encoder.output_dim(9, 84, 84)
         >>> loss = DrQLoss(encoder, GaussianActor(repr_dim, 2, hidden_dim=32), Critic(repr_dim, 2, hidden_dim=32))
         >>> updater = SoftUpdate(loss, tau=0.01)
-        >>> pixels = torch.randint(0, 256, (4, 9, 84, 84), dtype=torch.uint8)
-        >>> batch = TensorDict({
-        ...     "pixels": pixels, "action": torch.zeros(4, 2),
-        ...     "next": {"pixels": pixels, "reward": torch.ones(4, 1),
-        ...              "done": torch.zeros(4, 1, dtype=torch.bool),
-        ...              "terminated": torch.zeros(4, 1, dtype=torch.bool)},
-        ... }, batch_size=[4])
+        >>> batch = example_batch(4)  # uint8 frame stacks [4, 9, 84, 84], actions of size 2
         >>> out = loss(batch)
         >>> sorted(key for key in out.keys() if key.startswith("loss_")), round(out["alpha"].item(), 3)
         (['loss_actor', 'loss_alpha', 'loss_critic'], 0.1)
@@ -78,13 +72,13 @@ class DrQLoss(ActorCriticLoss):
         actor: nn.Module,
         critic: nn.Module,
         *,
-        policy: SquashedGaussian | None = None,
+        sampler: Sampler | None = None,
         augmentation: Augmentations | Literal["default"] = "default",
         clean_view: bool = True,
         target_encoder: bool = False,
         **kwargs: Any,
     ) -> None:
-        super().__init__(encoder, actor, critic, policy=SquashedGaussian() if policy is None else policy,
+        super().__init__(encoder, actor, critic, sampler=SquashedGaussian() if sampler is None else sampler,
                          augmentation=default_shift(augmentation), target_encoder=target_encoder, **kwargs)
         self.clean_view = clean_view
 
@@ -99,11 +93,8 @@ class DrQLoss(ActorCriticLoss):
         q1, q2 = self.q_values(torch.cat(features), batch.action.repeat(2, 1))
         loss_critic = weighted_td_errors(q1, q2, target, [1.0, 1.0])  # summed over the views, not averaged
         loss_actor, log_prob = self.actor_loss(features[0].detach())
-        size = batch.size
-        return self.output(tensordict, target, q1[:size], q2[:size],
-                           {"loss_critic": loss_critic, "loss_actor": loss_actor,
-                            **self.policy.losses(log_prob, batch.action.shape[-1])},
-                           self.policy_metrics(log_prob))
+        return self.output(tensordict, target, q1[:batch.size], q2[:batch.size],
+                           {"loss_critic": loss_critic, "loss_actor": loss_actor}, log_prob=log_prob)
 
     def two_views(self, pixels: Tensor, shifted: Tensor) -> tuple[Tensor, Tensor]:
         """(raw or a second shift, the first shift): RL-ViGen's pair, or the original DrQ's (a fresh draw)."""

@@ -9,7 +9,7 @@ from tensordict.nn import dispatch
 from torch import nn
 
 from vigen.losses.base import ActorCriticLoss, Augmentations, default_shift, squared_td_errors
-from vigen.losses.policies import NoisyDeterministic
+from vigen.losses.samplers import NoisyDeterministic, Sampler
 
 
 class DrQv2Loss(ActorCriticLoss):
@@ -32,10 +32,11 @@ class DrQv2Loss(ActorCriticLoss):
     optimizer equals DrQ-v2's separate updates, except that the actor sees the critic before
     (not after) this step's update, as in TorchRL's DDPG/TD3.
 
-    The noise is the loss's ``policy``, :class:`~vigen.losses.NoisyDeterministic`: its std follows
+    The noise is the loss's ``sampler``, :class:`~vigen.losses.NoisyDeterministic`: its std follows
     ``std`` at the step given to :meth:`set_step` (DrQ-v2: agent steps), and it makes the acting
-    policy (:meth:`make_policy`). The batch contract and the finite-loss check are
-    :class:`~vigen.losses.ActorCriticLoss`'s.
+    policy explore (:meth:`make_policy`). With SAC's :class:`~vigen.losses.SquashedGaussian` (and an
+    actor returning mean and log σ) the same update is SAC's, with its ``loss_alpha``. The batch
+    contract and the finite-loss check are :class:`~vigen.losses.ActorCriticLoss`'s.
 
     Paper: DrQ-v2, https://arxiv.org/abs/2107.09645.
 
@@ -46,15 +47,15 @@ class DrQv2Loss(ActorCriticLoss):
         augmentation: the weak augmentation, drawn independently for obs and next obs;
             ``"default"`` is ``RandomShift(pad=4)``. ``None`` if the replay buffer already augments
             (augment in one place only, or every view is shifted twice).
-        policy: the noise, ``NoisyDeterministic(std, clip)``; default DrQ-v2's ``std =
-            linear(1.0, 0.1, 100000)``, clip 0.3 (``make_loss(..., std=...)`` builds it).
+        sampler: the noise, ``NoisyDeterministic(std, clip)``; default DrQ-v2's ``std =
+            linear(1.0, 0.1, 100000)``, clip 0.3 (``make_loss(..., std=...)`` builds it); or
+            :class:`~vigen.losses.SquashedGaussian`.
         **kwargs: ``input_mask``, ``channels_last``, ``reduction``, ``check_finite`` (see
             :class:`~vigen.losses.ActorCriticLoss`).
 
     Examples:
-        >>> import torch
-        >>> from tensordict import TensorDict
         >>> from torchrl.objectives import SoftUpdate
+        >>> from vigen.losses import example_batch
         >>> from vigen.models import Actor, Critic, DrQv2Encoder
         >>> encoder = DrQv2Encoder(9)
         >>> repr_dim = encoder.output_dim(9, 84, 84)
@@ -62,13 +63,7 @@ class DrQv2Loss(ActorCriticLoss):
         >>> loss.make_value_estimator(gamma=0.99)
         DrQv2Loss(...)
         >>> updater = SoftUpdate(loss, tau=0.01)
-        >>> pixels = torch.randint(0, 256, (4, 9, 84, 84), dtype=torch.uint8)
-        >>> batch = TensorDict({
-        ...     "pixels": pixels, "action": torch.rand(4, 2) * 2 - 1,
-        ...     "next": {"pixels": pixels, "reward": torch.ones(4, 1),
-        ...              "done": torch.zeros(4, 1, dtype=torch.bool),
-        ...              "terminated": torch.zeros(4, 1, dtype=torch.bool)},
-        ... }, batch_size=[4])
+        >>> batch = example_batch(4)  # uint8 frame stacks [4, 9, 84, 84], actions of size 2
         >>> out = loss(batch)
         >>> sorted(key for key in out.keys() if key.startswith("loss_"))
         ['loss_actor', 'loss_critic']
@@ -86,10 +81,10 @@ class DrQv2Loss(ActorCriticLoss):
         critic: nn.Module,
         *,
         augmentation: Augmentations | Literal["default"] = "default",
-        policy: NoisyDeterministic | None = None,
+        sampler: Sampler | None = None,
         **kwargs: Any,
     ) -> None:
-        super().__init__(encoder, actor, critic, policy=NoisyDeterministic() if policy is None else policy,
+        super().__init__(encoder, actor, critic, sampler=NoisyDeterministic() if sampler is None else sampler,
                          augmentation=default_shift(augmentation), **kwargs)
 
     @dispatch
@@ -99,7 +94,6 @@ class DrQv2Loss(ActorCriticLoss):
         target = self.critic_target(tensordict, next_obs)
         features = self.encode(obs)
         q1, q2 = self.q_values(features, batch.action)
-        loss_actor, _ = self.actor_loss(features.detach())
+        loss_actor, log_prob = self.actor_loss(features.detach())
         return self.output(tensordict, target, q1, q2,
-                           {"loss_critic": squared_td_errors(q1, q2, target), "loss_actor": loss_actor},
-                           self.policy_metrics())
+                           {"loss_critic": squared_td_errors(q1, q2, target), "loss_actor": loss_actor}, log_prob=log_prob)

@@ -2,26 +2,33 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import Any, Literal
 
 import torch
-from tensordict.nn import TensorDictModuleBase
+from tensordict import TensorDictBase
+from tensordict.nn import TensorDictModuleBase, dispatch
 from tensordict.utils import NestedKey
 from torch import Tensor, nn
 from torchrl.data import TensorSpec
 
-from vigen.losses.base import BATCH_NORMS
-from vigen.losses.svea import SVEALoss
-from vigen.losses.vrl3 import RunningStatistics
+from vigen.losses.base import (
+    BATCH_NORMS,
+    ActorCriticLoss,
+    Augmentations,
+    PixelsToAction,
+    RunningStatistics,
+    default_shift,
+    weighted_td_errors,
+)
+from vigen.losses.samplers import NoisyDeterministic, Sampler
 
 BatchNormMode = Literal["running", "observation"]
 
 
-class PIEGLoss(SVEALoss):
+class PIEGLoss(ActorCriticLoss):
     """PIE-G as RL-ViGen (and PIE-G's own code) trains it: SVEA's critic loss on a frozen ResNet-18 encoder.
 
-    The update is :class:`~vigen.losses.SVEALoss`'s on DrQ-v2's DDPG, with ``s = shift(obs)``,
+    The update is SVEA's (:class:`~vigen.losses.SVEALoss`) on DrQ-v2's DDPG, with ``s = shift(obs)``,
     ``s̃ = overlay(s)`` and ``y = r + γⁿ·(1 − terminated)·min(Q1', Q2')(h', a')``:
 
         ``loss_critic = w·[MSE(Q1(h), y) + MSE(Q2(h), y)] + w̃·[MSE(Q1(h̃), y) + MSE(Q2(h̃), y)]``
@@ -36,7 +43,7 @@ class PIEGLoss(SVEALoss):
     * **in the update**, training mode: each encoder pass normalises with its own batch's
       statistics and moves the running statistics, although the weights are frozen. The clean
       view, the overlaid view and the next view are encoded in three separate passes (three
-      batch statistics), as RL-ViGen does (:meth:`encode_views`), not concatenated into one;
+      batch statistics), as RL-ViGen does, not concatenated into one as SVEA's are;
     * **while acting** (:meth:`make_policy`), ``acting_batchnorm``: ``"running"`` (default) uses
       the running statistics, as RL-ViGen collects data and evaluates during training (its
       agent in eval mode); ``"observation"`` normalises every observation with the statistics
@@ -70,27 +77,27 @@ class PIEGLoss(SVEALoss):
             :class:`~vigen.models.PIEGEncoder` (``make_loss("pieg", ..., encoder_weights=<file>)``).
         acting_batchnorm: ``"running"`` or ``"observation"``, the BatchNorm statistics of the
             acting policy (see above).
-        **kwargs: the options of :class:`~vigen.losses.SVEALoss` (``policy``, ``augmentation``,
-            ``strong_augmentation`` (default: the random overlay), ``weak_weight``, ``strong_weight``, ...).
+        sampler: DrQ-v2's :class:`~vigen.losses.NoisyDeterministic` (the default) or
+            :class:`~vigen.losses.SquashedGaussian`.
+        augmentation: the weak view; ``"default"`` is ``RandomShift(pad=4)``.
+        strong_augmentation: applied on top of the weak view; ``None`` for ``RandomOverlay(alpha=0.5)``.
+        weak_weight, strong_weight: w and w̃ (0.5 each).
+        **kwargs: ``input_mask``, ``param_groups``, ``channels_last``, ``reduction``,
+            ``check_finite`` (see :class:`~vigen.losses.ActorCriticLoss`).
 
     Examples:
-        >>> import torch, warnings
+        >>> import warnings
         >>> from tensordict import TensorDict
         >>> from torchrl.data import Bounded
         >>> from torchrl.objectives import SoftUpdate
+        >>> from vigen.losses import example_batch
         >>> from vigen.models import Actor, Critic, PIEGEncoder
         >>> with warnings.catch_warnings():
         ...     warnings.simplefilter("ignore")  # no ImageNet weights here: random ResNet weights
         ...     encoder = PIEGEncoder(9, image_size=16, out_dim=32)
         >>> loss = PIEGLoss(encoder, Actor(32, 2, hidden_dim=32), Critic(32, 2, hidden_dim=32))
         >>> updater = SoftUpdate(loss, tau=0.01)
-        >>> pixels = torch.randint(0, 256, (4, 9, 16, 16), dtype=torch.uint8)
-        >>> batch = TensorDict({
-        ...     "pixels": pixels, "action": torch.rand(4, 2) * 2 - 1,
-        ...     "next": {"pixels": pixels, "reward": torch.ones(4, 1),
-        ...              "done": torch.zeros(4, 1, dtype=torch.bool),
-        ...              "terminated": torch.zeros(4, 1, dtype=torch.bool)},
-        ... }, batch_size=[4])
+        >>> batch = example_batch(4, observation_shape=(9, 16, 16))
         >>> out = loss(batch)
         >>> int(encoder.resnet.bn1.num_batches_tracked)  # three passes: next, clean and overlaid views
         3
@@ -98,9 +105,12 @@ class PIEGLoss(SVEALoss):
         >>> encoder.resnet.conv1.weight.grad is None, encoder.fc.weight.grad is not None
         (True, True)
         >>> policy = loss.make_policy(Bounded(-1, 1, shape=(2,)))
-        >>> policy(TensorDict({"pixels": pixels[0]}))["action"].shape, int(encoder.resnet.bn1.num_batches_tracked)
+        >>> policy(TensorDict({"pixels": batch["pixels"][0]}))["action"].shape, int(encoder.resnet.bn1.num_batches_tracked)
         (torch.Size([2]), 3)
     """
+
+    own_out_keys = ("q_strong_mean",)
+    _schedulable_buffers = frozenset({"weak_weight", "strong_weight"})
 
     def __init__(
         self,
@@ -108,16 +118,34 @@ class PIEGLoss(SVEALoss):
         actor: nn.Module,
         critic: nn.Module,
         *,
+        sampler: Sampler | None = None,
+        augmentation: Augmentations | Literal["default"] = "default",
+        strong_augmentation: Augmentations = None,
+        weak_weight: float = 0.5,
+        strong_weight: float = 0.5,
         acting_batchnorm: BatchNormMode = "running",
         **kwargs: Any,
     ) -> None:
         mode = _checked_mode(acting_batchnorm, type(self).__name__)
-        super().__init__(encoder, actor, critic, **kwargs)
+        super().__init__(encoder, actor, critic, sampler=NoisyDeterministic() if sampler is None else sampler,
+                         augmentation=default_shift(augmentation), **kwargs)
+        self.add_strong_view(strong_augmentation, weak_weight, strong_weight)
         self.acting_batchnorm: BatchNormMode = mode
 
-    def encode_views(self, views: Sequence[Tensor]) -> list[Tensor]:
-        """Features of each view, one encoder pass per view: each is normalised with its own batch statistics."""
-        return [self.encode(view) for view in views]
+    @dispatch
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        batch = self.read_batch(tensordict)
+        obs, next_obs = self.augment(batch.pixels), self.augment(batch.next_pixels)
+        target = self.critic_target(tensordict, next_obs)  # the first of three encoder passes
+        strong = self.augment(obs, self.strong_augmentation)
+        # the critic: SVEA's w·TD(s) + w̃·TD(s̃), each view in its own encoder pass (its own BatchNorm statistics)
+        features, strong_features = self.encode(obs), self.encode(strong)
+        q1, q2 = self.q_values(torch.cat([features, strong_features]), batch.action.repeat(2, 1))
+        loss_critic = weighted_td_errors(q1, q2, target, [self.weak_weight, self.strong_weight])
+        loss_actor, log_prob = self.actor_loss(features.detach())
+        return self.output(tensordict, target, q1[:batch.size], q2[:batch.size],
+                           {"loss_critic": loss_critic, "loss_actor": loss_actor},
+                           {"q_strong_mean": q1[batch.size:].detach().mean()}, log_prob=log_prob)
 
     def make_policy(
         self,
@@ -134,10 +162,9 @@ class PIEGLoss(SVEALoss):
         running statistics.
         """
         mode = self.acting_batchnorm if batchnorm is None else _checked_mode(batchnorm, type(self).__name__)
-        policy = super().make_policy(action_spec, pixels_key=pixels_key)
-        network = policy[0].module
-        policy[0].module = RunningStatistics(network) if mode == "running" else ObservationStatistics(network)
-        return policy
+        network = PixelsToAction(self)
+        statistics = RunningStatistics(network) if mode == "running" else ObservationStatistics(network)
+        return self.sampler.acting_module(statistics, action_spec, pixels_key, self.device)
 
     def reset_parameters_recursive(self) -> None:
         """Re-initialise the actor, the critic and what learns in the encoder; keep its frozen weights.

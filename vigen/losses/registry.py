@@ -13,7 +13,8 @@ here, not classes:
 * **MaDi**: SVEA on DMC-GB's SAC with :class:`~vigen.models.MaDiMasker` in front of the encoder
   (the loss's ``input_mask``: every view, the target encoder's passes and the acting policy). The
   masker learns from the critic's TD error alone (the actor's features are detached, the target
-  carries no gradient), with its own Adam group: ``masker_lr`` 1e-3, ``masker_beta`` (β1) 0.9.
+  carries no gradient), with its own Adam group: lr 1e-3, betas (0.9, 0.999)
+  (``param_groups={"input_mask": {...}}``, :data:`MADI_PARAM_GROUPS`).
   The next observation is not shifted (DMC-GB's ``sample_svea``); the strong view is the random
   overlay; binary ("hard") masks are not offered. Paper: https://arxiv.org/abs/2312.15339 (code:
   https://github.com/bramgrooten/mask-distractions).
@@ -25,16 +26,22 @@ here, not classes:
   2024, https://openreview.net/forum?id=0AumdfLzpK (code: https://github.com/W-Song11/SimGRL-Code).
 
 DMC-GB's SAC (MaDi, SimGRL, SCPL) uses SVEA's 11-layer CNN on ``x / 255``, a target encoder in
-the target critic, ``log(relu(1 − tanh²) + 1e-6)`` and the actor's own ``feature_dim``
+the target critic, ``log(relu(1 − tanh²) + ε)`` (:data:`~vigen.losses.samplers.DMCGB_SQUASH_EPSILON`) and the actor's own ``feature_dim``
 projection; the departures of all SAC presets from their code (one optimizer step for all terms,
 one τ) are measured in ``benchmarks/parity``.
+
+Everything that makes an algorithm its paper's is a field of its :class:`Algorithm` record: the
+loss class, the encoder, the actor, the sampler and its options, the extra networks, the preset
+options, the per-module optimizer groups, the option that loads pretrained encoder weights, and
+the rewards' scale of its runs. The functions below read the record; none of them names an
+algorithm.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Any, Literal
 
 import torch
@@ -45,12 +52,13 @@ from vigen.losses.curl import CURLLoss
 from vigen.losses.drq import DrQLoss
 from vigen.losses.drqv2 import DrQv2Loss
 from vigen.losses.pieg import PIEGLoss
-from vigen.losses.policies import ActingPolicy, NoisyDeterministic, SquashedGaussian
 from vigen.losses.sada import SADALoss
+from vigen.losses.samplers import DMCGB_SQUASH_EPSILON, DRQV2_STD, NoisyDeterministic, Sampler, SquashedGaussian
+from vigen.losses.schedule import LinearSchedule
 from vigen.losses.scpl import SCPLLoss
 from vigen.losses.sgqn import SGQNLoss
 from vigen.losses.svea import SVEALoss
-from vigen.losses.vrl3 import VRL3Loss
+from vigen.losses.vrl3 import VRL3_STD, VRL3Loss, adroit_reward_scale
 from vigen.models import (
     Actor,
     AttributionDecoder,
@@ -70,101 +78,173 @@ from vigen.transforms import RandomFrequencyMask, RandomOverlay, RandomShiftedOv
 
 EncoderName = Literal["drqv2", "shared_cnn", "shared_cnn_01", "per_frame", "projected", "vrl3", "pieg"]
 ActorName = Literal["deterministic", "gaussian", "gaussian_projected"]
-PolicyName = Literal["noisy", "sac"]
 
-NOISY_OPTIONS = ("std", "std_clip")
-SAC_OPTIONS = ("init_temperature", "target_entropy", "squash_epsilon")
+
+@dataclass(frozen=True)
+class Shapes:
+    """The sizes a network of an algorithm is built for (:func:`make_networks`)."""
+
+    channels: int
+    image_size: int
+    features: int
+    """The encoder's output size."""
+    action_dim: int
+    feature_dim: int
+    hidden_dim: int
+    max_value: float | None
+
+
+ENCODERS: Mapping[str, Callable[[int, int, float | None, str | None], nn.Module]] = MappingProxyType({
+    "drqv2": lambda channels, size, max_value, weights: DrQv2Encoder(channels, max_value=max_value),
+    "shared_cnn": lambda channels, size, max_value, weights: SharedCNN(channels, max_value=max_value),
+    # DMC-GB's SharedCNN and SimGRL's per-frame encoder scale pixels to x / 255
+    "shared_cnn_01": lambda channels, size, max_value, weights: SharedCNN(channels, max_value=max_value, centered=False),
+    "per_frame": lambda channels, size, max_value, weights: PerFrameEncoder(channels, max_value=max_value, centered=False),
+    "projected": lambda channels, size, max_value, weights: ProjectedEncoder(channels, image_size=size, max_value=max_value),
+    "vrl3": lambda channels, size, max_value, weights: VRL3Encoder(channels, max_value=max_value, stage1_weights=weights),
+    "pieg": lambda channels, size, max_value, weights: PIEGEncoder(channels, image_size=size, max_value=max_value,
+                                                                    weights=weights),
+})
+"""Encoder name → ``(channels, image size, max_value, weights file or None) → encoder``."""
+
+ACTORS: Mapping[str, Callable[[Shapes], nn.Module]] = MappingProxyType({
+    "deterministic": lambda s: Actor(s.features, s.action_dim, feature_dim=s.feature_dim, hidden_dim=s.hidden_dim),
+    "gaussian": lambda s: GaussianActor(s.features, s.action_dim, hidden_dim=s.hidden_dim),  # DrQ's: no trunk
+    "gaussian_projected": lambda s: GaussianActor(s.features, s.action_dim, hidden_dim=s.hidden_dim, feature_dim=s.feature_dim),
+})
+"""Actor name → ``shapes → actor``."""
+
+MADI_PARAM_GROUPS = MappingProxyType({"input_mask": MappingProxyType({"lr": 1e-3, "betas": (0.9, 0.999)})})
+"""MaDi's own Adam for its masker: lr 1e-3, β1 0.9 (its ``masker_lr``, ``masker_beta``)."""
 
 
 @dataclass(frozen=True)
 class Algorithm:
-    """One algorithm: the loss class, the networks of its paper, its acting policy and its preset options.
+    """One algorithm: the loss class, the networks of its paper, its sampler and the defaults that make it that paper's.
 
     Attributes:
         loss: the loss class.
-        encoder: the encoder, by name (see :func:`make_encoder`).
-        actor: ``"deterministic"`` (:class:`~vigen.models.Actor`), ``"gaussian"`` (DrQ's SAC actor,
-            no trunk) or ``"gaussian_projected"`` (the SAC actor with its own ``feature_dim`` trunk).
-        policy: ``"noisy"`` (:class:`~vigen.losses.NoisyDeterministic`) or ``"sac"``
-            (:class:`~vigen.losses.SquashedGaussian`).
-        policy_defaults: the policy's options in the paper (VRL3: std 0.01; DMC-GB: ``squash_epsilon`` 1e-6).
+        encoder: the encoder, by name (:data:`ENCODERS`).
+        actor: the actor, by name (:data:`ACTORS`): ``"deterministic"`` (:class:`~vigen.models.Actor`),
+            ``"gaussian"`` (DrQ's SAC actor, no trunk) or ``"gaussian_projected"`` (the SAC actor with its
+            own ``feature_dim`` trunk).
+        sampler: :class:`~vigen.losses.NoisyDeterministic` or :class:`~vigen.losses.SquashedGaussian`.
+        sampler_options: the sampler's options in the paper (VRL3: its std; DMC-GB: ``squash_epsilon``).
+        networks: the loss's extra networks by its keyword (SGQN's ``decoder``, CURL's ``head``, SCPL's
+            ``dynamics``, MaDi's ``input_mask``), each built from the :class:`Shapes`, in this order.
         presets: loss options that make the loss this paper's, as factories (a fresh augmentation per loss).
-        summary: one line for listings.
+        param_groups: per-module optimizer groups of the paper (MaDi's masker), under what is given.
+        encoder_weights: the :func:`make_loss` option that loads a pretrained encoder (``None``: none).
+        reward_scale: the factor the paper's runs put on an env's rewards, by env name (VRL3 on Adroit).
     """
 
     loss: type[ActorCriticLoss]
     encoder: EncoderName
     actor: ActorName
-    policy: PolicyName
-    summary: str
-    policy_defaults: Mapping[str, Any] = field(default_factory=dict)
+    sampler: type[NoisyDeterministic] | type[SquashedGaussian]
+    sampler_options: Mapping[str, Any] = field(default_factory=dict)
+    networks: Mapping[str, Callable[[Shapes], nn.Module]] = field(default_factory=dict)
     presets: Mapping[str, Callable[[], Any]] = field(default_factory=dict)
+    param_groups: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    encoder_weights: str | None = None
+    reward_scale: Callable[[str], float] = lambda env: 1.0
 
     @property
     def takes_std(self) -> bool:
-        """Whether the acting noise has a std schedule (DrQ-v2's DDPG) rather than SAC's temperature."""
-        return self.policy == "noisy"
+        """Whether the sampler is DrQ-v2's noisy deterministic actor (a std schedule) rather than SAC's."""
+        return self.sampler is NoisyDeterministic
+
+    @property
+    def std(self) -> LinearSchedule:
+        """The noise std of the paper as a schedule (a fixed std is a flat one), for a std-taking algorithm.
+
+        Examples:
+            >>> ALGOS["drqv2"].std, ALGOS["vrl3"].std.init
+            (LinearSchedule(init=1.0, final=0.1, duration=100000), 0.01)
+        """
+        if not self.takes_std:
+            raise AttributeError(f"{self.loss.__name__} samples from SAC's squashed Gaussian; it has no noise std.")
+        std = self.sampler_options.get("std", DRQV2_STD)
+        return std if isinstance(std, LinearSchedule) else LinearSchedule(float(std), float(std), DRQV2_STD.duration)
 
 
-DMCGB_SAC = dict(squash_epsilon=1e-6)
+DMCGB_SAC = MappingProxyType({"squash_epsilon": DMCGB_SQUASH_EPSILON})
 
-ALGOS: dict[str, Algorithm] = {
-    "drqv2": Algorithm(DrQv2Loss, "drqv2", "deterministic", "noisy", "DrQ-v2: DDPG with random shifts"),
-    "svea": Algorithm(SVEALoss, "shared_cnn", "deterministic", "noisy", "SVEA on DrQ-v2 (RL-ViGen): an overlaid view in the critic"),
-    "srm": Algorithm(SVEALoss, "shared_cnn", "deterministic", "noisy", "SRM (RL-ViGen): SVEA with a frequency-masked strong view",
+ALGOS: Mapping[str, Algorithm] = MappingProxyType({
+    "drqv2": Algorithm(DrQv2Loss, "drqv2", "deterministic", NoisyDeterministic),
+    "svea": Algorithm(SVEALoss, "shared_cnn", "deterministic", NoisyDeterministic),
+    "srm": Algorithm(SVEALoss, "shared_cnn", "deterministic", NoisyDeterministic,
                      presets={"strong_augmentation": lambda: [RandomOverlay(alpha=0.5), RandomFrequencyMask()]}),
-    "sgqn": Algorithm(SGQNLoss, "projected", "deterministic", "noisy", "SGQN on DrQ-v2: saliency consistency and an attribution head"),
-    "curl": Algorithm(CURLLoss, "projected", "deterministic", "noisy", "CURL on DrQ-v2: a contrastive encoder loss"),
-    "drq": Algorithm(DrQLoss, "drqv2", "gaussian", "sac", "DrQ (RL-ViGen): SAC on a clean and a shifted view"),
-    "sada": Algorithm(SADALoss, "drqv2", "gaussian_projected", "sac", "SADA (DMC-GB2): SAC, the actor also on the strong view"),
-    "vrl3": Algorithm(VRL3Loss, "vrl3", "deterministic", "noisy", "VRL3 stage 3 (RL-ViGen Adroit): safe Q and a pre-tanh penalty",
-                      policy_defaults={"std": 0.01}),
-    "madi": Algorithm(SVEALoss, "shared_cnn_01", "gaussian_projected", "sac", "MaDi: SVEA (DMC-GB SAC) with a learned input masker",
-                      policy_defaults=DMCGB_SAC,
+    "sgqn": Algorithm(SGQNLoss, "projected", "deterministic", NoisyDeterministic,
+                      networks={"decoder": lambda s: AttributionDecoder(s.action_dim, embedding_dim=s.features,
+                                                                        out_channels=s.channels, image_size=s.image_size)}),
+    "curl": Algorithm(CURLLoss, "projected", "deterministic", NoisyDeterministic,
+                      networks={"head": lambda s: CURLHead(s.features)}),
+    "drq": Algorithm(DrQLoss, "drqv2", "gaussian", SquashedGaussian),
+    "sada": Algorithm(SADALoss, "drqv2", "gaussian_projected", SquashedGaussian),
+    "vrl3": Algorithm(VRL3Loss, "vrl3", "deterministic", NoisyDeterministic, sampler_options={"std": VRL3_STD},
+                      encoder_weights="stage1_weights", reward_scale=adroit_reward_scale),
+    "madi": Algorithm(SVEALoss, "shared_cnn_01", "gaussian_projected", SquashedGaussian, sampler_options=DMCGB_SAC,
+                      networks={"input_mask": lambda s: MaDiMasker(max_value=s.max_value)},  # after the others, as MaDi
                       presets={"augment_next": lambda: False, "target_encoder": lambda: True,
-                               "strong_augmentation": lambda: RandomOverlay(alpha=0.5)}),
-    "simgrl": Algorithm(SVEALoss, "per_frame", "gaussian_projected", "sac", "SimGRL: SVEA (DMC-GB SAC) with shifted overlays, per-frame encoder",
-                        policy_defaults=DMCGB_SAC,
+                               "strong_augmentation": lambda: RandomOverlay(alpha=0.5)},
+                      param_groups=MADI_PARAM_GROUPS),
+    "simgrl": Algorithm(SVEALoss, "per_frame", "gaussian_projected", SquashedGaussian, sampler_options=DMCGB_SAC,
                         presets={"augment_next": lambda: True, "target_encoder": lambda: True,
                                  "strong_augmentation": lambda: RandomShiftedOverlay(alpha=0.5, max_shift=6)}),
-    "pieg": Algorithm(PIEGLoss, "pieg", "deterministic", "noisy", "PIE-G: SVEA on a frozen ImageNet ResNet-18"),
-    "scpl": Algorithm(SCPLLoss, "shared_cnn_01", "gaussian_projected", "sac",
-                      "SCPL: SVEA (SAC) with saliency consistency, a policy KL and a dynamics model", policy_defaults=DMCGB_SAC),
-}
+    "pieg": Algorithm(PIEGLoss, "pieg", "deterministic", NoisyDeterministic, encoder_weights="encoder_weights"),
+    "scpl": Algorithm(SCPLLoss, "shared_cnn_01", "gaussian_projected", SquashedGaussian, sampler_options=DMCGB_SAC,
+                      networks={"dynamics": lambda s: LatentDynamics(s.feature_dim, s.action_dim)}),
+})
 """Algorithm name -> :class:`Algorithm`."""
 
+RENAMED_OPTIONS: Mapping[str, str] = MappingProxyType({
+    "policy": "sampler=",
+    "std_clip": "clip=",
+    "masker": "input_mask= (MaDi's masker is the loss's input mask)",
+    "masker_lr": 'param_groups={"input_mask": {"lr": ...}}',
+    "masker_beta": 'param_groups={"input_mask": {"betas": (..., 0.999)}}',
+    "dynamics_lr": 'param_groups={"dynamics": {"lr": ...}}',
+    "encoder_lr_scale": 'param_groups={"encoder": {"lr_scale": ...}}',
+    "pretanh_penalty": "pretanh_weight= (pretanh_penalty is the penalty function)",
+})
+"""Options of :func:`make_loss` and :func:`build_loss` before one name per concept and coefficient (issue 42) → today's
+spelling; an old name is refused with the new one. (Checkpoints' renamed state keys: ``vigen.losses.base.LEGACY_STATE_KEYS``.)"""
 
-def make_encoder(name: EncoderName, channels: int, image_size: int, max_value: float | None,
-                 options: dict[str, Any]) -> nn.Module:
-    """The encoder ``name`` for ``channels``-deep square images; pops its own options (weights files) from ``options``."""
-    if name == "shared_cnn":
-        return SharedCNN(channels, max_value=max_value)
-    if name == "shared_cnn_01":  # DMC-GB's SharedCNN scales pixels to x / 255
-        return SharedCNN(channels, max_value=max_value, centered=False)
-    if name == "per_frame":  # SimGRL's per-frame encoder on x / 255
-        return PerFrameEncoder(channels, max_value=max_value, centered=False)
-    if name == "vrl3":
-        return VRL3Encoder(channels, max_value=max_value, stage1_weights=options.pop("stage1_weights", None))
-    if name == "pieg":
-        return PIEGEncoder(channels, image_size=image_size, max_value=max_value, weights=options.pop("encoder_weights", None))
-    if name == "projected":
-        return ProjectedEncoder(channels, image_size=image_size, max_value=max_value)
-    return DrQv2Encoder(channels, max_value=max_value)
+SAMPLER_OPTIONS: Mapping[type, tuple[str, ...]] = MappingProxyType({
+    NoisyDeterministic: ("std", "clip"),
+    SquashedGaussian: ("init_temperature", "target_entropy", "squash_epsilon"),
+})
+"""The options of each sampler that :func:`make_loss` takes as keywords."""
 
 
-def make_policy_head(algo: str, options: dict[str, Any]) -> ActingPolicy:
-    """The acting policy of ``algo`` with the paper's defaults; pops the policy's options (``std``, ``init_temperature``, ...)."""
-    algorithm = ALGOS[algo]
-    own, other = (NOISY_OPTIONS, SAC_OPTIONS) if algorithm.takes_std else (SAC_OPTIONS, NOISY_OPTIONS)
-    wrong = [name for name in other if name in options]
+def algorithm(algo: str) -> Algorithm:
+    """The record of ``algo``, or a ``ValueError`` listing the names.
+
+    Examples:
+        >>> algorithm("drqv2").loss.__name__
+        'DrQv2Loss'
+    """
+    if algo not in ALGOS:
+        raise ValueError(f"Unknown algorithm {algo!r}; choose one of {', '.join(ALGOS)}.")
+    return ALGOS[algo]
+
+
+def make_sampler(algo: str, options: dict[str, Any]) -> Sampler:
+    """The sampler of ``algo`` with the paper's options; pops the sampler's options (``std``, ``init_temperature``, ...).
+
+    Examples:
+        >>> make_sampler("vrl3", {})
+        NoisyDeterministic(std=0.01, clip=0.3)
+    """
+    record = algorithm(algo)
+    own = SAMPLER_OPTIONS[record.sampler]
+    wrong = [name for other, names in SAMPLER_OPTIONS.items() if other is not record.sampler for name in names
+             if name in options and name not in own]
     if wrong:
-        kind = "DrQ-v2's noisy deterministic actor" if algorithm.takes_std else "its SAC policy"
-        raise TypeError(f"{algorithm.loss.__name__} ({algo}) acts with {kind} and takes no {', '.join(map(repr, wrong))}; "
-                        f"its policy options are {', '.join(own)}.")
-    values = {**algorithm.policy_defaults, **{name: options.pop(name) for name in own if name in options}}
-    if algorithm.takes_std:
-        return NoisyDeterministic(**{"clip" if name == "std_clip" else name: value for name, value in values.items()})
-    return SquashedGaussian(**values)
+        raise TypeError(f"{record.loss.__name__} ({algo}) samples with {record.sampler.__name__} and takes no "
+                        f"{', '.join(map(repr, wrong))}; its sampler's options are {', '.join(own)}.")
+    return record.sampler(**{**record.sampler_options, **{name: options.pop(name) for name in own if name in options}})
 
 
 def make_loss(
@@ -193,10 +273,11 @@ def make_loss(
     CURL's bilinear head; SCPL's :class:`~vigen.models.LatentDynamics` (512 hidden units); MaDi's
     masker. The networks are put in channels-last layout (unless ``channels_last=False``).
 
-    The acting policy takes its options here: ``std``, ``std_clip`` for the DDPG algorithms
+    The sampler takes its options here: ``std``, ``clip`` for the DDPG algorithms
     (:class:`~vigen.losses.NoisyDeterministic`), ``init_temperature``, ``target_entropy``,
     ``squash_epsilon`` for the SAC ones (:class:`~vigen.losses.SquashedGaussian`); or pass
-    ``policy=`` whole. MaDi takes ``masker_lr`` (1e-3) and ``masker_beta`` (0.9).
+    ``sampler=`` whole. Per-module optimizer options are ``param_groups`` (MaDi's masker:
+    ``param_groups={"input_mask": {"lr": 5e-4}}``), merged over the paper's.
 
     Args:
         algo: one of :data:`ALGOS`.
@@ -212,8 +293,9 @@ def make_loss(
             on the global RNG; ``None`` leaves them on torch's global RNG.
         device: where the networks live (default: the CPU); batches must come on it, and the
             policies of :meth:`~vigen.losses.ActorCriticLoss.make_policy` act there.
-        **loss_options: the policy's options (above) and keyword arguments of the loss class
-            (e.g. ``strong_augmentation``, ``weak_weight``); they override the preset's.
+        **loss_options: the sampler's options (above), the pretrained encoder's file (the
+            record's ``encoder_weights``) and keyword arguments of the loss class (e.g.
+            ``strong_augmentation``, ``weak_weight``); they override the preset's.
 
     Examples:
         >>> from vigen.losses import make_loss
@@ -231,9 +313,6 @@ def make_loss(
         for name in ("encoder", "decoder"):
             if name in networks:
                 networks[name].to(memory_format=torch.channels_last)
-    masker = networks.pop("masker", None)
-    if masker is not None:
-        options.setdefault("masker", masker)
     loss = build_loss(algo, *networks.values(), **options)
     if device is not None:
         loss.to(device)
@@ -252,51 +331,45 @@ def make_networks(
     max_value: float | None = None,
     options: dict[str, Any] | None = None,
 ) -> dict[str, nn.Module]:
-    """The networks of ``algo``'s paper, by role: ``encoder``, ``actor``, ``critic`` and its extra module if any.
+    """The networks of ``algo``'s paper, by role: ``encoder``, ``actor``, ``critic`` and the record's extra networks.
 
-    The extra modules are SGQN's ``decoder``, CURL's ``head``, SCPL's ``dynamics`` and MaDi's
-    ``masker``, built in this order (the order the original agents draw their initial weights in).
-    ``options`` gives the encoder's files (``stage1_weights``, ``encoder_weights``), which are popped
-    from it. :func:`make_loss` puts them in a loss.
+    The extra networks (:attr:`Algorithm.networks`: SGQN's ``decoder``, CURL's ``head``, SCPL's
+    ``dynamics``, MaDi's masker as ``input_mask``) come after the others; the critic is built
+    before the actor (the order the original agents draw their initial weights in). ``options``
+    gives the encoder's weights file (the record's ``encoder_weights`` option), popped from it.
+    :func:`make_loss` puts them in a loss; an extra network already in ``options`` is not built.
 
     Examples:
         >>> sorted(make_networks("curl", (9, 84, 84), action_dim=2, hidden_dim=32))
         ['actor', 'critic', 'encoder', 'head']
     """
-    if algo not in ALGOS:
-        raise ValueError(f"Unknown algorithm {algo!r}; choose one of {', '.join(ALGOS)}.")
-    algorithm = ALGOS[algo]
+    record = algorithm(algo)
+    options = {} if options is None else options
     channels, height, width = observation_shape
     if height != width:
         raise ValueError(f"vigen's encoders take square images, got {height}×{width}; render at a square size.")
-    encoder = make_encoder(algorithm.encoder, channels, height, max_value, {} if options is None else options)
-    features = encoder.output_dim(channels, height, width)
-    critic = Critic(features, action_dim, feature_dim=feature_dim, hidden_dim=hidden_dim)
-    if algorithm.actor == "gaussian":
-        actor: nn.Module = GaussianActor(features, action_dim, hidden_dim=hidden_dim)
-    elif algorithm.actor == "gaussian_projected":
-        actor = GaussianActor(features, action_dim, hidden_dim=hidden_dim, feature_dim=feature_dim)
-    else:
-        actor = Actor(features, action_dim, feature_dim=feature_dim, hidden_dim=hidden_dim)
-    networks: dict[str, nn.Module] = {"encoder": encoder, "actor": actor, "critic": critic}
-    if algo == "sgqn":
-        networks["decoder"] = AttributionDecoder(action_dim, embedding_dim=features, out_channels=channels, image_size=height)
-    elif algo == "curl":
-        networks["head"] = CURLHead(features)
-    elif algo == "scpl":
-        networks["dynamics"] = LatentDynamics(feature_dim, action_dim)
-    elif algo == "madi" and "masker" not in (options or {}):
-        networks["masker"] = MaDiMasker(max_value=max_value)
+    weights = options.pop(record.encoder_weights, None) if record.encoder_weights else None
+    encoder = ENCODERS[record.encoder](channels, height, max_value, weights)
+    shapes = Shapes(channels, height, encoder.output_dim(channels, height, width), action_dim, feature_dim, hidden_dim,
+                    max_value)
+    critic = Critic(shapes.features, action_dim, feature_dim=feature_dim, hidden_dim=hidden_dim)
+    networks: dict[str, nn.Module] = {"encoder": encoder, "actor": ACTORS[record.actor](shapes), "critic": critic}
+    for name, factory in record.networks.items():
+        if name not in options:
+            networks[name] = factory(shapes)
     return networks
 
 
-def build_loss(algo: str, *networks: nn.Module, **options: Any) -> ActorCriticLoss:
-    """The loss of ``algo`` on the given networks (encoder, actor, critic, and its extra module), with the preset's options.
+def build_loss(algo: str, encoder: nn.Module, actor: nn.Module, critic: nn.Module, *extra: nn.Module,
+               **options: Any) -> ActorCriticLoss:
+    """The loss of ``algo`` on the given networks, with the preset's options for those not given.
 
-    What :func:`make_loss` does after it builds the paper's networks: the policy from its options
-    (``std``, ``init_temperature``, ...; or ``policy=``), MaDi's masker (``masker``, ``masker_lr``,
-    ``masker_beta``; built on the encoder's ``max_value``), and the preset's defaults for options
-    not given. Use it to run a preset (SRM, MaDi, SimGRL) on networks of your own.
+    ``extra`` are the record's extra networks in its order (:attr:`Algorithm.networks`, as
+    :func:`make_networks` returns them), or pass them by keyword (``decoder=``, ``head=``,
+    ``dynamics=``, ``input_mask=``). What :func:`make_loss` does after it builds the paper's
+    networks: the sampler from its options (``std``, ``init_temperature``, ...; or ``sampler=``),
+    the paper's per-module optimizer groups under the given ``param_groups``, and the preset's
+    defaults for options not given. Use it to run a preset (SRM, MaDi, SimGRL) on networks of your own.
 
     Examples:
         >>> from vigen.models import Actor, Critic, SharedCNN
@@ -306,31 +379,27 @@ def build_loss(algo: str, *networks: nn.Module, **options: Any) -> ActorCriticLo
         >>> [type(t).__name__ for t in loss.strong_augmentation]
         ['RandomOverlay', 'RandomFrequencyMask']
     """
-    if algo not in ALGOS:
-        raise ValueError(f"Unknown algorithm {algo!r}; choose one of {', '.join(ALGOS)}.")
-    algorithm = ALGOS[algo]
-    if "policy" not in options:
-        options["policy"] = make_policy_head(algo, options)
-    if algo == "madi":  # built after the networks, as MaDi's agent builds it
-        options.update(_madi_masker(options, getattr(networks[0], "max_value", None)))
-    for name, factory in algorithm.presets.items():
+    record = algorithm(algo)
+    renamed = [f"{old}= is now {RENAMED_OPTIONS[old]}" for old in options if old in RENAMED_OPTIONS]
+    if renamed:
+        raise TypeError(f"{algo}: {'; '.join(renamed)}.")
+    names = list(record.networks)
+    if len(extra) > len(names):
+        raise TypeError(f"{algo}: {len(extra)} extra networks given, but it takes {len(names)} ({', '.join(names) or 'none'}).")
+    for name, network in zip(names, extra):
+        if name in options:
+            raise TypeError(f"{algo}: its {name!r} network was given twice (as an argument and as {name}=).")
+        options[name] = network
+    missing = [name for name in names if name not in options]
+    if missing:
+        raise TypeError(f"{algo}: the loss needs its {', '.join(missing)} network; pass it (make_networks({algo!r}, ...) "
+                        "builds the paper's).")
+    if "sampler" not in options:
+        options["sampler"] = make_sampler(algo, options)
+    if record.param_groups:
+        given = options.get("param_groups") or {}
+        options["param_groups"] = {module: {**record.param_groups.get(module, {}), **given.get(module, {})}
+                                   for module in {**record.param_groups, **given}}
+    for name, factory in record.presets.items():
         options.setdefault(name, factory())
-    return algorithm.loss(*networks, **options)
-
-
-def _madi_masker(options: dict[str, Any], max_value: float | None) -> dict[str, Any]:
-    """MaDi's masker as the loss's input mask, with its own Adam group; pops ``masker``, ``masker_lr``, ``masker_beta``."""
-    masker = options.pop("masker", None)
-    masker_lr, masker_beta = options.pop("masker_lr", 1e-3), options.pop("masker_beta", 0.9)
-    if "input_mask" in options:
-        raise TypeError("madi: the input mask of MaDi is its masker; pass masker=... instead of input_mask=....")
-    if not (isinstance(masker_lr, (int, float)) and math.isfinite(masker_lr) and masker_lr > 0):
-        raise ValueError(f"madi: masker_lr must be a positive number, got {masker_lr!r}.")
-    if not (isinstance(masker_beta, (int, float)) and 0 <= masker_beta < 1):
-        raise ValueError(f"madi: masker_beta is Adam's β1 of the masker, a number in [0, 1), got {masker_beta!r}.")
-    if masker is None:
-        masker = MaDiMasker(max_value=max_value)
-    elif not isinstance(masker, nn.Module):
-        raise TypeError(f"madi: masker must be an nn.Module (e.g. vigen.models.MaDiMasker()), got {type(masker).__name__}.")
-    groups = {"input_mask": {"lr": float(masker_lr), "betas": (float(masker_beta), 0.999)}}
-    return {"input_mask": masker, "param_groups": groups}
+    return record.loss(encoder, actor, critic, **options)

@@ -220,23 +220,22 @@ class _Guided(torch.autograd.Function):
         return grad.clamp(min=0)
 
 
-def install_guided_forward(loss: ActorCriticLoss) -> None:
-    """Give ``loss`` the :class:`GuidedForward` (on its encoder and critic) that :func:`salient_q_consistency` uses when compiled.
-
-    SGQN's and SCPL's ``prepare_compile``: the hooks do nothing until a compiled update's guided
-    pass sets them active; the eager update keeps recording its one pass (:class:`GuidedBackprop`).
-    """
-    if getattr(loss, "guided_forward", None) is None:
-        loss.guided_forward = GuidedForward(loss.encoder, loss.critic)
-
-
-def salient_q_consistency(loss: ActorCriticLoss, pixels: Tensor, action: Tensor, quantile: float) -> SalientQ:
+def salient_q_consistency(
+    loss: ActorCriticLoss,
+    pixels: Tensor,
+    action: Tensor,
+    quantile: float,
+    guided_forward: GuidedForward | None = None,
+) -> SalientQ:
     """SGQN's and SCPL's Q consistency with the salient pixels, from one recorded critic pass.
 
     The critic's forward pass at ``x`` (``pixels`` on the encoder's float scale) is recorded for
     guided backprop; the guided saliency of Q1 gives the mask ``M`` (:func:`attribution_mask` at
     ``quantile``), ``x_M = x·M + u·(1 − M)`` with one ``u ~ U(min x, max x)``, and the critic is run
-    again on ``x_M``. Only ``nn.ReLU`` modules of the loss's encoder and critic are guided.
+    again on ``x_M``. Only ``nn.ReLU`` modules of the loss's encoder and critic are guided. A
+    compiled update takes the saliency from ``guided_forward`` instead (a :class:`GuidedForward` on
+    the loss's encoder and critic, which SGQN's and SCPL's ``prepare_compile`` make): a guided pass
+    of its own, which ``torch.compile`` can trace.
 
     Paper: SGQN, https://arxiv.org/abs/2209.09203; SCPL, https://github.com/bofusun/SCPL.
 
@@ -249,14 +248,13 @@ def salient_q_consistency(loss: ActorCriticLoss, pixels: Tensor, action: Tensor,
         >>> salient.consistency.shape, round(salient.mask.float().mean().item(), 1)
         (torch.Size([2]), 0.1)
     """
-    x = loss._to_float(pixels)  # the saliency is a gradient with respect to these
+    x = loss.float_pixels(pixels)  # the saliency is a gradient with respect to these
     if loss.channels_last:
         x = x.contiguous(memory_format=torch.channels_last)
-    compiled = getattr(loss, "guided_forward", None)
-    if torch.compiler.is_compiling() and isinstance(compiled, GuidedForward):  # a guided pass of its own (traceable)
+    if torch.compiler.is_compiling() and guided_forward is not None:  # a guided pass of its own (traceable)
         features = loss.encode(x)
         q1, q2 = loss.q_values(features, action)
-        saliency = compiled.saliency(lambda probe: loss.q_values(loss.encode(probe), action)[0], x)
+        saliency = guided_forward.saliency(lambda probe: loss.q_values(loss.encode(probe), action)[0], x)
     else:  # one recorded pass serves the saliency and the loss
         x.requires_grad_(True)
         guided = GuidedBackprop(loss.encoder, loss.critic)

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-import math
+from collections.abc import Mapping
+from types import MappingProxyType
 from typing import Any, Literal
 
 import torch
@@ -10,10 +11,12 @@ from tensordict import TensorDictBase
 from tensordict.nn import dispatch
 from torch import Tensor, nn
 
-from vigen.losses.base import Augmentations, per_sample_mean, squared_td_errors
-from vigen.losses.policies import SquashedGaussian
-from vigen.losses.saliency import GuidedBackprop, install_guided_forward, salient_q_consistency
-from vigen.losses.svea import SVEALoss
+from vigen.losses.base import ActorCriticLoss, Augmentations, default_shift, per_sample_mean, squared_td_errors
+from vigen.losses.samplers import DMCGB_SQUASH_EPSILON, SquashedGaussian
+from vigen.losses.saliency import GuidedBackprop, GuidedForward, salient_q_consistency
+
+SCPL_PARAM_GROUPS = MappingProxyType({"dynamics": MappingProxyType({"lr": 3e-4})})
+"""SCPL's own Adam for the dynamics model: lr 3e-4 (the default ``param_groups``)."""
 
 
 def diagonal_gaussian_kl(mean_p: Tensor, log_var_p: Tensor, mean_q: Tensor, log_var_q: Tensor) -> Tensor:
@@ -33,7 +36,7 @@ def diagonal_gaussian_kl(mean_p: Tensor, log_var_p: Tensor, mean_q: Tensor, log_
     return 0.5 * (ratio + (mean_q - mean_p).pow(2) / log_var_q.exp() - 1.0 - (log_var_p - log_var_q)).sum(-1)
 
 
-class SCPLLoss(SVEALoss):
+class SCPLLoss(ActorCriticLoss):
     """SCPL: SAC with SVEA's two-view critic, a saliency-masked Q consistency, a policy KL and a dynamics model.
 
     With the weak views ``s = shift(obs)``, ``s' = shift(next obs)`` (drawn independently), the
@@ -73,8 +76,8 @@ class SCPLLoss(SVEALoss):
     projection). With n-step returns the reward model predicts the n-step reward of the batch
     (SCPL: one step).
 
-    It is :class:`~vigen.losses.SVEALoss` on SAC (with the next observation shifted, SCPL's
-    ``sample_drq``) with its own update.
+    Its critic is :class:`~vigen.losses.SVEALoss`'s on SAC (with the next observation shifted, SCPL's
+    ``sample_drq``) plus the consistency term; the rest of the update is its own.
 
     Paper: SCPL, "Salience-Invariant Consistent Policy Learning for Generalization in Visual
     Reinforcement Learning" (AAMAS 2025), code https://github.com/bofusun/SCPL.
@@ -97,26 +100,21 @@ class SCPLLoss(SVEALoss):
         kl_weight: λ_KL (1).
         kl_covariance: ``"std"`` (SCPL's code: ``diag(σ)``) or ``"variance"`` (``diag(σ²)``).
         dynamics_weight: weight of ``loss_dynamics`` (1).
-        dynamics_lr: the model's learning rate in :meth:`optimizer_groups` (SCPL: 3e-4).
+        param_groups: per-module optimizer options (:meth:`optimizer_groups`); the dynamics model's
+            default is SCPL's lr 3e-4 (``{"dynamics": {"lr": 3e-4}}``), merged with what is given.
         target_encoder: encode the next view for the target critic with a target encoder.
-        policy: SAC's :class:`~vigen.losses.SquashedGaussian`; default SCPL's (DMC-GB's) α₀ = 0.1 and
-            ``log(relu(1 − tanh²) + 1e-6)`` (``squash_epsilon=1e-6``).
+        sampler: SAC's :class:`~vigen.losses.SquashedGaussian` (the policy KL needs its mean and
+            σ: a ``NoisyDeterministic`` is refused); default SCPL's (DMC-GB's) α₀ = 0.1 and
+            ``log(relu(1 − tanh²) + ε)`` (``squash_epsilon=DMCGB_SQUASH_EPSILON``).
         **kwargs: ``input_mask``, ``channels_last``, ``reduction``, ``check_finite``.
 
     Examples:
         >>> import torch
-        >>> from tensordict import TensorDict
         >>> from torchrl.objectives import SoftUpdate
-        >>> from vigen.losses import make_loss
+        >>> from vigen.losses import example_batch, make_loss
         >>> loss = make_loss("scpl", (9, 84, 84), action_dim=2, hidden_dim=32, seed=0)
         >>> updater = SoftUpdate(loss, tau=0.01)
-        >>> pixels = torch.randint(0, 256, (4, 9, 84, 84), dtype=torch.uint8)
-        >>> batch = TensorDict({
-        ...     "pixels": pixels, "action": torch.zeros(4, 2),
-        ...     "next": {"pixels": pixels, "reward": torch.ones(4, 1),
-        ...              "done": torch.zeros(4, 1, dtype=torch.bool),
-        ...              "terminated": torch.zeros(4, 1, dtype=torch.bool)},
-        ... }, batch_size=[4])
+        >>> batch = example_batch(4)  # uint8 frame stacks [4, 9, 84, 84], actions of size 2
         >>> out = loss(batch)
         >>> sorted(key for key in out.keys() if key.startswith("loss_"))
         ['loss_actor', 'loss_alpha', 'loss_critic', 'loss_dynamics']
@@ -136,7 +134,7 @@ class SCPLLoss(SVEALoss):
         critic: nn.Module,
         dynamics: nn.Module,
         *,
-        policy: SquashedGaussian | None = None,
+        sampler: SquashedGaussian | None = None,
         augmentation: Augmentations | Literal["default"] = "default",
         strong_augmentation: Augmentations = None,
         weak_weight: float = 0.5,
@@ -146,11 +144,14 @@ class SCPLLoss(SVEALoss):
         kl_weight: float = 1.0,
         kl_covariance: Literal["std", "variance"] = "std",
         dynamics_weight: float = 1.0,
-        dynamics_lr: float = 3e-4,
+        param_groups: Mapping[str, Mapping[str, Any]] | None = None,
         target_encoder: bool = True,
         **kwargs: Any,
     ) -> None:
         name = type(self).__name__
+        if sampler is not None and not isinstance(sampler, SquashedGaussian):
+            raise TypeError(f"{name} is SAC: its policy KL compares the squashed Gaussians of two views; it takes a "
+                            f"SquashedGaussian sampler, not {type(sampler).__name__}.")
         if not callable(getattr(critic, "embed", None)):
             raise TypeError(f"{name}: the critic needs an embed(features) method giving the embedding its Q heads read "
                             "(the dynamics model's input), as vigen.models.Critic has.")
@@ -160,23 +161,26 @@ class SCPLLoss(SVEALoss):
             raise ValueError(f"{name}: quantile must be in [0, 1], got {quantile}.")
         if kl_covariance not in ("std", "variance"):
             raise ValueError(f"{name}: kl_covariance must be 'std' (SCPL's code) or 'variance', got {kl_covariance!r}.")
-        if not (isinstance(dynamics_lr, (int, float)) and math.isfinite(dynamics_lr) and dynamics_lr > 0):
-            raise ValueError(f"{name}: dynamics_lr must be a positive number, got {dynamics_lr!r}.")
+        groups = {module: {**SCPL_PARAM_GROUPS.get(module, {}), **options}
+                  for module, options in {**SCPL_PARAM_GROUPS, **(param_groups or {})}.items()}
         super().__init__(encoder, actor, critic,
-                         policy=SquashedGaussian(squash_epsilon=1e-6) if policy is None else policy,
-                         augmentation=augmentation, strong_augmentation=strong_augmentation, weak_weight=weak_weight,
-                         strong_weight=strong_weight, augment_next=True, target_encoder=target_encoder,
-                         param_groups={"dynamics": {"lr": float(dynamics_lr)}}, **kwargs)
+                         sampler=SquashedGaussian(squash_epsilon=DMCGB_SQUASH_EPSILON) if sampler is None else sampler,
+                         augmentation=default_shift(augmentation), target_encoder=target_encoder, param_groups=groups,
+                         **kwargs)
         GuidedBackprop(encoder, critic)  # fails early, with advice, when there is no nn.ReLU to guide
+        self.add_strong_view(strong_augmentation, weak_weight, strong_weight)
         self.dynamics = dynamics
         self.quantile = quantile
         self.kl_covariance = kl_covariance
-        self.dynamics_lr = float(dynamics_lr)
+        self.guided_forward: GuidedForward | None = None
         for coefficient, value in (("consistency_weight", consistency_weight), ("kl_weight", kl_weight),
                                    ("dynamics_weight", dynamics_weight)):
             self.register_coeff_buffer(coefficient, value)
 
-    prepare_compile = install_guided_forward  # a compiled update's guided pass
+    def prepare_compile(self) -> None:
+        """Install the guided pass a compiled update takes its saliency from (:class:`~vigen.losses.GuidedForward`)."""
+        if self.guided_forward is None:
+            self.guided_forward = GuidedForward(self.encoder, self.critic)
 
     @dispatch
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
@@ -188,7 +192,8 @@ class SCPLLoss(SVEALoss):
         strong_obs, strong_next_obs = pair.chunk(2, dim=1)
         target = self.critic_target(tensordict, next_obs)
         # the critic: the TD loss of both views plus λ_c· their mean Q consistency with their salient pixels
-        salient = salient_q_consistency(self, torch.cat([obs, strong_obs]), action.repeat(2, 1), self.quantile)
+        salient = salient_q_consistency(self, torch.cat([obs, strong_obs]), action.repeat(2, 1), self.quantile,
+                                        self.guided_forward)
         q1, q2 = salient.q1, salient.q2
         consistency = salient.consistency.reshape(2, size).mean(0)
         errors = squared_td_errors(q1, q2, target.repeat(2, 1)).split(size)
@@ -210,13 +215,13 @@ class SCPLLoss(SVEALoss):
         transition = 0.5 * (predicted_next - next_embedding).pow(2).mean(-1)
         rewards = tensordict.get(("next", self.tensor_keys.reward)).repeat(2, 1)
         reward = (predicted_reward - rewards).pow(2).squeeze(-1)
-        losses = {"loss_critic": loss_critic, "loss_actor": loss_actor, **self.policy.losses(log_prob, action.shape[-1]),
+        losses = {"loss_critic": loss_critic, "loss_actor": loss_actor,
                   "loss_dynamics": per_sample_mean(self.dynamics_weight * (transition + reward), views=2)}
-        metrics = {**self.policy_metrics(log_prob), "q_strong_mean": q1[size:].detach().mean(),
+        metrics = {"q_strong_mean": q1[size:].detach().mean(),
                    "mask_fraction": salient.mask.float().mean(), "consistency": consistency.detach().mean(),
                    "policy_kl": kl.detach().mean(), "transition_error": transition.detach().mean(),
                    "reward_error": reward.detach().mean()}
-        return self.output(tensordict, target, q1[:size], q2[:size], losses, metrics)
+        return self.output(tensordict, target, q1[:size], q2[:size], losses, metrics, log_prob=log_prob)
 
     def embed(self, features: Tensor) -> Tensor:
         """The online critic's embedding of encoder features (its trunk), with gradient."""

@@ -10,8 +10,8 @@ from tensordict.nn import dispatch
 from torch import nn
 
 from vigen.losses.base import ActorCriticLoss, Augmentations, default_shift, squared_td_errors
-from vigen.losses.policies import NoisyDeterministic
-from vigen.losses.saliency import GuidedBackprop, install_guided_forward, salient_q_consistency
+from vigen.losses.samplers import NoisyDeterministic, Sampler
+from vigen.losses.saliency import GuidedBackprop, GuidedForward, salient_q_consistency
 from vigen.transforms import RandomOverlay
 
 
@@ -49,27 +49,21 @@ class SGQNLoss(ActorCriticLoss):
         quantile: saliency quantile of the mask, per frame.
         consistency_weight: λ.
         attribution_augmentation: the view the head predicts from; default ``RandomOverlay()``.
-        policy: DrQ-v2's :class:`~vigen.losses.NoisyDeterministic` (its default).
+        sampler: DrQ-v2's :class:`~vigen.losses.NoisyDeterministic` (its default) or
+            :class:`~vigen.losses.SquashedGaussian`.
         augmentation: the weak view; ``"default"`` is ``RandomShift(pad=4)``.
         **kwargs: ``input_mask``, ``channels_last``, ``reduction``, ``check_finite`` (see
             :class:`~vigen.losses.ActorCriticLoss`).
 
     Examples:
-        >>> import torch
-        >>> from tensordict import TensorDict
         >>> from torchrl.objectives import SoftUpdate
+        >>> from vigen.losses import example_batch
         >>> from vigen.models import Actor, AttributionDecoder, Critic, ProjectedEncoder
         >>> encoder = ProjectedEncoder(9, image_size=84)
         >>> loss = SGQNLoss(encoder, Actor(512, 2, hidden_dim=32), Critic(512, 2, hidden_dim=32),
         ...                 AttributionDecoder(action_dim=2))
         >>> updater = SoftUpdate(loss, tau=0.01)
-        >>> pixels = torch.randint(0, 256, (4, 9, 84, 84), dtype=torch.uint8)
-        >>> batch = TensorDict({
-        ...     "pixels": pixels, "action": torch.zeros(4, 2),
-        ...     "next": {"pixels": pixels, "reward": torch.ones(4, 1),
-        ...              "done": torch.zeros(4, 1, dtype=torch.bool),
-        ...              "terminated": torch.zeros(4, 1, dtype=torch.bool)},
-        ... }, batch_size=[4])
+        >>> batch = example_batch(4)  # uint8 frame stacks [4, 9, 84, 84], actions of size 2
         >>> out = loss(batch)
         >>> round(out["mask_fraction"].item(), 2)  # the top 7 % of each frame
         0.07
@@ -85,7 +79,7 @@ class SGQNLoss(ActorCriticLoss):
         critic: nn.Module,
         decoder: nn.Module,
         *,
-        policy: NoisyDeterministic | None = None,
+        sampler: Sampler | None = None,
         augmentation: Augmentations | Literal["default"] = "default",
         quantile: float = 0.93,
         consistency_weight: float = 0.9,
@@ -94,7 +88,7 @@ class SGQNLoss(ActorCriticLoss):
     ) -> None:
         if not 0.0 <= quantile <= 1.0:
             raise ValueError(f"quantile must be in [0, 1], got {quantile}.")
-        super().__init__(encoder, actor, critic, policy=NoisyDeterministic() if policy is None else policy,
+        super().__init__(encoder, actor, critic, sampler=NoisyDeterministic() if sampler is None else sampler,
                          augmentation=default_shift(augmentation), **kwargs)
         GuidedBackprop(encoder, critic)  # fails early, with advice, when there is no nn.ReLU to guide
         self.decoder = decoder
@@ -102,8 +96,12 @@ class SGQNLoss(ActorCriticLoss):
         self.register_coeff_buffer("consistency_weight", consistency_weight)
         self.attribution_augmentation = self._augmentations(
             RandomOverlay(alpha=0.5) if attribution_augmentation is None else attribution_augmentation)
+        self.guided_forward: GuidedForward | None = None
 
-    prepare_compile = install_guided_forward  # a compiled update's guided pass
+    def prepare_compile(self) -> None:
+        """Install the guided pass a compiled update takes its saliency from (:class:`~vigen.losses.GuidedForward`)."""
+        if self.guided_forward is None:
+            self.guided_forward = GuidedForward(self.encoder, self.critic)
 
     @dispatch
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
@@ -111,9 +109,9 @@ class SGQNLoss(ActorCriticLoss):
         obs, next_obs = self.augment(batch.pixels), self.augment(batch.next_pixels)
         target = self.critic_target(tensordict, next_obs)
         # the critic: TD loss of s plus λ· the consistency of Q on s and on its salient pixels s_M (mask M)
-        salient = salient_q_consistency(self, obs, batch.action, self.quantile)
+        salient = salient_q_consistency(self, obs, batch.action, self.quantile, self.guided_forward)
         loss_critic = squared_td_errors(salient.q1, salient.q2, target) + self.consistency_weight * salient.consistency
-        loss_actor, _ = self.actor_loss(salient.features.detach())
+        loss_actor, log_prob = self.actor_loss(salient.features.detach())
         # the attribution head learns to predict M from an overlaid view of s (its gradient reaches the encoder)
         overlaid = self.augment(obs, self.attribution_augmentation)
         logits = self.decoder(self.encode(overlaid), batch.action)
@@ -121,5 +119,5 @@ class SGQNLoss(ActorCriticLoss):
         return self.output(tensordict, target, salient.q1, salient.q2,
                            {"loss_critic": loss_critic, "loss_actor": loss_actor,
                             "loss_attribution": attribution.flatten(1).mean(1)},
-                           {**self.policy_metrics(), "mask_fraction": salient.mask.float().mean(),
-                            "consistency": salient.consistency.mean()})
+                           {"mask_fraction": salient.mask.float().mean(), "consistency": salient.consistency.mean()},
+                           log_prob=log_prob)

@@ -2,17 +2,15 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any, Literal
 
 import torch
 from tensordict import TensorDictBase
 from tensordict.nn import dispatch
-from torch import Tensor, nn
+from torch import nn
 
-from vigen.losses.base import ActorCriticLoss, Augmentations, Batch, default_shift, weighted_td_errors
-from vigen.losses.policies import ActingPolicy, NoisyDeterministic
-from vigen.transforms import RandomOverlay
+from vigen.losses.base import ActorCriticLoss, Augmentations, default_shift, weighted_td_errors
+from vigen.losses.samplers import NoisyDeterministic, Sampler
 
 
 class SVEALoss(ActorCriticLoss):
@@ -27,13 +25,13 @@ class SVEALoss(ActorCriticLoss):
     encoder with gradient, batched into one pass (as DMC-GB concatenates them). The actor sees the
     weak view only; ``q_strong_mean`` logs the strong view's mean Q1.
 
-    The defaults are RL-ViGen's SVEA, on DrQ-v2's DDPG (``policy=NoisyDeterministic()``, the next
+    The defaults are RL-ViGen's SVEA, on DrQ-v2's DDPG (``sampler=NoisyDeterministic()``, the next
     observation shifted, the online encoder in the target) with the random overlay as strong
     augmentation: the blend ``0.5·x + 0.5·image`` of uint8 frames is rounded back to uint8 (the
     originals blend floats, a difference of at most half a grey level). The SVEA paper's own code is
     DMC-GB's SAC agent:
 
-        SVEALoss(encoder, actor, critic, policy=SquashedGaussian(squash_epsilon=1e-6),
+        SVEALoss(encoder, actor, critic, sampler=SquashedGaussian(squash_epsilon=DMCGB_SQUASH_EPSILON),
                  strong_augmentation=RandomConv(), augment_next=False, target_encoder=True)
 
     on DMC-GB's networks (``SharedCNN(centered=False)``, :class:`~vigen.models.GaussianActor` and
@@ -51,7 +49,7 @@ class SVEALoss(ActorCriticLoss):
 
     Args:
         encoder, actor, critic: as in :class:`~vigen.losses.DrQv2Loss` (a SAC actor returns mean and log σ).
-        policy: :class:`~vigen.losses.NoisyDeterministic` (default, DrQ-v2's) or
+        sampler: :class:`~vigen.losses.NoisyDeterministic` (default, DrQ-v2's) or
             :class:`~vigen.losses.SquashedGaussian` (DMC-GB's SAC).
         augmentation: the weak view; ``"default"`` is ``RandomShift(pad=4)``.
         strong_augmentation: applied on top of the weak view; default ``RandomOverlay(alpha=0.5)``
@@ -65,21 +63,14 @@ class SVEALoss(ActorCriticLoss):
             ``check_finite`` (see :class:`~vigen.losses.ActorCriticLoss`).
 
     Examples:
-        >>> import torch
-        >>> from tensordict import TensorDict
         >>> from torchrl.objectives import SoftUpdate
+        >>> from vigen.losses import example_batch
         >>> from vigen.models import Actor, Critic, SharedCNN
         >>> encoder = SharedCNN(9)
         >>> repr_dim = encoder.output_dim(9, 84, 84)
         >>> loss = SVEALoss(encoder, Actor(repr_dim, 2, hidden_dim=32), Critic(repr_dim, 2, hidden_dim=32))
         >>> updater = SoftUpdate(loss, tau=0.01)
-        >>> pixels = torch.randint(0, 256, (4, 9, 84, 84), dtype=torch.uint8)
-        >>> batch = TensorDict({
-        ...     "pixels": pixels, "action": torch.zeros(4, 2),
-        ...     "next": {"pixels": pixels, "reward": torch.ones(4, 1),
-        ...              "done": torch.zeros(4, 1, dtype=torch.bool),
-        ...              "terminated": torch.zeros(4, 1, dtype=torch.bool)},
-        ... }, batch_size=[4])
+        >>> batch = example_batch(4)  # uint8 frame stacks [4, 9, 84, 84], actions of size 2
         >>> out = loss(batch)
         >>> out["loss_critic"].requires_grad, out["q_strong_mean"].requires_grad
         (True, False)
@@ -94,7 +85,7 @@ class SVEALoss(ActorCriticLoss):
         actor: nn.Module,
         critic: nn.Module,
         *,
-        policy: ActingPolicy | None = None,
+        sampler: Sampler | None = None,
         augmentation: Augmentations | Literal["default"] = "default",
         strong_augmentation: Augmentations = None,
         weak_weight: float = 0.5,
@@ -103,43 +94,24 @@ class SVEALoss(ActorCriticLoss):
         target_encoder: bool = False,
         **kwargs: Any,
     ) -> None:
-        super().__init__(encoder, actor, critic, policy=NoisyDeterministic() if policy is None else policy,
+        super().__init__(encoder, actor, critic, sampler=NoisyDeterministic() if sampler is None else sampler,
                          augmentation=default_shift(augmentation), target_encoder=target_encoder, **kwargs)
-        self.strong_augmentation = self._augmentations(
-            RandomOverlay(alpha=0.5) if strong_augmentation is None else strong_augmentation)
+        self.add_strong_view(strong_augmentation, weak_weight, strong_weight)
         self.augment_next = bool(augment_next)
-        self.register_coeff_buffer("weak_weight", weak_weight)
-        self.register_coeff_buffer("strong_weight", strong_weight)
 
     @dispatch
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         batch = self.read_batch(tensordict)
-        critic = self.two_view_critic(tensordict, batch)
-        loss_actor, log_prob = self.actor_loss(critic.weak_features.detach())
-        return self.output(tensordict, critic.target, critic.q1[:batch.size], critic.q2[:batch.size],
-                           {"loss_critic": critic.loss, "loss_actor": loss_actor,
-                            **self.policy.losses(log_prob, batch.action.shape[-1])},
-                           {"q_strong_mean": critic.q1[batch.size:].detach().mean(), **self.policy_metrics(log_prob)})
-
-    def two_view_critic(self, tensordict: TensorDictBase, batch: Batch) -> TwoViewCritic:
-        """SVEA's critic step: the target of the (shifted) next view, then ``w·TD(s) + w̃·TD(strong(s))`` from one encoder pass."""
         obs = self.augment(batch.pixels)
         next_obs = self.augment(batch.next_pixels) if self.augment_next else batch.next_pixels
         target = self.critic_target(tensordict, next_obs)
-        strong = self.augment(obs, self.strong_augmentation)
-        weak_features, strong_features = self.encode_views([obs, strong])  # one encoder pass
-        q1, q2 = self.q_values(torch.cat([weak_features, strong_features]), batch.action.repeat(2, 1))
-        loss = weighted_td_errors(q1, q2, target, [self.weak_weight, self.strong_weight])
-        return TwoViewCritic(target, q1, q2, loss, weak_features, strong_features)
-
-
-@dataclass(frozen=True)
-class TwoViewCritic:
-    """SVEA's critic step: the target ``y`` ``[B, 1]``, Q of both views ``[2B, 1]`` (weak first), the per-sample loss, the features."""
-
-    target: Tensor
-    q1: Tensor
-    q2: Tensor
-    loss: Tensor
-    weak_features: Tensor
-    strong_features: Tensor
+        strong = self.augment(obs, self.strong_augmentation)  # the strong view is built on the weak one
+        # the critic: w·TD(s) + w̃·TD(s̃) against one target, both views in one encoder pass
+        features, strong_features = self.encode_views([obs, strong])
+        q1, q2 = self.q_values(torch.cat([features, strong_features]), batch.action.repeat(2, 1))
+        loss_critic = weighted_td_errors(q1, q2, target, [self.weak_weight, self.strong_weight])
+        # the actor: on the weak view's detached features
+        loss_actor, log_prob = self.actor_loss(features.detach())
+        return self.output(tensordict, target, q1[:batch.size], q2[:batch.size],
+                           {"loss_critic": loss_critic, "loss_actor": loss_actor},
+                           {"q_strong_mean": q1[batch.size:].detach().mean()}, log_prob=log_prob)

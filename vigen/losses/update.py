@@ -35,15 +35,15 @@ class UpdateStep:
     Finite-loss guard, as tensor ops: where the summed loss of an update is NaN or inf, that
     update's gradients are zeroed before the optimizer step (the parameters stay finite) and a
     counter on the device goes up. :meth:`raise_if_diverged`, called at a script's logging
-    interval, reads it (one synchronization) and raises. An eager update on the CPU, where reading
-    a value costs nothing, keeps the loss's own check instead (``check_finite``), which raises
-    inside the call and names the batch entries or parameters to blame.
+    interval, reads it (one synchronization) and raises. An eager update of a loss built with
+    ``check_finite=True`` (the default) keeps the loss's own check instead, which raises inside the
+    call and names the batch entries or parameters to blame: free on the CPU, a synchronization on
+    a GPU, so build a GPU loss with ``check_finite=False`` (:func:`~vigen.run.build_agent` does).
+    UpdateStep never changes the loss it is given.
 
     ``compile=True`` compiles the whole update with ``torch.compile(fullgraph=True, dynamic=False)`` (a
     new batch size compiles anew: shapes stay static, as a replay batch's do); it first calls
-    ``loss.prepare_compile()`` (SGQN and SCPL install the hooks of their traceable guided pass). A
-    loss whose update cannot be traced whole (``compiles_whole = False``; none of vigen's) gets its
-    forward compiled instead, with backward and the optimizer step run eagerly. Random
+    ``loss.prepare_compile()`` (SGQN and SCPL install the hooks of their traceable guided pass). Random
     draws then follow torch's global RNG in the same order as the eager update (``fallback_random``),
     so the compiled update equals the eager one within float tolerance. ``torch.compile`` cannot
     trace a ``torch.Generator``: build the loss without ``seed`` (``make_loss(..., seed=None)``) and
@@ -95,11 +95,11 @@ class UpdateStep:
     ) -> None:
         if not isinstance(loss, ActorCriticLoss):
             raise TypeError(f"UpdateStep takes a vigen ActorCriticLoss, got {type(loss).__name__}.")
-        if loss._value_estimator is None:
+        if not loss.has_value_estimator:
             raise ValueError(f"UpdateStep: {type(loss).__name__} has no value estimator; call "
                              "loss.make_value_estimator(gamma=...) first.")
         device = loss.device
-        cudagraph = compile and loss.compiles_whole and device.type == "cuda" if cudagraph is None else cudagraph
+        cudagraph = compile and device.type == "cuda" if cudagraph is None else cudagraph
         if cudagraph and device.type != "cuda":
             raise ValueError(f"UpdateStep: cudagraph=True needs a loss on CUDA; this one is on {device}.")
         if compile:
@@ -114,7 +114,7 @@ class UpdateStep:
             if not isinstance(optimizer, torch.optim.Adam):
                 raise TypeError(f"UpdateStep(compile=True) steps torch.optim.Adam or AdamW through their functional form "
                                 f"(Optimizer.step breaks the graph on purpose); got {type(optimizer).__name__}.")
-            if loss.compiles_whole and any(group.get("fused") for group in optimizer.param_groups):
+            if any(group.get("fused") for group in optimizer.param_groups):
                 raise ValueError("UpdateStep(compile=True): torch.compile does not trace a fused Adam (torch.optim.Adam(..., "
                                  "fused=True)); build it with fused=False: the compiled update fuses the step itself.")
             loss.prepare_compile()
@@ -128,18 +128,14 @@ class UpdateStep:
         self.compiled = compile
         self.cudagraph = cudagraph
         self.compile_seconds: float | None = None
-        # the loss's own finite check raises inside the call: free on the CPU, a synchronization elsewhere
-        self.guard_in_loss = device.type == "cpu" and not compile
+        # an eager loss with check_finite raises inside the call; otherwise the update guards with tensor ops
+        self.guard_in_loss = loss.check_finite and not compile
         self._diverged = torch.zeros((), dtype=torch.long, device=device)
         self._parameters = [parameter for group in optimizer.param_groups for parameter in group["params"]]
         options = {"options": {"fallback_random": True}} if backend == "inductor" else {}
-        self.whole = compile and loss.compiles_whole  # the whole update in one graph; else the loss's forward alone
-        self._forward = loss
         step = self._update
-        if self.whole:
+        if compile:  # the whole update in one graph
             step = torch.compile(_own_code(step), fullgraph=True, dynamic=False, backend=backend, mode=mode, **options)
-        elif compile:
-            self._forward = torch.compile(_own_code(loss.forward), dynamic=False, backend=backend, mode=mode, **options)
         if cudagraph:
             from tensordict.nn import CudaGraphModule
 
@@ -153,31 +149,25 @@ class UpdateStep:
         if pixels is not None and pixels.device != self.device:
             raise ValueError(f"UpdateStep: the batch is on {pixels.device} but the loss on {self.device}; move it with "
                              f"batch.to({str(self.device)!r}) (or give the replay buffer's storage device={str(self.device)!r}).")
-        check = self.loss.check_finite
-        self.loss.check_finite = check and self.guard_in_loss
         started = time.perf_counter() if self._calls < 3 and self.compiled else None
         if self.compiled and self._calls == 0:
-            if self.whole:
-                self._init_adam_state()
+            self._init_adam_state()
             for module in self.loss.modules():  # image banks load and move to the device outside the graph
                 if isinstance(module, ImageAugmentation) and pixels is not None:
                     module.prepare(pixels.shape, self.device)
-        try:
-            self.optimizer.zero_grad(set_to_none=not self.cudagraph)  # dynamo does not trace zero_grad
-            if self.whole:
-                with torch._dynamo.config.patch(trace_autograd_ops=True):  # backward() inside the graph
-                    out = self._step(batch)
-            else:
+        self.optimizer.zero_grad(set_to_none=not self.cudagraph)  # dynamo does not trace zero_grad
+        if self.compiled:
+            with torch._dynamo.config.patch(trace_autograd_ops=True):  # backward() inside the graph
                 out = self._step(batch)
-        finally:
-            self.loss.check_finite = check
+        else:
+            out = self._step(batch)
         if started is not None:  # compilation (and CUDA-graph warm-up and capture) happens in the first calls
             self.compile_seconds = (self.compile_seconds or 0.0) + time.perf_counter() - started
         self._calls += 1
         return out
 
     def _update(self, batch: TensorDictBase) -> TensorDictBase:
-        out = self._forward(batch)
+        out = self.loss(batch)
         total = sum(value for key, value in out.items() if key.startswith("loss_"))
         total.backward()
         if not self.guard_in_loss:
@@ -186,7 +176,7 @@ class UpdateStep:
             for parameter in self._parameters:
                 if parameter.grad is not None:
                     parameter.grad.copy_(torch.where(finite, parameter.grad, torch.zeros_like(parameter.grad)))
-        if self.whole:
+        if self.compiled:
             with torch.no_grad():
                 self._adam_step()
         else:

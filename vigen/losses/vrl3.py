@@ -4,24 +4,37 @@ from __future__ import annotations
 
 import math
 import numbers
+from types import MappingProxyType
 from typing import Any, Literal
 
 import torch
 from tensordict import TensorDictBase
-from tensordict.nn import TensorDictModuleBase
+from tensordict.nn import TensorDictModuleBase, dispatch
 from tensordict.utils import NestedKey
 from torch import Tensor, nn
 from torchrl.data import TensorSpec
 
-from tensordict.nn import dispatch
+from vigen.losses.base import ActorCriticLoss, Augmentations, PixelsToAction, RunningStatistics, default_shift, squared_td_errors
+from vigen.losses.samplers import NoisyDeterministic
 
-from vigen.losses.base import BATCH_NORMS, ActorCriticLoss, Augmentations, default_shift, squared_td_errors
-from vigen.losses.policies import NoisyDeterministic
+VRL3_STD = 0.01
+"""VRL3's noise std, fixed (its ``linear(0.01, 0.01, 500000)``): target, actor step and acting."""
 
-ADROIT_REWARD_SCALES = {"door": 1 / 20, "hammer": 1 / 100, "pen": 1 / 50, "relocate": 1 / 30}
+ADROIT_REWARD_SCALES = MappingProxyType({"door": 1 / 20, "hammer": 1 / 100, "pen": 1 / 50, "relocate": 1 / 30})
 """RL-ViGen's (and VRL3's) Adroit reward rescaling (``reward_rescale: true``), by task: the rewards
 VRL3's safe-Q threshold of 200 is meant for. Multiply the env's rewards by it before the loss
-(``examples/train.py --algo vrl3`` does, through ``--reward-scale``)."""
+(``examples/train.py --algo vrl3`` does, through :func:`adroit_reward_scale`, unless ``--reward-scale`` is given)."""
+
+
+def adroit_reward_scale(env: str) -> float:
+    """The factor VRL3's runs put on the rewards of the env ``<suite>/<task>``: :data:`ADROIT_REWARD_SCALES` on Adroit, else 1.
+
+    Examples:
+        >>> adroit_reward_scale("adroit/door"), adroit_reward_scale("dmc/walker-walk")
+        (0.05, 1.0)
+    """
+    suite, _, task = env.partition("/")
+    return ADROIT_REWARD_SCALES.get(task, 1.0) if suite == "adroit" else 1.0
 
 
 def safe_q_target(target: Tensor, threshold: float = 200.0, factor: float = 0.5) -> Tensor:
@@ -75,13 +88,14 @@ class VRL3Loss(ActorCriticLoss):
       ``ε ~ N(0, σ²)`` clipped to ±0.3;
     * ``loss_actor`` = −min(Q1, Q2)(h̄, tanh(u) + ε) + λ·mean_j max(|u_j| − t, 0)², with
       ``h̄ = h.detach()``, ``u`` the actor's output before its tanh at ``h̄``
-      (:func:`pretanh_penalty`; ``t`` = ``pretanh_threshold`` = 5, ``λ`` = ``pretanh_penalty`` =
+      (:func:`pretanh_penalty`; ``t`` = ``pretanh_threshold`` = 5, ``λ`` = ``pretanh_weight`` =
       0.001), through a frozen critic.
 
-    The noise std σ is fixed at 0.01 (VRL3's ``linear(0.01, 0.01, 500000)``), for the target, the
-    actor step and acting. The encoder (VRL3's small ResNet, :class:`~vigen.models.VRL3Encoder`)
-    learns from the critic loss only, at ``lr · encoder_lr_scale`` (:meth:`optimizer_groups`;
-    VRL3: 1, 0.01 for relocate). The acting policy (:meth:`make_policy`) runs the encoder's
+    The noise std σ is fixed at :data:`VRL3_STD` = 0.01 (VRL3's ``linear(0.01, 0.01, 500000)``), for
+    the target, the actor step and acting; VRL3 is DDPG, so a SAC sampler is refused. The encoder
+    (VRL3's small ResNet, :class:`~vigen.models.VRL3Encoder`) learns from the critic loss only, at
+    ``lr`` (VRL3: its ``encoder_lr_scale`` 1; 0.01 for relocate is
+    ``param_groups={"encoder": {"lr_scale": 0.01}}``, :meth:`optimizer_groups`). The acting policy (:meth:`make_policy`) runs the encoder's
     BatchNorms on their running statistics, as VRL3 acts in eval mode; the update uses the
     statistics of each batch.
 
@@ -104,23 +118,22 @@ class VRL3Loss(ActorCriticLoss):
 
     Args:
         encoder: pixels → features, e.g. :class:`~vigen.models.VRL3Encoder` (``make_loss("vrl3")``).
-        actor: features → action mean ``tanh(u)``; for the penalty the loss reads ``u`` through
-            :meth:`pre_tanh`, which takes vigen's :class:`~vigen.models.Actor` (``tanh(policy(trunk(h)))``).
+        actor: features → action mean ``tanh(u)``; for the penalty the loss reads ``u`` as
+            ``actor.policy(actor.trunk(h))``, the shape of vigen's :class:`~vigen.models.Actor`.
         critic: (features, action) → (Q1, Q2), e.g. :class:`~vigen.models.Critic`.
-        policy: DrQ-v2's :class:`~vigen.losses.NoisyDeterministic`; default VRL3's fixed std 0.01, clip 0.3.
+        sampler: DrQ-v2's :class:`~vigen.losses.NoisyDeterministic`; default VRL3's fixed std 0.01, clip 0.3.
         augmentation: the weak view; ``"default"`` is ``RandomShift(pad=4)``.
         safe_q_threshold: ``c`` of the safe target (200).
         safe_q_factor: ``ρ`` in [0, 1] (0.5); 1 turns the safe target off, 0 is a hard cap at ``c + 1``.
         pretanh_threshold: ``t`` of the penalty (5).
-        pretanh_penalty: ``λ`` (0.001); 0 turns the penalty off (and any actor works).
-        encoder_lr_scale: the encoder's learning rate over the others' (1).
-        **kwargs: ``input_mask``, ``channels_last``, ``reduction``, ``check_finite`` (see
-            :class:`~vigen.losses.ActorCriticLoss`).
+        pretanh_weight: ``λ`` (0.001); 0 turns the penalty off (and any actor works).
+        **kwargs: ``input_mask``, ``param_groups``, ``channels_last``, ``reduction``, ``check_finite``
+            (see :class:`~vigen.losses.ActorCriticLoss`).
 
     Examples:
         >>> import torch, warnings
-        >>> from tensordict import TensorDict
         >>> from torchrl.objectives import SoftUpdate
+        >>> from vigen.losses import example_batch
         >>> from vigen.models import Actor, Critic, VRL3Encoder
         >>> with warnings.catch_warnings():
         ...     warnings.simplefilter("ignore")  # no stage-1 weights: random initialisation, as RL-ViGen
@@ -130,13 +143,7 @@ class VRL3Loss(ActorCriticLoss):
         >>> loss.make_value_estimator(gamma=0.99)
         VRL3Loss(...)
         >>> updater = SoftUpdate(loss, tau=0.01)
-        >>> pixels = torch.randint(0, 256, (4, 9, 84, 84), dtype=torch.uint8)
-        >>> batch = TensorDict({
-        ...     "pixels": pixels, "action": torch.rand(4, 2) * 2 - 1,
-        ...     "next": {"pixels": pixels, "reward": torch.ones(4, 1),
-        ...              "done": torch.zeros(4, 1, dtype=torch.bool),
-        ...              "terminated": torch.zeros(4, 1, dtype=torch.bool)},
-        ... }, batch_size=[4])
+        >>> batch = example_batch(4)  # uint8 frame stacks [4, 9, 84, 84], actions of size 2
         >>> out = loss(batch)
         >>> sorted(key for key in out.keys() if key.startswith("loss_")), loss.stddev
         (['loss_actor', 'loss_critic'], 0.01)
@@ -153,43 +160,41 @@ class VRL3Loss(ActorCriticLoss):
         actor: nn.Module,
         critic: nn.Module,
         *,
-        policy: NoisyDeterministic | None = None,
+        sampler: NoisyDeterministic | None = None,
         augmentation: Augmentations | Literal["default"] = "default",
         safe_q_threshold: float = 200.0,
         safe_q_factor: float = 0.5,
         pretanh_threshold: float = 5.0,
-        pretanh_penalty: float = 1e-3,
-        encoder_lr_scale: float = 1.0,
+        pretanh_weight: float = 1e-3,
         **kwargs: Any,
     ) -> None:
         name = type(self).__name__
+        if sampler is not None and not isinstance(sampler, NoisyDeterministic):
+            raise TypeError(f"{name} is DDPG (VRL3 acts with a fixed-std noisy deterministic actor, its penalty reads the "
+                            f"actor's pre-tanh action); it takes a NoisyDeterministic sampler, not {type(sampler).__name__}.")
         for arg, value in (("safe_q_threshold", safe_q_threshold), ("pretanh_threshold", pretanh_threshold),
-                           ("pretanh_penalty", pretanh_penalty), ("encoder_lr_scale", encoder_lr_scale)):
+                           ("pretanh_weight", pretanh_weight)):
             if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
                 raise ValueError(f"{name}: {arg} must be a finite number, got {value!r}.")
         if not (isinstance(safe_q_factor, numbers.Real) and 0 <= safe_q_factor <= 1):
             raise ValueError(f"{name}: safe_q_factor must be in [0, 1] (1 turns the safe Q target off, 0 caps it at "
                              f"safe_q_threshold + 1), got {safe_q_factor!r}.")
-        for arg, value in (("pretanh_threshold", pretanh_threshold), ("pretanh_penalty", pretanh_penalty),
-                           ("encoder_lr_scale", encoder_lr_scale)):
+        for arg, value in (("pretanh_threshold", pretanh_threshold), ("pretanh_weight", pretanh_weight)):
             if value < 0:
                 raise ValueError(f"{name}: {arg} must be >= 0, got {value!r}.")
         readable = all(isinstance(getattr(actor, part, None), nn.Module) for part in ("trunk", "policy"))
-        if pretanh_penalty > 0 and type(self).pre_tanh is VRL3Loss.pre_tanh and not readable:
+        if pretanh_weight > 0 and not readable:
             raise TypeError(
                 f"{name} penalises the actor's output before its tanh, which it reads as actor.policy(actor.trunk(h)) "
                 f"(vigen.models.Actor); {type(actor).__name__} has no trunk and policy. Use vigen.models.Actor, "
-                "override VRL3Loss.pre_tanh() for your actor, or pass pretanh_penalty=0."
+                "or pass pretanh_weight=0."
             )
-        scale = float(encoder_lr_scale)
-        super().__init__(encoder, actor, critic, policy=NoisyDeterministic(std=0.01) if policy is None else policy,
-                         augmentation=default_shift(augmentation),
-                         param_groups=None if scale == 1 else {"encoder": {"lr_scale": scale}}, **kwargs)
+        super().__init__(encoder, actor, critic, sampler=NoisyDeterministic(std=VRL3_STD) if sampler is None else sampler,
+                         augmentation=default_shift(augmentation), **kwargs)
         self.safe_q_threshold = float(safe_q_threshold)
         self.safe_q_factor = float(safe_q_factor)
         self.pretanh_threshold = float(pretanh_threshold)
-        self.pretanh_penalty = float(pretanh_penalty)
-        self.encoder_lr_scale = float(encoder_lr_scale)
+        self.pretanh_weight = float(pretanh_weight)
 
     @dispatch
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
@@ -199,11 +204,12 @@ class VRL3Loss(ActorCriticLoss):
         features = self.encode(obs)
         q1, q2 = self.q_values(features, batch.action)
         # the actor: −min(Q1, Q2)(h̄, tanh(u) + ε) plus λ times the pre-tanh penalty of u
-        detached, metrics = features.detach(), self.policy_metrics()
-        if self.pretanh_penalty > 0:
-            pre_tanh = self.pre_tanh(detached)
+        detached, metrics = features.detach(), {}
+        if self.pretanh_weight > 0:
+            with self.actor_params.to_module(self.actor, preserve_module_state=False):
+                pre_tanh = self.actor.policy(self.actor.trunk(detached))  # u, the action before vigen's Actor's tanh
             loss_actor, _ = self.actor_loss(detached, actor_output=torch.tanh(pre_tanh))
-            penalty = self.pretanh_penalty * pretanh_penalty(pre_tanh, self.pretanh_threshold)
+            penalty = self.pretanh_weight * pretanh_penalty(pre_tanh, self.pretanh_threshold)
             loss_actor = loss_actor + penalty
             size = pre_tanh.detach().abs()
             metrics.update(actor_pretanh_penalty=penalty.mean(), abs_pretanh=size.mean(), max_abs_pretanh=size.max())
@@ -212,47 +218,6 @@ class VRL3Loss(ActorCriticLoss):
         return self.output(tensordict, target, q1, q2,
                            {"loss_critic": squared_td_errors(q1, q2, target), "loss_actor": loss_actor}, metrics)
 
-    def pre_tanh(self, features: Tensor) -> Tensor:
-        """The actor's output before its final tanh: ``policy(trunk(h))`` of vigen's :class:`~vigen.models.Actor`.
-
-        Override it for an actor of another shape (its forward must be ``tanh`` of this).
-        """
-        with self.actor_params.to_module(self.actor, preserve_module_state=False):
-            return self.actor.policy(self.actor.trunk(features))
-
     def make_policy(self, action_spec: TensorSpec, *, pixels_key: NestedKey = "pixels") -> TensorDictModuleBase:
-        """DrQ-v2's acting policy (:meth:`DrQv2Loss.make_policy`, σ = the loss's std), BatchNorms on running statistics."""
-        policy = super().make_policy(action_spec, pixels_key=pixels_key)
-        policy[0].module = RunningStatistics(policy[0].module)
-        return policy
-
-
-class RunningStatistics(nn.Module):
-    """Runs ``module`` with every BatchNorm in it on its running statistics, then puts them back in their mode.
-
-    VRL3 acts (and evaluates) with its agent in eval mode while its updates run in training mode;
-    a policy sharing the loss's encoder does the same through this wrapper, without touching the
-    rest of the module's mode.
-
-    Examples:
-        >>> import torch
-        >>> from torch import nn
-        >>> net = RunningStatistics(nn.Sequential(nn.Conv2d(3, 4, 3), nn.BatchNorm2d(4)))
-        >>> out = net(torch.rand(1, 3, 8, 8))
-        >>> net.module[1].training, int(net.module[1].num_batches_tracked)  # still training, stats untouched
-        (True, 0)
-    """
-
-    def __init__(self, module: nn.Module) -> None:
-        super().__init__()
-        self.module = module
-
-    def forward(self, *args: Any) -> Any:
-        norms = [m for m in self.module.modules() if isinstance(m, BATCH_NORMS) and m.training]
-        for norm in norms:
-            norm.train(False)
-        try:
-            return self.module(*args)
-        finally:
-            for norm in norms:
-                norm.train(True)
+        """DrQ-v2's acting policy (σ = the loss's std), the encoder's BatchNorms on their running statistics."""
+        return self.sampler.acting_module(RunningStatistics(PixelsToAction(self)), action_spec, pixels_key, self.device)

@@ -2,11 +2,16 @@
 
 * :class:`TrainConfig`: every setting of ``examples/train.py``, one documented field each, saved as
   the run's ``config.json``; :data:`PRESETS` (``paper``, ``cpu``) are values of it;
-  :func:`new_config` layers a preset, :func:`algo_defaults`, flags and a protocol
-  (:func:`with_protocol`); :func:`resumed_config` reads a run's ``config.json`` back;
+  :func:`new_config` layers a preset, flags and a protocol (:func:`with_protocol`);
+  :func:`resumed_config` reads a run's ``config.json`` back; settings left unset take their
+  algorithm's value when the run is built;
 * :func:`add_flags`, :func:`given_flags`: the command line generated from the config's fields;
-* :func:`build_agent`: the loss and acting policy of a config, shared by training and
-  evaluation; :func:`load_agent`: the same with a run's trained weights.
+* :func:`check_runnable`: the checks that need the simulators, losses or Ray; :func:`build_agent`:
+  the loss and acting policy of a config, shared by training and evaluation; :func:`load_agent`:
+  the same with a run's trained weights.
+
+``vigen.run.config`` imports no simulator, loss, torch or Ray module (this package loads its
+names lazily).
 
 Examples:
     >>> from dataclasses import replace
@@ -18,39 +23,28 @@ Examples:
     'SVEALoss'
 """
 
-from vigen.run.agent import Agent, TrainedAgent, build_agent, env_action_spec, explores_with_noise, load_agent
-from vigen.run.cli import add_flags, flag_name, flag_value, given_flags, setting
-from vigen.run.config import (
-    DEFAULT_FRAMES,
-    PRESETS,
-    PROTOCOL_KEYS,
-    WEIGHTS_OPTION,
-    TrainConfig,
-    algo_defaults,
-    new_config,
-    resumed_config,
-    with_protocol,
-)
+from __future__ import annotations
 
-__all__ = [
-    "DEFAULT_FRAMES",
-    "PRESETS",
-    "PROTOCOL_KEYS",
-    "WEIGHTS_OPTION",
-    "Agent",
-    "TrainConfig",
-    "TrainedAgent",
-    "add_flags",
-    "algo_defaults",
-    "build_agent",
-    "env_action_spec",
-    "explores_with_noise",
-    "flag_name",
-    "flag_value",
-    "given_flags",
-    "load_agent",
-    "new_config",
-    "resumed_config",
-    "setting",
-    "with_protocol",
-]
+import importlib
+from typing import Any
+
+_HOMES = {
+    "Agent": "agent", "TrainedAgent": "agent", "build_agent": "agent", "check_runnable": "agent",
+    "env_action_spec": "agent", "exploration_std": "agent", "load_agent": "agent",
+    "add_flags": "cli", "flag_name": "cli", "flag_value": "cli", "given_flags": "cli", "setting": "cli",
+    "DEFAULT_FRAMES": "config", "PRESETS": "config", "PROTOCOL_KEYS": "config", "TrainConfig": "config",
+    "new_config": "config", "resumed_config": "config", "with_protocol": "config",
+}
+"""Each public name → its module; a name is imported on first use, so ``vigen.run.config`` loads without torch."""
+
+__all__ = sorted(_HOMES)
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _HOMES:
+        raise AttributeError(f"module 'vigen.run' has no attribute {name!r}")
+    return getattr(importlib.import_module(f"vigen.run.{_HOMES[name]}"), name)
+
+
+def __dir__() -> list[str]:
+    return __all__

@@ -1,4 +1,8 @@
-"""The agent of a training run, built from its :class:`TrainConfig`: the loss on the paper's networks and its acting policy."""
+"""The agent of a training run, built from its :class:`TrainConfig`: the loss on the paper's networks and its acting policy.
+
+Here a config meets the simulators, the losses and Ray: :func:`check_runnable` checks what needs
+them, :func:`build_agent` fills the settings left unset from the algorithm's record.
+"""
 
 from __future__ import annotations
 
@@ -12,14 +16,16 @@ from torchrl.data import TensorSpec
 from torchrl.modules import AdditiveGaussianModule
 
 from vigen.checkpoint import CheckpointError, load_checkpoint, newest_checkpoint
-from vigen.envs import make_env
+from vigen.envs import available_envs, make_env
+from vigen.envs.levels import resolve_levels
 from vigen.losses import ALGOS, ActorCriticLoss, LinearSchedule, make_loss
-from vigen.run.config import WEIGHTS_OPTION, TrainConfig
+from vigen.ray_cluster import import_ray
+from vigen.run.config import TrainConfig
 
 
 @dataclass
 class Agent:
-    """A vigen loss and its acting policy, which shares the loss's live parameters.
+    """A vigen loss, its acting policy (which shares the loss's live parameters) and the rewards' scale of the run.
 
     Paper (exploration schedule): DrQ-v2, https://arxiv.org/abs/2107.09645.
 
@@ -34,6 +40,8 @@ class Agent:
 
     loss: ActorCriticLoss
     policy: TensorDictModuleBase
+    reward_scale: float = 1.0
+    """The factor on the rewards stored in the replay buffer: the config's, or its algorithm's (VRL3 on Adroit)."""
 
     @property
     def exploration_noise(self) -> AdditiveGaussianModule | None:
@@ -41,14 +49,57 @@ class Agent:
         return next((module for module in self.policy.modules() if isinstance(module, AdditiveGaussianModule)), None)
 
 
-def explores_with_noise(algo: str) -> bool:
-    """Whether ``algo`` acts with DrQ-v2's scheduled Gaussian noise (takes ``std``); SAC losses sample from their policy.
+def check_runnable(config: TrainConfig) -> None:
+    """Raise a ``ValueError`` naming the flag and the fix for what :meth:`TrainConfig.check` cannot see alone.
+
+    The algorithm, whether it has a pretrained encoder for ``--encoder-weights`` (and the file),
+    the env's name (with the closest matches), the evaluation levels on its suite and the Ray
+    collector's import: the checks that need the losses, the simulators' registry or Ray.
 
     Examples:
-        >>> explores_with_noise("drqv2"), explores_with_noise("drq")
-        (True, False)
+        >>> check_runnable(TrainConfig(algo="svea", encoder_weights=None))
+        >>> check_runnable(TrainConfig(algo="nope"))
+        Traceback (most recent call last):
+        ...
+        ValueError: --algo nope: no such algorithm; choose one of drqv2, svea, ...
     """
-    return ALGOS[algo].takes_std
+    if config.algo not in ALGOS:
+        raise ValueError(f"--algo {config.algo}: no such algorithm; choose one of {', '.join(ALGOS)}.")
+    if config.encoder_weights is not None and ALGOS[config.algo].encoder_weights is None:
+        pretrained = [name for name, record in ALGOS.items() if record.encoder_weights is not None]
+        raise ValueError(f"--encoder-weights: {config.algo} has no pretrained encoder; it applies to {', '.join(pretrained)}.")
+    if config.encoder_weights is not None and not Path(config.encoder_weights).expanduser().is_file():
+        raise ValueError(f"--encoder-weights {config.encoder_weights}: no such file; give the path of the weights file.")
+    if config.collector == "ray":
+        try:
+            import_ray()
+        except ImportError as error:
+            raise ValueError(f"--collector ray: {error}") from None
+    suite = config.env.split("/")[0]
+    if config.env not in available_envs(suite if "/" in config.env else None):
+        make_env(config.env)  # raises with the valid names and the closest matches
+    try:
+        resolve_levels(list(config.eval_levels), suite=suite)
+    except ValueError as error:
+        raise ValueError(f"--eval-levels: {error}") from None
+
+
+def exploration_std(config: TrainConfig) -> LinearSchedule | None:
+    """The run's exploration std: the algorithm's schedule with the config's ``std_*`` settings over it; ``None`` for SAC.
+
+    Examples:
+        >>> exploration_std(TrainConfig(algo="drqv2", std_final=0.2))
+        LinearSchedule(init=1.0, final=0.2, duration=100000)
+        >>> exploration_std(TrainConfig(algo="vrl3")).final, exploration_std(TrainConfig(algo="drq"))
+        (0.01, None)
+    """
+    record = ALGOS[config.algo]
+    if not record.takes_std:
+        return None
+    own = record.std
+    return LinearSchedule(own.init if config.std_init is None else config.std_init,
+                          own.final if config.std_final is None else config.std_final,
+                          own.duration if config.std_duration is None else config.std_duration)
 
 
 def build_agent(
@@ -60,10 +111,13 @@ def build_agent(
 ) -> Agent:
     """The run's loss (:func:`vigen.losses.make_loss`, with its value estimator) and its acting policy.
 
-    The policy explores with the config's std schedule (linear ``std_init`` → ``std_final`` over
-    ``std_duration`` agent steps) where the algorithm takes one, and is bounded by ``action_spec``.
+    The policy explores with the run's std schedule (linear ``std_init`` → ``std_final`` over
+    ``std_duration`` agent steps, each the algorithm's where the config leaves it unset,
+    :func:`exploration_std`) where the algorithm takes one, and is bounded by ``action_spec``.
     The loss's augmentations are seeded by ``config.seed`` unless the update is compiled
     (torch.compile cannot trace their own generators; they then draw from torch's global RNG).
+    The loss checks its losses are finite inside the call on the CPU only (elsewhere reading the
+    check would synchronize; :class:`~vigen.losses.UpdateStep` guards with tensor ops there).
 
     Args:
         config: the run's config, with the env's shapes recorded (``observation_shape``, ``action_dim``).
@@ -81,15 +135,20 @@ def build_agent(
     if action_spec.shape[-1] != config.action_dim:
         raise ValueError(f"build_agent: the action spec has {action_spec.shape[-1]} dimensions, the config's action_dim "
                          f"is {config.action_dim}; build the spec from the run's env ({config.env}).")
-    options = {}
-    if explores_with_noise(config.algo):
-        options["std"] = LinearSchedule(config.std_init, config.std_final, config.std_duration)
+    record = ALGOS[config.algo]
+    options: dict[str, object] = {"check_finite": torch.device(device or "cpu").type == "cpu"}
+    std = exploration_std(config)
+    if std is not None:
+        options["std"] = std
     if pretrained and config.encoder_weights is not None:
-        options[WEIGHTS_OPTION[config.algo]] = str(Path(config.encoder_weights).expanduser())
+        if record.encoder_weights is None:
+            raise ValueError(f"build_agent: {config.algo} has no pretrained encoder for encoder_weights.")
+        options[record.encoder_weights] = str(Path(config.encoder_weights).expanduser())
     loss = make_loss(config.algo, config.observation_shape, config.action_dim, feature_dim=config.feature_dim,
                      hidden_dim=config.hidden_dim, seed=None if config.compile else config.seed, device=device, **options)
     loss.make_value_estimator(gamma=config.gamma)  # its gamma is part of the saved state
-    return Agent(loss, loss.make_policy(action_spec))
+    reward_scale = record.reward_scale(config.env) if config.reward_scale is None else config.reward_scale
+    return Agent(loss, loss.make_policy(action_spec), reward_scale)
 
 
 @dataclass

@@ -1,10 +1,17 @@
 """The settings of one training run of ``examples/train.py``: :class:`TrainConfig`, its presets and its protocols.
 
 A new run's config is built in layers, each a :class:`TrainConfig` value: a preset (:data:`PRESETS`),
-the values its algorithm's paper changes (:func:`algo_defaults`), the flags, then a protocol
-(:func:`with_protocol`, which the flags override). ``config.json`` in the run folder holds the
-result (:meth:`TrainConfig.to_json`); ``--resume`` reads it back (:func:`resumed_config`), also the
-files of runs older than a setting, which then get that setting's default.
+the flags, then a protocol (:func:`with_protocol`, which the flags override). A setting left unset
+(``None``) takes its algorithm's value when the run is built (the exploration std, the rewards'
+scale: fields of the algorithm's record, :data:`vigen.losses.ALGOS`). ``config.json`` in the run
+folder holds the result (:meth:`TrainConfig.to_json`); ``--resume`` reads it back
+(:func:`resumed_config`), also the files of runs older than a setting, which then get that
+setting's default.
+
+This module imports no simulator, loss, torch or Ray module: a config can be read, checked
+(:meth:`TrainConfig.check`) and written where none of them is installed. The checks that need
+them (the env's name, the levels, Ray, the algorithm's pretrained encoder) run when the run is
+built (:func:`vigen.run.check_runnable`).
 """
 
 from __future__ import annotations
@@ -12,16 +19,10 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass, replace
-from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Literal
 
-from vigen.envs import available_envs, make_env
-from vigen.envs.levels import resolve_levels
-from vigen.losses import ALGOS
-from vigen.losses.vrl3 import ADROIT_REWARD_SCALES
 from vigen.protocols import PROTOCOLS
-from vigen.ray_cluster import import_ray
 from vigen.run.cli import flag_name, flag_value, setting
 
 DEFAULT_FRAMES = 100_000
@@ -31,8 +32,13 @@ PROTOCOL_KEYS = ("frames", "action_repeat", "frame_stack", "image_size", "episod
                  "eval_levels")
 """The settings a protocol fixes (:meth:`vigen.protocols.Protocol.settings`); flags override them."""
 
-WEIGHTS_OPTION = MappingProxyType({"pieg": "encoder_weights", "vrl3": "stage1_weights"})
-"""Algorithms with a pretrained encoder -> the :func:`vigen.losses.make_loss` option that loads ``--encoder-weights``."""
+
+
+def algorithm_names() -> list[str]:
+    """The algorithms' names (:data:`vigen.losses.ALGOS`), imported only when asked (the flags' choices)."""
+    from vigen.losses import ALGOS
+
+    return list(ALGOS)
 
 
 @dataclass(frozen=True)
@@ -57,7 +63,7 @@ class TrainConfig:
         True
     """
 
-    algo: str = setting("drqv2", "the algorithm (vigen.losses.ALGOS)", choices=lambda: ALGOS)
+    algo: str = setting("drqv2", "the algorithm (vigen.losses.ALGOS)", choices=algorithm_names)
     env: str = setting("dmc/cartpole-balance", "the task, <suite>/<task> (vigen.envs.available_envs)")
     preset: str = setting("cpu", "the base settings: paper (DrQ-v2 / RL-ViGen's) or cpu (batch 64, a 100k buffer)",
                           choices=lambda: PRESETS)
@@ -88,12 +94,15 @@ class TrainConfig:
     tau: float = setting(0.01, "target critic update rate")
     seed_frames: int = setting(4000, "frames of random actions before the first update")
     update_every: int = setting(2, "agent steps per gradient update")
-    std_duration: int = setting(100_000, "agent steps of the exploration std's linear schedule")
+    std_duration: int | None = setting(None, "agent steps of the exploration std's linear schedule",
+                                       unset="the algorithm's, DrQ-v2 100000")
     eval_every: int = setting(10_000, "frames between evaluations, each followed by a checkpoint")
     eval_episodes: int = setting(5, "episodes per evaluation level (paper preset: 10)")
-    std_init: float = setting(1.0, "exploration std at the start (losses with a SAC policy ignore it)")
-    std_final: float = setting(0.1, "exploration std at the schedule's end")
-    reward_scale: float = setting(1.0, "factor on the rewards stored in the replay buffer")
+    std_init: float | None = setting(None, "exploration std at the start (losses with a SAC sampler ignore it)",
+                                     unset="the algorithm's, DrQ-v2 1.0, VRL3 0.01")
+    std_final: float | None = setting(None, "exploration std at the schedule's end", unset="the algorithm's, DrQ-v2 0.1, VRL3 0.01")
+    reward_scale: float | None = setting(None, "factor on the rewards stored in the replay buffer",
+                                         unset="the algorithm's, 1; VRL3 on Adroit RL-ViGen's, door 1/20, hammer 1/100, pen 1/50")
     frames: int = setting(DEFAULT_FRAMES, "environment frames in all, with action repeat (a protocol sets its budget)")
     protocol_settings: Mapping[str, Any] | None = None
     """Every value the protocol fixes on the env (:meth:`vigen.protocols.Protocol.settings`)."""
@@ -134,13 +143,17 @@ class TrainConfig:
         return overridden["flag"] if overridden else (self.protocol_settings or {}).get("frames", DEFAULT_FRAMES)
 
     def check(self) -> None:
-        """Raise a ``ValueError`` naming the flag and the fix for any setting that cannot run, before anything is built."""
-        for name in ("batch_size", "buffer_size", "hidden_dim", "feature_dim", "n_step", "update_every", "std_duration",
+        """Raise a ``ValueError`` naming the flag and the fix for any setting that cannot run, before anything is built.
+
+        The settings are checked on their own here; :func:`vigen.run.check_runnable` checks what
+        needs the simulators, the losses or Ray (the env, the levels, the collector, the weights).
+        """
+        for name in ("batch_size", "buffer_size", "hidden_dim", "feature_dim", "n_step", "update_every",
                      "eval_every", "eval_episodes", "workers"):
             value = getattr(self, name)
             if not isinstance(value, int) or value < 1:
                 raise ValueError(f"{flag_name(name)} must be an integer >= 1, got {value}.")
-        for name in ("action_repeat", "frame_stack", "image_size"):
+        for name in ("action_repeat", "frame_stack", "image_size", "std_duration"):
             if getattr(self, name) is not None and getattr(self, name) < 1:
                 raise ValueError(f"{flag_name(name)} must be an integer >= 1, got {getattr(self, name)}.")
         if self.frames < 0 or self.seed_frames < 0:
@@ -150,29 +163,12 @@ class TrainConfig:
                              "the buffer could never fill one batch; raise it.")
         if not (self.lr > 0 and 0 < self.gamma <= 1 and 0 < self.tau <= 1):
             raise ValueError(f"--lr must be > 0 and --gamma, --tau in (0, 1], got {self.lr}, {self.gamma}, {self.tau}.")
-        if not (self.std_init >= 0 and self.std_final >= 0 and 0 < self.reward_scale < float("inf")):
+        stds_ok = all(std is None or std >= 0 for std in (self.std_init, self.std_final))
+        if not (stds_ok and (self.reward_scale is None or 0 < self.reward_scale < float("inf"))):
             raise ValueError(f"--std-init and --std-final must be >= 0 and --reward-scale positive, got {self.std_init}, "
                              f"{self.std_final} and {self.reward_scale}.")
-        if self.encoder_weights is not None:
-            if self.algo not in WEIGHTS_OPTION:
-                raise ValueError(f"--encoder-weights: {self.algo} has no pretrained encoder; it applies to "
-                                 f"{', '.join(WEIGHTS_OPTION)}.")
-            if not Path(self.encoder_weights).expanduser().is_file():
-                raise ValueError(f"--encoder-weights {self.encoder_weights}: no such file; give the path of the weights file.")
         if self.episode_length is not None and self.episode_length < 1:
             raise ValueError(f"--episode-length must be >= 1, got {self.episode_length}.")
-        if self.collector == "ray":
-            try:
-                import_ray()
-            except ImportError as error:
-                raise ValueError(f"--collector ray: {error}") from None
-        suite = self.env.split("/")[0]
-        if self.env not in available_envs(suite if "/" in self.env else None):
-            make_env(self.env)  # raises with the valid names and the closest matches
-        try:
-            resolve_levels(list(self.eval_levels), suite=suite)
-        except ValueError as error:
-            raise ValueError(f"--eval-levels: {error}") from None
 
 
 PRESETS: Mapping[str, TrainConfig] = MappingProxyType({
@@ -184,28 +180,10 @@ frames, an update every 2 agent steps, 10 evaluation episodes); ``cpu``: the sam
 5 evaluation episodes, to learn easy tasks on a laptop CPU."""
 
 
-def algo_defaults(algo: str, env: str) -> dict[str, float]:
-    """The preset values an algorithm's paper changes, as :class:`TrainConfig` fields.
-
-    VRL3 (RL-ViGen's Adroit setup): a fixed exploration std of 0.01 and, on Adroit, rewards rescaled
-    as its safe-Q threshold assumes (door ×1/20, hammer ×1/100, pen ×1/50). Paper: VRL3,
-    https://arxiv.org/abs/2202.10324.
-
-    Examples:
-        >>> algo_defaults("vrl3", "adroit/door")
-        {'std_init': 0.01, 'std_final': 0.01, 'reward_scale': 0.05}
-        >>> algo_defaults("svea", "dmc/walker-walk")
-        {}
-    """
-    if algo == "vrl3":
-        suite, _, task = env.partition("/")
-        scale = ADROIT_REWARD_SCALES.get(task, 1.0) if suite == "adroit" else 1.0
-        return dict(std_init=0.01, std_final=0.01, reward_scale=scale)
-    return {}
-
-
 def new_config(flags: Mapping[str, Any]) -> TrainConfig:
-    """A new run's config: the preset, its algorithm's defaults, the flags, then the protocol, which the flags override.
+    """A new run's config: the preset, the flags, then the protocol, which the flags override.
+
+    Settings left unset take their algorithm's value when the run is built (:func:`vigen.run.build_agent`).
 
     Args:
         flags: :class:`TrainConfig` fields given on the command line (or by a caller).
@@ -215,8 +193,8 @@ def new_config(flags: Mapping[str, Any]) -> TrainConfig:
 
     Examples:
         >>> config = new_config({"algo": "vrl3", "preset": "paper", "frames": 800})
-        >>> config.batch_size, config.std_init, config.frames
-        (256, 0.01, 800)
+        >>> config.batch_size, config.std_init, config.frames  # std_init: VRL3's, when the run is built
+        (256, None, 800)
         >>> new_config({"protocol": "dmcgb", "env": "dmc/walker-walk"}).action_repeat
         4
     """
@@ -224,7 +202,7 @@ def new_config(flags: Mapping[str, Any]) -> TrainConfig:
     if preset not in PRESETS:
         raise ValueError(f"--preset {preset}: no such preset; choose one of {', '.join(PRESETS)}.")
     base = PRESETS[preset]
-    config = replace(base, **{**algo_defaults(flags.get("algo", base.algo), flags.get("env", base.env)), **flags})
+    config = replace(base, **flags)
     return config if config.protocol is None else with_protocol(config, explicit=flags.keys())
 
 

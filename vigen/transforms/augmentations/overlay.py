@@ -14,6 +14,26 @@ from vigen.transforms.augmentations.base import ImageAugmentation, Params, check
 from vigen.assets.image_bank import ImageBank, check_image_folder
 
 
+def check_overlay(name: str, alpha: float, images: ImageBank | str | os.PathLike | None) -> None:
+    """Check an overlay's blend weight ``alpha`` (in [0, 1]) and its ``images`` (a bank, a folder or ``None``), naming ``name``.
+
+    Examples:
+        >>> check_overlay("RandomOverlay", 0.5, None)
+        >>> check_overlay("RandomOverlay", "/data/places", None)
+        Traceback (most recent call last):
+        ...
+        TypeError: RandomOverlay: alpha is the blend weight, got str '/data/places'; pass images='/data/places' for the overlay images.
+    """
+    if isinstance(alpha, (str, bytes, os.PathLike, ImageBank)):
+        raise TypeError(f"{name}: alpha is the blend weight, got {type(alpha).__name__} {alpha!r}; "
+                        f"pass images={alpha!r} for the overlay images.")
+    check_parameter(name, "alpha", alpha, low=0, high=1)
+    if images is not None and not isinstance(images, (ImageBank, str, os.PathLike)):
+        raise TypeError(f"{name}: images must be an ImageBank, a folder path or None, got {type(images).__name__}.")
+    if isinstance(images, (str, os.PathLike)):
+        check_image_folder(images, owner=name)
+
+
 class RandomOverlay(ImageAugmentation):
     """Blend every sample with a random image from a bank: ``(1 - α)·x + α·I`` (SVEA).
 
@@ -52,15 +72,7 @@ class RandomOverlay(ImageAugmentation):
         max_value: float | None = None,
         seed: int | None = None,
     ) -> None:
-        name = type(self).__name__
-        if isinstance(alpha, (str, bytes, os.PathLike, ImageBank)):
-            raise TypeError(f"{name}: alpha is the blend weight, got {type(alpha).__name__} {alpha!r}; "
-                            f"pass images={alpha!r} for the overlay images.")
-        check_parameter(name, "alpha", alpha, low=0, high=1)
-        if images is not None and not isinstance(images, (ImageBank, str, os.PathLike)):
-            raise TypeError(f"{name}: images must be an ImageBank, a folder path or None, got {type(images).__name__}.")
-        if isinstance(images, (str, os.PathLike)):
-            check_image_folder(images, owner=name)
+        check_overlay(type(self).__name__, alpha, images)
         super().__init__(in_keys, out_keys, max_value=max_value, seed=seed)
         self.alpha = alpha
         self._images = images

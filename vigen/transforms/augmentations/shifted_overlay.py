@@ -9,9 +9,10 @@ import torch
 from tensordict.utils import NestedKey
 from torch import Tensor
 
-from vigen.assets.image_bank import ImageBank, check_image_folder
+from vigen.assets.image_bank import ImageBank
 from vigen.transforms.augmentations import functional
 from vigen.transforms.augmentations.base import ImageAugmentation, Params, check_parameter
+from vigen.transforms.augmentations.overlay import check_overlay
 
 
 class RandomShiftedOverlay(ImageAugmentation):
@@ -73,16 +74,8 @@ class RandomShiftedOverlay(ImageAugmentation):
         max_value: float | None = None,
         seed: int | None = None,
     ) -> None:
-        name = type(self).__name__
-        if isinstance(alpha, (str, bytes, os.PathLike, ImageBank)):
-            raise TypeError(f"{name}: alpha is the blend weight, got {type(alpha).__name__} {alpha!r}; "
-                            f"pass images={alpha!r} for the overlay images.")
-        check_parameter(name, "alpha", alpha, low=0, high=1)
-        check_parameter(name, "max_shift", max_shift, low=0, integer=True)
-        if images is not None and not isinstance(images, (ImageBank, str, os.PathLike)):
-            raise TypeError(f"{name}: images must be an ImageBank, a folder path or None, got {type(images).__name__}.")
-        if isinstance(images, (str, os.PathLike)):
-            check_image_folder(images, owner=name)
+        check_overlay(type(self).__name__, alpha, images)
+        check_parameter(type(self).__name__, "max_shift", max_shift, low=0, integer=True)
         super().__init__(in_keys, out_keys, max_value=max_value, seed=seed)
         self.alpha = alpha
         self.max_shift = int(max_shift)

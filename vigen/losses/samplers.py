@@ -1,10 +1,12 @@
-"""The two acting policies of vigen's losses: DrQ-v2's noisy deterministic actor and SAC's squashed Gaussian.
+"""The two samplers of vigen's losses: DrQ-v2's noisy deterministic actor and SAC's squashed Gaussian.
 
-A loss holds one of them as ``loss.policy``. The policy says how an action is drawn from the
-actor's output inside the update, what that draw adds to the bootstrapped value and to the actor's
-objective, which extra losses and metrics it brings (SAC's temperature), and how the loss acts in
-an environment (:meth:`~vigen.losses.ActorCriticLoss.make_policy`). The update itself (one critic
-target, one TD loss, one actor loss) is written once, in :class:`~vigen.losses.ActorCriticLoss`.
+A loss holds one of them as ``loss.sampler``: how an action is drawn from the actor's output
+inside the update, what that draw adds to the bootstrapped value and to the actor's objective,
+which extra losses and metrics it brings (SAC's temperature, added by
+:meth:`~vigen.losses.ActorCriticLoss.output` for every loss), and the exploration of the acting
+policy (:meth:`~vigen.losses.ActorCriticLoss.make_policy`, a TorchRL module: in vigen "policy" is
+always that acting module). The update itself (one critic target, one TD loss, one actor loss) is
+written once, in :class:`~vigen.losses.ActorCriticLoss`.
 """
 
 from __future__ import annotations
@@ -24,9 +26,16 @@ from vigen.losses.schedule import LinearSchedule
 
 ActorOutput = Tensor | tuple[Tensor, ...]
 
+DRQV2_STD = LinearSchedule(1.0, 0.1, 100_000)
+"""DrQ-v2's exploration and target-noise std, ``linear(1.0, 0.1, 100000)`` of agent steps (its easy tasks)."""
+DRQV2_CLIP = 0.3
+"""DrQ-v2's clip of the target and actor-step noise (``stddev_clip``)."""
+DMCGB_SQUASH_EPSILON = 1e-6
+"""The ε of SAC-AE / DMC-GB's ``log(relu(1 − tanh(u)²) + ε)`` (SVEA's, MaDi's, SimGRL's and SCPL's code)."""
+
 
 class NoisyDeterministic(nn.Module):
-    """DrQ-v2's policy: the actor's action ``μ(h)`` plus clipped Gaussian noise of a scheduled std (DDPG).
+    """DrQ-v2's sampler: the actor's action ``μ(h)`` plus clipped Gaussian noise of a scheduled std (DDPG).
 
     * inside the update, ``a = μ(h) + clip(ε·σ, −c, c)`` with the straight-through clamp of
       :func:`~vigen.losses.clipped_normal_sample`, ``σ`` the schedule at the loss's step;
@@ -44,17 +53,16 @@ class NoisyDeterministic(nn.Module):
 
     Examples:
         >>> import torch
-        >>> policy = NoisyDeterministic(std=0.2)
-        >>> action, log_prob = policy.sample(torch.zeros(1000, 2), step=torch.tensor(0))
+        >>> sampler = NoisyDeterministic(std=0.2)
+        >>> action, log_prob = sampler.sample(torch.zeros(1000, 2), step=torch.tensor(0))
         >>> round(float(action.abs().max()), 4), log_prob  # the noise is clipped at 0.3
         (0.3, None)
     """
 
-    samples_actions = False
     out_keys = ("std",)
-    """Whether the actor's output is a distribution to sample (SAC) rather than an action (DDPG); ``std`` applies when not."""
+    """The metrics it adds to a loss's output."""
 
-    def __init__(self, std: float | LinearSchedule = LinearSchedule(1.0, 0.1, 100_000), clip: float | None = 0.3) -> None:
+    def __init__(self, std: float | LinearSchedule = DRQV2_STD, clip: float | None = DRQV2_CLIP) -> None:
         super().__init__()
         if not isinstance(std, LinearSchedule) and not (isinstance(std, (int, float)) and std >= 0):
             raise ValueError(f"std must be a number >= 0 or a LinearSchedule, got {std!r}.")
@@ -86,7 +94,7 @@ class NoisyDeterministic(nn.Module):
         return -q
 
     def losses(self, log_prob: Tensor | None, action_dim: int) -> dict[str, Tensor]:
-        """Extra ``loss_*`` terms of the policy: none."""
+        """Extra ``loss_*`` terms of the sampler: none."""
         return {}
 
     def metrics(self, step: Tensor, log_prob: Tensor | None) -> dict[str, Tensor]:
@@ -109,7 +117,7 @@ class NoisyDeterministic(nn.Module):
 
 
 class SquashedGaussian(nn.Module):
-    """SAC's policy: a tanh-squashed Gaussian with a learned temperature α.
+    """SAC's sampler: a tanh-squashed Gaussian with a learned temperature α.
 
     With ``(ã, log π) ~ π(h)`` a reparameterised sample (the actor returns the mean and log σ, e.g.
     :class:`~vigen.models.GaussianActor`):
@@ -127,19 +135,19 @@ class SquashedGaussian(nn.Module):
         init_temperature: initial α (DrQ, DMC-GB2: 0.1).
         target_entropy: ``"auto"`` for ``−action_dim``, or a number.
         squash_epsilon: ``None`` for DrQ's stable ``log(1 − tanh(u)²)``; a number ε for the SAC-AE /
-            DMC-GB form ``log(relu(1 − tanh(u)²) + ε)`` (1e-6 there), see
+            DMC-GB form ``log(relu(1 − tanh(u)²) + ε)`` (:data:`DMCGB_SQUASH_EPSILON` there), see
             :func:`~vigen.losses.squashed_normal_sample`.
 
     Examples:
         >>> import torch
-        >>> policy = SquashedGaussian(init_temperature=0.1)
-        >>> action, log_prob = policy.sample((torch.zeros(4, 2), torch.zeros(4, 2)), step=torch.tensor(0))
-        >>> round(float(policy.alpha.detach()), 3), sorted(policy.losses(log_prob, action_dim=2))
+        >>> sampler = SquashedGaussian(init_temperature=0.1)
+        >>> action, log_prob = sampler.sample((torch.zeros(4, 2), torch.zeros(4, 2)), step=torch.tensor(0))
+        >>> round(float(sampler.alpha.detach()), 3), sorted(sampler.losses(log_prob, action_dim=2))
         (0.1, ['loss_alpha'])
     """
 
-    samples_actions = True
     out_keys = ("loss_alpha", "alpha", "entropy")
+    """The loss and metrics it adds to a loss's output."""
 
     def __init__(
         self,
@@ -153,7 +161,8 @@ class SquashedGaussian(nn.Module):
         if not (target_entropy == "auto" or isinstance(target_entropy, (int, float))):
             raise ValueError(f"target_entropy must be 'auto' (−action_dim) or a number, got {target_entropy!r}.")
         if squash_epsilon is not None and not (isinstance(squash_epsilon, (int, float)) and squash_epsilon > 0):
-            raise ValueError(f"squash_epsilon must be None or a positive number (DMC-GB: 1e-6), got {squash_epsilon!r}.")
+            raise ValueError(f"squash_epsilon must be None or a positive number (DMC-GB: {DMCGB_SQUASH_EPSILON}), "
+                             f"got {squash_epsilon!r}.")
         self.log_alpha = nn.Parameter(torch.tensor(math.log(init_temperature)))
         self.target_entropy = target_entropy
         self.squash_epsilon = None if squash_epsilon is None else float(squash_epsilon)
@@ -204,7 +213,8 @@ class SquashedGaussian(nn.Module):
         return f"target_entropy={self.target_entropy!r}, squash_epsilon={self.squash_epsilon}"
 
 
-ActingPolicy = NoisyDeterministic | SquashedGaussian
+Sampler = NoisyDeterministic | SquashedGaussian
+"""How a loss draws actions: :class:`NoisyDeterministic` (DDPG) or :class:`SquashedGaussian` (SAC)."""
 
 
 class _LocScale(nn.Module):
