@@ -154,12 +154,14 @@ def test_a_folder_given_as_the_video_index_is_refused_at_build_with_the_fix():
     from vigen.envs import make_env
 
     with pytest.raises(TypeError, match=r"video is the index of the one video to play.*level_options=\{'videos': 'x'\}"):
+        make_env("dmc/walker-walk", generalization="dcs_static_0.1", level_options={"video": "x"})
+    with pytest.raises(ValueError, match=r"'video' do nothing at level 'video_hard'"):  # DMC-GB's order plays every video
         make_env("dmc/walker-walk", generalization="video_hard", level_options={"video": "x"})
 
 
 def test_level_options_the_level_would_drop_are_refused_before_building(no_simulator):
     """A palette on a video level (or a video folder on the train level) did nothing, silently."""
-    with pytest.raises(ValueError, match=r"'palette' do nothing at level 'video_easy'.*\(VideoBackground\).*color_easy"):
+    with pytest.raises(ValueError, match=r"'palette' do nothing at level 'video_easy'.*\(DMCGB2VideoBackground\).*color_easy"):
         make_env("dmc/walker-walk", generalization="video_easy", level_options={"palette": "/data/palette.npy"})
     with pytest.raises(ValueError, match=r"'videos' do nothing at level 'train'.*take no options.*video_easy"):
         make_env("dmc/walker-walk", level_options={"videos": "/data/davis"})

@@ -253,9 +253,6 @@ def compare(
     if missing:
         raise KeyError(f"rows lack the column(s) {missing}; pass the rows of vigen.evaluation.evaluate with method tags.")
     protocol = get_protocol(protocol)
-    stand_ins = {(str(row["level"]), str(row.get("data", ""))) for row in rows if _is_true(row.get("stand_in"))}
-    if stand_ins and not allow_stand_ins:
-        raise StandInRows(sorted(stand_ins))
     sources = [source] if isinstance(source, str) else list(source)
     candidates = published(source=sources, unit=VALUE_UNITS[value], statistic=["mean", "seed"])
     if not candidates:
@@ -270,6 +267,9 @@ def compare(
                 if any(others.values()) else
                 f"Train with the settings of protocol {protocol.name} (examples/train.py --protocol {protocol.name}).")
         raise ProtocolMismatch(differences, hint)
+    stand_ins = {(str(row["level"]), str(row.get("data", ""))) for row in rows if _is_true(row.get("stand_in"))}
+    if stand_ins and not allow_stand_ins:  # after the protocol: a run under another protocol is refused for that first
+        raise StandInRows(sorted(stand_ins))
 
     cells: dict[tuple, list[PublishedScore]] = defaultdict(list)
     for row in candidates:
