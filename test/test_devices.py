@@ -7,6 +7,7 @@ import torch
 from tensordict import TensorDict
 from torchrl.data import Bounded
 
+from vigen.devices import accelerator_paths, host_reads_are_free
 from vigen.evaluation import evaluate
 from vigen.losses import make_loss
 from vigen.rendering import RenderSettings
@@ -60,3 +61,33 @@ def test_evaluation_builds_its_envs_on_the_device(device):
     random = evaluate(None, "dmc/cartpole-balance", "train", episodes=1, max_steps=5, device=device,
                       env_options={"image_size": 16, "render_settings": RenderSettings.fast()})
     assert [row["length"] for row in random] == [5], "the random baseline's draws go to the env's device"
+
+
+def test_host_reads_are_free_on_cpu_tensors_only_and_not_on_the_accelerator_paths():
+    assert host_reads_are_free(torch.zeros(2)) and host_reads_are_free(torch.device("cpu"))
+    assert not host_reads_are_free(torch.device("cuda")) and not host_reads_are_free(torch.device("meta"))
+    with accelerator_paths():
+        assert not host_reads_are_free(torch.zeros(2))
+    assert host_reads_are_free(torch.zeros(2)), "the paths end with the block"
+
+
+def test_the_host_sync_detector_catches_what_a_gpu_would_wait_for_and_nothing_else(no_host_sync):
+    """The CPU stand-in for CUDA's sync debug mode (test/conftest.py) that the update's no-sync tests rely on."""
+    x = torch.rand(8)
+    synchronizing = {
+        "bool of a tensor": lambda: bool(x.sum() > 0), "a Python if": lambda: 1 if x.max() > 2 else 0,
+        ".item()": lambda: x.sum().item(), "int()": lambda: int(x.argmax()), ".tolist()": lambda: x.tolist(),
+        "a mask index": lambda: x[x > 0.5], "a mask assignment": lambda: x.clone().__setitem__(x > 0.5, 0.0),
+        "nonzero": lambda: torch.nonzero(x), "one-argument where": lambda: torch.where(x > 0.5),
+        "the loss's old finite check": lambda: torch.isfinite(torch.cat([x, x])).all() and None,
+        ".cpu()": lambda: x.cpu(), "tensor repeats": lambda: x.repeat_interleave(torch.ones(8, dtype=torch.long)),
+    }
+    for what, call in synchronizing.items():
+        with no_host_sync(), pytest.raises(AssertionError, match="host synchronization"):
+            call()
+    with no_host_sync():
+        torch.where(x > 0.5, x, torch.zeros_like(x))  # selection by tensor ops
+        x[torch.arange(4)]  # an integer index: its size is known
+        x.repeat_interleave(3)
+        rank = torch.tensor(0.93) * 7  # made on the host (no device=): a host tensor on a GPU machine too
+        assert int(rank) == 6 and float(rank - int(rank)) > 0

@@ -1,8 +1,14 @@
-"""One device for a whole run: ``--device auto|cpu|cuda|cuda:N|mps``, checked before anything is built."""
+"""One device for a whole run: ``--device auto|cpu|cuda|cuda:N|mps``, checked before anything is built; where reading
+a tensor's values back to Python is free (:func:`host_reads_are_free`)."""
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
+from collections.abc import Iterator
+
 import torch
+from torch import Tensor
 
 DEVICE_CHOICES = "auto, cpu, cuda, cuda:N or mps"
 
@@ -47,3 +53,47 @@ def resolve_device(name: str | torch.device = "auto") -> torch.device:
             raise ValueError("device 'mps': this machine has no Apple-silicon GPU; use --device cpu or auto.")
         return device
     raise ValueError(f"device {str(device)!r}: vigen runs on {DEVICE_CHOICES}.")
+
+
+_ACCELERATOR_PATHS: contextvars.ContextVar[bool] = contextvars.ContextVar("vigen_accelerator_paths", default=False)
+
+
+def host_reads_are_free(where: Tensor | torch.device) -> bool:
+    """Whether reading a tensor's values back to Python costs nothing here: a CPU tensor, outside ``torch.compile``.
+
+    ``.item()``, ``bool(tensor)``, a Python ``if`` on a tensor or a boolean-mask index read values
+    back to the host. On the CPU that is free; on an accelerator it waits for every queued kernel
+    (a host synchronization), and ``torch.compile`` cannot trace it. vigen's checks that read
+    values (float-pixel ranges, a non-finite loss raised at once) and its shortcuts that branch on
+    values (skipping work that a batch does not need) run only where this is ``True``; elsewhere
+    they are left out or done with tensor ops. :func:`accelerator_paths` makes it ``False``
+    everywhere, so a CPU test can run the accelerator's code.
+
+    Examples:
+        >>> import torch
+        >>> host_reads_are_free(torch.zeros(2)), host_reads_are_free(torch.device("cuda"))
+        (True, False)
+        >>> with accelerator_paths():
+        ...     host_reads_are_free(torch.zeros(2))
+        False
+    """
+    if torch.compiler.is_compiling():
+        return False
+    device = where.device if isinstance(where, Tensor) else torch.device(where)
+    return device.type == "cpu" and not _ACCELERATOR_PATHS.get()
+
+
+@contextlib.contextmanager
+def accelerator_paths() -> Iterator[None]:
+    """Within it, vigen takes the code paths it takes on an accelerator, on any device (:func:`host_reads_are_free` is ``False``).
+
+    For tests: a CPU run of an update under it, with a check that no value is read back to the
+    host, proves the GPU's update free of host synchronizations on a machine without a GPU.
+    Objects that decide once, when they are built (:class:`~vigen.losses.UpdateStep`'s guard),
+    must be built inside it.
+    """
+    token = _ACCELERATOR_PATHS.set(True)
+    try:
+        yield
+    finally:
+        _ACCELERATOR_PATHS.reset(token)

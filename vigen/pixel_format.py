@@ -28,6 +28,8 @@ import math
 import torch
 from torch import Tensor
 
+from vigen.devices import host_reads_are_free
+
 PIXEL_DTYPES = (torch.uint8, torch.float16, torch.bfloat16, torch.float32, torch.float64)
 RGB_CHANNELS = 3
 # how far above max_value a float pixel may be before the scale is judged wrong (rounding slack)
@@ -144,15 +146,17 @@ def check_pixels(
 
     The value scan reads a number back from the tensor's device: on an accelerator that is a host
     synchronization, and ``torch.compile`` cannot trace it. So it never runs while compiling, and
-    by default (``scan=None``) only on CPU tensors; ``scan=True`` scans on any device (a loss
-    scans its batch so), ``scan=False`` checks the layout only.
+    by default (``scan=None``) only where reading values back is free
+    (:func:`~vigen.devices.host_reads_are_free`: CPU tensors); ``scan=True`` scans on any device
+    outside ``torch.compile`` (a loss scans its first float batch so), ``scan=False`` checks the
+    layout only.
 
     Args:
         images: ``[..., C, H, W]`` pixels.
         name: who checks (a class name), put at the start of the message.
         max_value: the declared white of float pixels (``None``: 1.0); uint8 is always 0–255.
         rgb: the caller needs RGB frame stacks, ``C = 3·k``.
-        scan: look at the float values (``None``: on CPU tensors only; never while compiling).
+        scan: look at the float values (``None``: where host reads are free; never while compiling).
         needs_scale: the caller's math assumes that ``max_value`` is white, so float values above
             it are refused; ``False`` (shifts, crops, rotations, zero fills) takes any float range.
 
@@ -169,7 +173,7 @@ def check_pixels(
         raise TypeError(f"{name} takes pixels as a torch.Tensor, got {type(images).__name__}.")
     check_pixel_layout(images.shape, images.dtype, name=name, max_value=max_value, rgb=rgb)
     if scan is None:
-        scan = images.device.type == "cpu"
+        scan = host_reads_are_free(images)
     if scan and images.dtype.is_floating_point and images.numel() and not torch.compiler.is_compiling():
         white = white_value(images, max_value)
         peak = float(images.detach().amax())

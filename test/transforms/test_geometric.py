@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
 
 import pytest
@@ -20,6 +21,7 @@ from vigen.transforms import (
     RandomShift,
     dmcgb2_strong_augmentation,
 )
+from vigen.devices import accelerator_paths
 from vigen.transforms.augmentations import functional
 
 SIZE = 20
@@ -134,11 +136,15 @@ def test_a_chain_applies_its_members_in_order_with_their_draws():
     assert repr(fresh[0]) == "AugmentationChain([RandomRotate(degrees=180), RandomShift(pad=3)], in_keys=['pixels'], seed=0)"
 
 
-def test_a_choice_gives_each_sample_its_members_output():
+@pytest.mark.parametrize("path", ["cpu", "accelerator"])
+def test_a_choice_gives_each_sample_its_members_output(path):
+    """On the CPU a member augments the samples that chose it; on an accelerator's path every member augments the batch
+    and each sample keeps its own member's output (no mask index): either way, sample i is its member's image of x[i]."""
     x = pixels(batch=12)
     choice = RandomChoice([RandomRotate(), RandomConv(), RandomShift(pad=2)], seed=0)
     params = choice.make_params(x)
-    out = choice.apply(x, params)
+    with accelerator_paths() if path == "accelerator" else contextlib.nullcontext():
+        out = choice.apply(x, params)
     for i in range(12):
         member = choice.members[int(params["choice"][i])]
         index = int(params["choice"][i])
@@ -151,6 +157,24 @@ def test_a_choice_draws_its_members_uniformly():
     choice = RandomChoice([RandomRotate(), RandomShift(pad=1), RandomConv()], seed=0).make_params(x)["choice"]
     counts = torch.bincount(choice, minlength=3).float() / 6000
     assert torch.all((counts - 1 / 3).abs() < 0.03)  # 5 standard errors
+
+
+@pytest.mark.parametrize("dtype", [torch.uint8, torch.float32])
+def test_dmcgb2_all_choice_never_reads_a_value_back_on_an_accelerator_and_gives_the_cpu_s_images(dtype, no_host_sync):
+    """SADA's DMC-GB2 "all" choice (six members) on an accelerator's path: no torch call reads a value back to the host
+    (the boolean-mask selection did, a synchronization per member on a GPU), and the images equal the CPU path's."""
+    x = pixels(batch=24, size=84, seed=3)
+    x = x if dtype == torch.uint8 else x.float() / 255
+    choice = dmcgb2_strong_augmentation("all", seed=0)
+    choice.prepare(x.shape, x.device)  # the overlay's image bank loads once, outside the update (as UpdateStep does)
+    params = choice.make_params(x)
+    assert set(params["choice"].tolist()) == set(range(6)), "every member chosen by some sample"
+    expected = choice.apply(x, params)
+    with no_host_sync():
+        out = choice.apply(x, params)
+        fresh = choice(pixels=x)  # drawing and applying together
+    assert torch.equal(out, expected)
+    assert fresh.shape == x.shape and fresh.dtype == dtype
 
 
 def test_composite_seed_and_max_value_reach_the_members():

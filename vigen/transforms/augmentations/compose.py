@@ -4,9 +4,11 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 
+import torch
 from tensordict.utils import NestedKey
 from torch import Tensor, nn
 
+from vigen.devices import host_reads_are_free
 from vigen.seeding import derive_seed
 from vigen.transforms.augmentations.base import ImageAugmentation, Params
 
@@ -119,8 +121,14 @@ class RandomChoice(_Composite):
 
     Each sample draws a member index, and every member draws its parameters for every sample
     (cheap: a few numbers each), so the parameters stay per sample and a draw replays or slices
-    like any augmentation's; a member augments only the samples that chose it. DMC-GB2 trains SADA with its ``all`` choice of six augmentations
+    like any augmentation's. DMC-GB2 trains SADA with its ``all`` choice of six augmentations
     (see :func:`~vigen.transforms.dmcgb2_strong_augmentation`).
+
+    On the CPU a member augments only the samples that chose it. Picking them out reads the
+    choice back to the host, which on an accelerator is a synchronization and under
+    ``torch.compile`` a data-dependent shape, so there (:func:`~vigen.devices.host_reads_are_free`
+    is ``False``) every member augments the whole batch and each sample keeps its own member's
+    result (``torch.where``): the same images, with no synchronization, for K members' work.
 
     Paper: DMC-GB2 / SADA, https://arxiv.org/abs/2405.17416.
 
@@ -143,12 +151,21 @@ class RandomChoice(_Composite):
         return {"choice": choice, **_flatten(member.make_params(images) for member in self.members)}
 
     def apply(self, images: Tensor, params: Params) -> Tensor:
-        out = images.clone()
+        choice = params["choice"]
+        if host_reads_are_free(choice):  # a member augments only the samples that chose it (a mask index reads values)
+            out = images.clone()
+            for index, member in enumerate(self.members):
+                selected = choice == index
+                if selected.any():
+                    own = {key: value[selected] for key, value in _member_params(params, index).items()}
+                    out[selected] = member.apply(images[selected], own)
+            return out
+        # on an accelerator and under torch.compile: every member augments every sample, and each sample keeps its
+        # own member's result; the same output, with no host synchronization and static shapes, for K times the work
+        out = images
         for index, member in enumerate(self.members):
-            selected = params["choice"] == index
-            if selected.any():
-                own = {key: value[selected] for key, value in _member_params(params, index).items()}
-                out[selected] = member.apply(images[selected], own)
+            selected = (choice == index).reshape(-1, *(1,) * (images.ndim - 1))
+            out = torch.where(selected, member.apply(images, _member_params(params, index)), out)
         return out
 
 

@@ -10,6 +10,7 @@ from tensordict.utils import NestedKey
 from torch import Tensor
 
 from vigen.assets.image_bank import ImageBank
+from vigen.devices import host_reads_are_free
 from vigen.transforms.augmentations import functional
 from vigen.transforms.augmentations.base import ImageAugmentation, Params, check_parameter
 from vigen.transforms.augmentations.overlay import check_overlay
@@ -102,8 +103,7 @@ class RandomShiftedOverlay(ImageAugmentation):
         n, channels, height, width = images.shape
         frames = channels // functional.FRAME_CHANNELS
         shift = params["shift"].long().to(images.device)
-        if shift.numel() and shift.device.type == "cpu" and not torch.compiler.is_compiling() \
-                and int(shift.abs().max()) > self.max_shift:  # a check that would synchronize is left out on accelerators
+        if shift.numel() and host_reads_are_free(shift) and int(shift.abs().max()) > self.max_shift:  # a check that would synchronize is left out on accelerators
             raise ValueError(f"{type(self).__name__}: shifts reach {int(shift.abs().max())} pixels, above "
                              f"max_shift={self.max_shift}; draw them with make_params() or raise max_shift.")
         pad = frames * self.max_shift
