@@ -82,10 +82,10 @@ from torchrl.objectives import SoftUpdate
 from torchrl.record.loggers import get_logger
 from tqdm import tqdm
 
-from vigen.checkpoint import (CheckpointError, ReplayJournal, checkpoint_path, generator_states, multistep_state,
-                              newest_checkpoint, random_states, remove_temporary_files, replay_state, restore_replay,
-                              save_checkpoint, set_generator_states, set_multistep_state, set_random_states,
-                              truncate_csv_logs)
+from vigen.checkpoint import (CheckpointError, ReplayJournal, checkpoint_path, generator_states, load_optimizer_state,
+                              multistep_state, newest_checkpoint, random_states, remove_temporary_files, replay_state,
+                              restore_replay, save_checkpoint, set_generator_states, set_multistep_state,
+                              set_random_states, truncate_csv_logs)
 from vigen.devices import resolve_device
 from vigen.envs import make_env
 from vigen.evaluation import evaluate
@@ -267,7 +267,7 @@ class Training:
             print(f"removed {leftover.name}, left by a run killed while writing a checkpoint", file=sys.stderr)
         print(f"resuming from {path.name}", flush=True)
         self.agent.loss.load_state_dict(checkpoint["loss"])
-        self.update.optimizer.load_state_dict(checkpoint["optimizer"])
+        load_optimizer_state(self.update.optimizer, checkpoint["optimizer"])  # this run's device flags, the file's moments
         self.agent.policy.load_state_dict(checkpoint["policy"])
         set_generator_states(self.agent.loss, checkpoint["generators"])
         set_random_states(checkpoint["random"])

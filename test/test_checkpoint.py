@@ -10,8 +10,8 @@ import torch
 from tensordict import TensorDict
 from torchrl.data import LazyMemmapStorage, TensorDictReplayBuffer
 
-from vigen.checkpoint import (CheckpointError, ReplayJournal, load_checkpoint, newest_checkpoint, replay_state,
-                              restore_replay, save_checkpoint, truncate_csv_logs)
+from vigen.checkpoint import (CheckpointError, ReplayJournal, load_checkpoint, load_optimizer_state, newest_checkpoint,
+                              replay_state, restore_replay, save_checkpoint, truncate_csv_logs)
 from vigen.io import atomic_write
 
 
@@ -139,3 +139,32 @@ def test_generator_states_of_a_gpu_run_load_on_a_cpu_only_machine():
         assert model[0].generator_devices() == [torch.device("cpu")]
     with pytest.raises(KeyError, match="not a seeded augmentation"):
         set_generator_states(model, {"1@cuda:0": torch.zeros(16, dtype=torch.uint8)})
+
+
+@pytest.mark.parametrize("saved_flags, run_flags", [
+    ({"fused": False, "capturable": False}, {"fused": False, "capturable": True}),  # compiled on a CPU, resumed on CUDA
+    ({"fused": True, "capturable": False}, {"fused": False, "capturable": False}),  # eager (fused Adam), resumed compiled
+    ({"fused": False, "capturable": True}, {"fused": True, "capturable": False}),   # a CUDA graph's, resumed eager
+])
+def test_a_resumed_optimizer_keeps_this_run_s_flags_and_the_file_s_state(tmp_path, saved_flags, run_flags):
+    """Optimizer.load_state_dict would bring back the saving run's capturable/fused flags (a non-capturable Adam under
+    a CUDA graph); load_optimizer_state keeps the resumed run's and takes the moments and hyper-parameters from the file."""
+    weights = [torch.nn.Parameter(torch.randn(3, 2)), torch.nn.Parameter(torch.randn(2))]
+    saved = torch.optim.Adam(weights, lr=0.01, betas=(0.8, 0.99), **({"fused": True} if saved_flags["fused"] else {}))
+    for _ in range(3):
+        for weight in weights:
+            weight.grad = torch.randn_like(weight)
+        saved.step()
+    saved.param_groups[0]["capturable"] = saved_flags["capturable"]  # as a CUDA graph's run records it (no CPU step)
+    path = save_checkpoint(tmp_path / "frames_10.pt", {"optimizer": saved.state_dict()})
+    resumed = torch.optim.Adam(weights, lr=1.0, **({"fused": True} if run_flags["fused"] else {}),
+                               capturable=run_flags["capturable"])
+    load_optimizer_state(resumed, load_checkpoint(path)["optimizer"])
+    group = resumed.param_groups[0]
+    assert {key: bool(group[key]) for key in run_flags} == run_flags, "the flags are this run's"
+    assert group["lr"] == 0.01 and group["betas"] == (0.8, 0.99), "the hyper-parameters are the file's"
+    for weight in weights:
+        state, reference = resumed.state[weight], saved.state[weight]
+        assert torch.equal(state["exp_avg"], reference["exp_avg"]) and torch.equal(state["exp_avg_sq"], reference["exp_avg_sq"])
+        assert state["step"].dtype == torch.float32 and float(state["step"]) == 3.0
+        assert state["step"].device == (weight.device if run_flags["fused"] or run_flags["capturable"] else torch.device("cpu"))

@@ -309,6 +309,47 @@ def set_generator_states(module: nn.Module, states: dict[str, Tensor]) -> None:
             augmentation.generator(torch.device(device)).set_state(state)
 
 
+RUN_FLAGS = ("capturable", "fused", "foreach", "differentiable")
+"""An optimizer group's options that belong to the run (its device, and whether its update is compiled or captured as
+a CUDA graph), not to the training state: :func:`load_optimizer_state` keeps the current run's."""
+
+
+def load_optimizer_state(optimizer: torch.optim.Optimizer, state: dict[str, Any]) -> None:
+    """Load a saved ``optimizer.state_dict()`` into ``optimizer``, keeping this run's :data:`RUN_FLAGS`.
+
+    ``Optimizer.load_state_dict`` takes every group option from the file, so a run resumed on
+    another device or with another ``--compile`` choice would get the flags of the run that saved
+    it: a compiled CPU run resumed on CUDA would bring back a non-capturable Adam for a CUDA graph
+    (``capturable=False``), an eager CPU run resumed compiled a fused one that ``torch.compile``
+    cannot trace. Here the moments and the hyper-parameters (lr, betas, eps, weight decay, ...)
+    come from the file and the flags stay the ones ``optimizer`` was built with; each step count
+    moves where those flags keep it (on the parameter's device for a capturable or fused Adam, on
+    the CPU otherwise).
+
+    Examples:
+        >>> import torch
+        >>> from vigen.checkpoint import load_optimizer_state
+        >>> weight = torch.nn.Parameter(torch.ones(2))
+        >>> saved = torch.optim.Adam([weight], lr=0.1, fused=True)
+        >>> weight.grad = torch.ones(2)
+        >>> saved.step()
+        >>> resumed = torch.optim.Adam([weight], lr=0.5, fused=False)
+        >>> load_optimizer_state(resumed, saved.state_dict())
+        >>> resumed.param_groups[0]["lr"], resumed.param_groups[0]["fused"], resumed.state[weight]["step"]
+        (0.1, False, tensor(1.))
+    """
+    flags = [{key: group[key] for key in RUN_FLAGS if key in group} for group in optimizer.param_groups]
+    optimizer.load_state_dict(state)
+    for group, own in zip(optimizer.param_groups, flags):
+        group.update(own)
+        on_device = bool(group.get("capturable")) or bool(group.get("fused"))
+        for parameter in group["params"]:
+            step = optimizer.state.get(parameter, {}).get("step")
+            if isinstance(step, Tensor):
+                optimizer.state[parameter]["step"] = step.to(device=parameter.device if on_device else "cpu",
+                                                             dtype=torch.float32)
+
+
 # -- tensordicts as plain data ---------------------------------------------------------------------
 
 
