@@ -33,7 +33,9 @@ paper's networks.
 Before any work a loss checks its batch: the pixels, the action, the next pixels, reward and
 ``terminated`` must be there (missing ones are named, with ``set_keys`` as the fix), and the
 pixels must follow :mod:`vigen.pixel_format` at the encoder's ``max_value``. A NaN or inf loss
-raises before it can reach an optimizer (``check_finite=False`` turns that off).
+raises before it can reach an optimizer on the CPU, and is counted on the device elsewhere, where
+raising would synchronize with the host (``loss.raise_if_nonfinite()``; ``check_finite=False``
+turns the check off).
 """
 
 from vigen.losses.base import ActorCriticLoss, example_batch, per_sample_mean, squared_td_errors, weighted_td_errors

@@ -35,6 +35,7 @@ from torchrl.data import TensorSpec
 from torchrl.objectives import LossModule
 from torchrl.objectives.utils import ValueEstimators, dispatch_value_estimator
 
+from vigen.devices import host_reads_are_free
 from vigen.losses.samplers import ActorOutput, NoisyDeterministic, Sampler, SquashedGaussian
 from vigen.models import weight_init
 from vigen.pixel_format import check_pixels
@@ -187,9 +188,14 @@ class ActorCriticLoss(LossModule):
       ``loss.set_keys(terminated="done")``.
     * optional: ``steps_to_next_obs`` (n-step), ``priority_weight`` (prioritized replay).
 
-    With ``check_finite`` (the default) a non-finite ``loss_*`` raises inside the call, before
-    any optimizer step: a ``ValueError`` naming the batch entries that hold NaN or inf, or a
-    ``FloatingPointError`` naming the non-finite parameters when the batch is finite.
+    With ``check_finite`` (the default) a non-finite ``loss_*`` is caught. Where reading a value
+    back to the host is free (CPU tensors, eager; :func:`~vigen.devices.host_reads_are_free`) the
+    call raises at once, before any optimizer step: a ``ValueError`` naming the batch entries that
+    hold NaN or inf, or a ``FloatingPointError`` naming the non-finite parameters when the batch
+    is finite. Elsewhere (a GPU, ``torch.compile``) that read would synchronize with the host, so
+    the loss counts the call on the device (``nonfinite_calls``, a 0-d tensor) and
+    :meth:`raise_if_nonfinite` raises, one read at a script's logging interval;
+    :class:`~vigen.losses.UpdateStep` also zeros such an update's gradients there.
 
     Paper: DrQ-v2 (the update the pieces follow), https://arxiv.org/abs/2107.09645.
 
@@ -217,7 +223,8 @@ class ActorCriticLoss(LossModule):
         channels_last: feed the convolutions channels-last pixels (:func:`~vigen.losses.make_loss`
             also puts vigen's networks in that layout; a loss never changes the caller's modules).
         reduction: ``"mean"``, ``"sum"`` or ``"none"`` (per-sample losses).
-        check_finite: raise when a loss is NaN or inf; ``False`` skips the check.
+        check_finite: catch a NaN or inf loss (raised in the call on the CPU, counted on the device
+            elsewhere; see above); ``False`` skips the check.
 
     Examples:
         >>> from vigen.losses import DrQv2Loss
@@ -307,6 +314,8 @@ class ActorCriticLoss(LossModule):
         self.scores_on_target_encoder = target_encoder is True
         self.augmentation = self._augmentations(augmentation)
         self.register_buffer("schedule_step", torch.zeros((), dtype=torch.long))
+        self.register_buffer("nonfinite_calls", torch.zeros((), dtype=torch.long), persistent=False)
+        self._scanned_pixels = False  # whether a batch's float pixels were scanned once (check_batch)
         self.param_groups = self._checked_param_groups(param_groups or {})
         self._register_load_state_dict_pre_hook(_rename_legacy_keys)
 
@@ -334,7 +343,7 @@ class ActorCriticLoss(LossModule):
     # -- the update's pieces -------------------------------------------------------------------
     def read_batch(self, tensordict: TensorDictBase) -> Batch:
         """Check the batch (see the class docstring) and read its pixels, next pixels and actions."""
-        self._check_batch(tensordict)
+        self.check_batch(tensordict)
         keys = self.tensor_keys
         return Batch(tensordict.get(keys.pixels), tensordict.get(("next", keys.pixels)), tensordict.get(keys.action))
 
@@ -427,8 +436,11 @@ class ActorCriticLoss(LossModule):
         out.update(q_mean=q1.detach().mean(), target_mean=target.mean(), target_std=target.std())
         out.update(self.sampler.metrics(self.schedule_step, log_prob))
         out.update({name: value.detach() for name, value in (metrics or {}).items()})
-        if self.check_finite and not torch.compiler.is_compiling():  # a compiled update guards with tensor ops (UpdateStep)
-            self._check_finite(out, tensordict)
+        if self.check_finite:
+            if host_reads_are_free(q1):
+                self._check_finite(out, tensordict)
+            else:  # raising would read the value back (a host synchronization): count on the device
+                self.nonfinite_calls.add_(self._nonfinite(out).long())
         return TensorDict(out, batch_size=[])
 
     # -- building blocks ---------------------------------------------------------------------
@@ -597,8 +609,16 @@ class ActorCriticLoss(LossModule):
             unravel_key(("next", keys.terminated)): "terminated",
         }
 
-    def _check_batch(self, tensordict: TensorDictBase) -> None:
-        """Raise, before any work, on missing entries and on pixels that break the pixel contract."""
+    def check_batch(self, tensordict: TensorDictBase) -> None:
+        """Raise, before any work, on missing entries and on pixels that break the pixel contract (every call does).
+
+        Float pixels are also scanned for their range (NaN, inf, above ``max_value``: one ``amax``).
+        Where reading that value back is free (CPU tensors, eager) every batch is scanned; on an
+        accelerator the scan is a host synchronization, so only the first batch the loss sees outside
+        ``torch.compile`` is (a wrong scale is a property of the data pipeline, not of one batch; a
+        NaN later shows as a non-finite loss, see ``check_finite``). :class:`~vigen.losses.UpdateStep`
+        checks its first batch so, before it compiles.
+        """
         name = type(self).__name__
         required = self._required_keys()
         missing = [key for key in required if tensordict.get(key, None) is None]
@@ -630,20 +650,43 @@ class ActorCriticLoss(LossModule):
             if value is not None and value.dtype != torch.bool:
                 raise TypeError(f"{name}: the batch's {unravel_key(flag)!r} is {value.dtype}, but done and terminated flags "
                                 "are booleans (TorchRL envs write torch.bool); convert them with .bool() before storing.")
+        scan = None if self._scanned_pixels else True  # None: where host reads are free (check_pixels)
         for key in (keys.pixels, ("next", keys.pixels)):
             try:
                 check_pixels(tensordict.get(key), name=f"{name} (batch entry {unravel_key(key)!r})", max_value=self.max_value,
-                             scan=True)
+                             scan=scan)
             except ValueError as error:
                 if "max_value" not in str(error):
                     raise
                 raise ValueError(f"{error} The loss takes max_value from its encoder: build the encoder with "
                                  "max_value=... (or make_loss(..., max_value=...)).") from None
+        if not torch.compiler.is_compiling():  # check_pixels scans nothing while compiling
+            self._scanned_pixels = True
+
+    @staticmethod
+    def _nonfinite(out: Mapping[str, Tensor]) -> Tensor:
+        """Whether any ``loss_*`` value of ``out`` is NaN or inf, a 0-d boolean tensor (tensor ops only)."""
+        losses = [value.detach().reshape(-1) for key, value in out.items() if key.startswith("loss_")]
+        return ~torch.isfinite(torch.cat(losses)).all()
+
+    def raise_if_nonfinite(self) -> None:
+        """Raise ``FloatingPointError`` if a call off the CPU gave a NaN or inf loss (reads one number: call it when logging).
+
+        Where reading a value back to the host is not free (an accelerator, ``torch.compile``), a loss
+        with ``check_finite`` counts such calls in ``nonfinite_calls`` instead of raising inside the call.
+        """
+        count = int(self.nonfinite_calls)
+        if count:
+            raise FloatingPointError(
+                f"{type(self).__name__}: {count} call(s) on {self.nonfinite_calls.device} gave a NaN or inf loss_* (counted "
+                "on the device: raising inside the call would synchronize with the host). Check the replay buffer for NaN "
+                "or inf entries, and if the batches are finite lower the learning rate, clip gradients or scale the rewards; "
+                "one call of the loss on the CPU raises at once and names the batch entries or parameters to blame.")
 
     def _check_finite(self, out: dict[str, Tensor], tensordict: TensorDictBase) -> None:
         """Raise if a ``loss_*`` value is NaN or inf, naming the batch entries (or parameters) to blame."""
         losses = {key: value for key, value in out.items() if key.startswith("loss_")}
-        if torch.isfinite(torch.cat([value.detach().reshape(-1) for value in losses.values()])).all():
+        if not self._nonfinite(losses):
             return
         name = type(self).__name__
         bad = [key for key, value in losses.items() if not torch.isfinite(value.detach()).all()]

@@ -17,10 +17,11 @@ from typing import Any
 
 import torch
 from torch.optim.adam import adam as functional_adam
-from tensordict import TensorDictBase
+from tensordict import TensorDict, TensorDictBase
 from torch import Tensor
 from torchrl.objectives import SoftUpdate
 
+from vigen.devices import host_reads_are_free
 from vigen.losses.base import ActorCriticLoss
 from vigen.transforms import ImageAugmentation
 
@@ -35,11 +36,16 @@ class UpdateStep:
     Finite-loss guard, as tensor ops: where the summed loss of an update is NaN or inf, that
     update's gradients are zeroed before the optimizer step (the parameters stay finite) and a
     counter on the device goes up. :meth:`raise_if_diverged`, called at a script's logging
-    interval, reads it (one synchronization) and raises. An eager update of a loss built with
+    interval, reads it (one synchronization) and raises. An eager CPU update of a loss built with
     ``check_finite=True`` (the default) keeps the loss's own check instead, which raises inside the
-    call and names the batch entries or parameters to blame: free on the CPU, a synchronization on
-    a GPU, so build a GPU loss with ``check_finite=False`` (:func:`~vigen.run.build_agent` does).
-    UpdateStep never changes the loss it is given.
+    call and names the batch entries or parameters to blame (reading the value is free there).
+    Off the CPU, and compiled, the loss only counts such calls on the device (its own check never
+    synchronizes; see :class:`~vigen.losses.ActorCriticLoss`) and this guard acts, whatever
+    ``check_finite`` says. UpdateStep never changes the loss it is given.
+
+    The caller's batch gets the loss's ``td_error`` priority (``loss.tensor_keys.priority``), as
+    TorchRL's losses write it, eager, compiled or replayed from a CUDA graph: after ``update(batch)``,
+    ``replay_buffer.update_tensordict_priority(batch)`` updates a prioritized sampler.
 
     ``compile=True`` compiles the whole update with ``torch.compile(fullgraph=True, dynamic=False)`` (a
     new batch size compiles anew: shapes stay static, as a replay batch's do); it first calls
@@ -52,6 +58,14 @@ class UpdateStep:
     the optimizer must then be ``capturable`` (``torch.optim.Adam(..., capturable=True)``).
     ``compile_seconds`` holds the time the first call(s) took to compile (and capture).
 
+    Gradients, compiled or captured: before the first call every parameter of the optimizer gets a
+    zero gradient, and each update zeroes them in place (``zero_grad(set_to_none=False)``), so the
+    one graph traced is the one a CUDA graph captures (gradients present, accumulated into the same
+    memory), on the CPU as on a GPU, and nothing recompiles on the second call. A parameter that
+    gets no gradient from the loss is then stepped with a zero one (Adam leaves it where it is
+    unless ``weight_decay`` is set), while the eager update skips it; every parameter of vigen's
+    losses gets a gradient.
+
     Paper: DrQ-v2's update (https://arxiv.org/abs/2107.09645); compiled RL updates as in LeanRL
     (https://github.com/pytorch-labs/LeanRL).
 
@@ -63,7 +77,10 @@ class UpdateStep:
         cudagraph: capture the (compiled) update as a CUDA graph; ``None``: on CUDA when compiling.
         backend: ``torch.compile``'s backend (``"inductor"``; ``"aot_eager"`` traces without code
             generation, e.g. to check in seconds that the update compiles whole).
-        mode: ``torch.compile``'s mode (``None``, ``"max-autotune-no-cudagraphs"``, ...).
+        mode: ``torch.compile``'s mode (``None``, ``"max-autotune-no-cudagraphs"``, ...); with
+            inductor, its options are merged with the update's own (``fallback_random``). The modes
+            that capture CUDA graphs themselves (``"reduce-overhead"``, ``"max-autotune"``) need
+            ``cudagraph=False``.
 
     Examples:
         >>> import torch
@@ -118,24 +135,24 @@ class UpdateStep:
                 raise ValueError("UpdateStep(compile=True): torch.compile does not trace a fused Adam (torch.optim.Adam(..., "
                                  "fused=True)); build it with fused=False: the compiled update fuses the step itself.")
             loss.prepare_compile()
-        if cudagraph and not all(group.get("capturable", False) for group in optimizer.param_groups):
-            raise ValueError("UpdateStep(cudagraph=True): the optimizer must be capturable, e.g. "
-                             "torch.optim.Adam(loss.optimizer_groups(lr), capturable=True).")
         self.loss = loss
         self.optimizer = optimizer
         self.target_update = target_update
         self.device = device
         self.compiled = compile
         self.cudagraph = cudagraph
+        self._check_capturable()
         self.compile_seconds: float | None = None
-        # an eager loss with check_finite raises inside the call; otherwise the update guards with tensor ops
-        self.guard_in_loss = loss.check_finite and not compile
+        # an eager CPU loss with check_finite raises inside the call; otherwise the update guards with tensor ops
+        self.guard_in_loss = loss.check_finite and not compile and host_reads_are_free(device)
+        # compiled or captured: gradients live in the same memory from the first trace on (one graph, see above)
+        self.static_gradients = compile or cudagraph
         self._diverged = torch.zeros((), dtype=torch.long, device=device)
         self._parameters = [parameter for group in optimizer.param_groups for parameter in group["params"]]
-        options = {"options": {"fallback_random": True}} if backend == "inductor" else {}
         step = self._update
         if compile:  # the whole update in one graph
-            step = torch.compile(_own_code(step), fullgraph=True, dynamic=False, backend=backend, mode=mode, **options)
+            step = torch.compile(_own_code(step), fullgraph=True, dynamic=False, backend=backend,
+                                 **_compile_options(backend, mode, cudagraph))
         if cudagraph:
             from tensordict.nn import CudaGraphModule
 
@@ -150,23 +167,38 @@ class UpdateStep:
             raise ValueError(f"UpdateStep: the batch is on {pixels.device} but the loss on {self.device}; move it with "
                              f"batch.to({str(self.device)!r}) (or give the replay buffer's storage device={str(self.device)!r}).")
         started = time.perf_counter() if self._calls < 3 and self.compiled else None
+        if self._calls == 0 and self.static_gradients:
+            self._check_capturable()  # again: an optimizer state loaded since may have brought other flags
+            self.loss.check_batch(batch)  # readable errors, and the one scan of float pixels, before any trace
+            for parameter in self._parameters:  # the graph is traced once, with the gradients it will run with
+                if parameter.requires_grad and parameter.grad is None:
+                    parameter.grad = torch.zeros_like(parameter)
         if self.compiled and self._calls == 0:
             self._init_adam_state()
             for module in self.loss.modules():  # image banks load and move to the device outside the graph
                 if isinstance(module, ImageAugmentation) and pixels is not None:
                     module.prepare(pixels.shape, self.device)
-        self.optimizer.zero_grad(set_to_none=not self.cudagraph)  # dynamo does not trace zero_grad
+        self.optimizer.zero_grad(set_to_none=not self.static_gradients)  # dynamo does not trace zero_grad
         if self.compiled:
             with torch._dynamo.config.patch(trace_autograd_ops=True):  # backward() inside the graph
-                out = self._step(batch)
+                result = self._step(batch)
         else:
-            out = self._step(batch)
+            result = self._step(batch)
         if started is not None:  # compilation (and CUDA-graph warm-up and capture) happens in the first calls
             self.compile_seconds = (self.compile_seconds or 0.0) + time.perf_counter() - started
         self._calls += 1
-        return out
+        # the loss wrote the priority into the batch it was given; a CUDA graph's replay gives it a copy, so write it here
+        batch.set(self.loss.tensor_keys.priority, result["priority"])
+        return result["losses"]
+
+    def _check_capturable(self) -> None:
+        if self.cudagraph and not all(group.get("capturable", False) for group in self.optimizer.param_groups):
+            raise ValueError("UpdateStep(cudagraph=True): the optimizer must be capturable, e.g. "
+                             "torch.optim.Adam(loss.optimizer_groups(lr), capturable=True); an optimizer state loaded "
+                             "from another run keeps this run's flags with vigen.checkpoint.load_optimizer_state.")
 
     def _update(self, batch: TensorDictBase) -> TensorDictBase:
+        """The update; its losses and metrics (``"losses"``) and the batch's priority (``"priority"``), detached."""
         out = self.loss(batch)
         total = sum(value for key, value in out.items() if key.startswith("loss_"))
         total.backward()
@@ -183,7 +215,8 @@ class UpdateStep:
             self.optimizer.step()
         if self.target_update is not None:
             self.target_update.step()
-        return out.detach()
+        return TensorDict({"losses": out.detach(), "priority": batch.get(self.loss.tensor_keys.priority).detach()},
+                          batch_size=[])
 
     def _adam_step(self) -> None:
         """``optimizer.step()`` through Adam's functional form, which dynamo traces (the method graph-breaks on purpose)."""
@@ -228,6 +261,26 @@ class UpdateStep:
                 f"{type(self.loss).__name__}: {count} update(s) had a NaN or inf loss; their gradients were zeroed, so the "
                 "parameters are finite, but training has diverged: lower the learning rate, clip gradients or scale the "
                 "rewards, and check the replay buffer for NaN or inf entries.")
+
+
+def _compile_options(backend: str, mode: str | None, cudagraph: bool) -> dict[str, Any]:
+    """``torch.compile``'s ``mode``/``options`` for the update: with inductor, the mode's options and ``fallback_random``.
+
+    ``torch.compile`` takes ``mode`` or ``options``, not both; the update needs an option (random
+    draws as the eager update makes them), so a mode is passed as the options it stands for.
+    """
+    if backend != "inductor":
+        return {} if mode is None else {"mode": mode}
+    from torch._inductor import list_mode_options  # torch.compile's docstring points here for what each mode sets
+
+    modes = list_mode_options()
+    if mode is not None and mode not in modes:
+        raise ValueError(f"UpdateStep: unknown torch.compile mode {mode!r}; the modes are {', '.join(map(repr, modes))}.")
+    options = {**(modes[mode] if mode is not None else {}), "fallback_random": True}
+    if cudagraph and options.get("triton.cudagraphs"):
+        raise ValueError(f"UpdateStep: mode={mode!r} captures CUDA graphs itself, and cudagraph=True captures the update "
+                         "as one; pass cudagraph=False to keep the mode's, or mode='max-autotune-no-cudagraphs'.")
+    return {"options": options}
 
 
 def _own_code(method: Callable[..., Any]) -> Callable[..., Any]:

@@ -136,7 +136,7 @@ def build_agent(
         raise ValueError(f"build_agent: the action spec has {action_spec.shape[-1]} dimensions, the config's action_dim "
                          f"is {config.action_dim}; build the spec from the run's env ({config.env}).")
     record = ALGOS[config.algo]
-    options: dict[str, object] = {"check_finite": torch.device(device or "cpu").type == "cpu"}
+    options: dict[str, object] = {}  # check_finite stays on: it raises on the CPU and counts on the device elsewhere
     std = exploration_std(config)
     if std is not None:
         options["std"] = std
