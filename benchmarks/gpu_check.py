@@ -39,6 +39,7 @@ import hashlib
 import json
 import os
 import platform
+import shlex
 import shutil
 import signal
 import statistics
@@ -385,15 +386,15 @@ def throughput_tier(args: argparse.Namespace, log: Path, env: dict, timeout: flo
     """``benchmarks/train_throughput.py --gpu`` (``--quick`` when dry), stopping itself before ``timeout``; its figures and
     table into figures.json, its runs' output appended to the tier's log."""
     out = scratch / "throughput"
-    command = [args.python, "benchmarks/train_throughput.py", "--quick" if args.dry else "--gpu", "--out", str(out),
-               "--deadline", str(round(max(timeout - 15, 10)))]
+    chosen = shlex.split(args.throughput_args) if args.throughput_args else ["--quick" if args.dry else "--gpu"]
+    command = [args.python, "benchmarks/train_throughput.py", *chosen, "--out", str(out), "--deadline", str(round(max(timeout - 15, 10)))]
     code, _ = run_logged(command, log, env, timeout)
     report = json.loads((out / "train_throughput.json").read_text()) if (out / "train_throughput.json").is_file() else {}
     if (out / "train_logs.txt").is_file():
         with log.open("a") as whole:
             whole.write("\n[gpu_check] the output of each examples/train.py run:\n")
             whole.write((out / "train_logs.txt").read_text(errors="replace"))
-    figures = {"command": " ".join(["python", *command[1:3]]), "table": report.get("table"),
+    figures = {"command": " ".join(["python", *command[1:-4]]), "table": report.get("table"),
                "results": [{key: result.get(key) for key in ("name", "status", "reason", "seconds", "figures", "rows")}
                            for result in report.get("results", [])]}
     status = "timed_out" if code is None else "passed" if code == 0 else "timed_out" if report.get("status") == "incomplete" else "failed"
@@ -423,6 +424,9 @@ def main() -> int:
                         help="which tiers, in this order (default 1 2 3 4; 5, the training throughput, runs when named)")
     parser.add_argument("--train-seconds", type=float, default=None, help="tier 3's training, from its first update (60; --dry 3)")
     parser.add_argument("--python", default=sys.executable, help="the interpreter whose torch is checked (default this one)")
+    parser.add_argument("--throughput-args", default=None, help="tier 5: benchmarks/train_throughput.py's flags instead of "
+                        "--gpu (--quick when --dry), as one string, e.g. \"--gpu --workers 8 --collection overlap --updates compiled "
+                        "--replay device --timeout 140\"")
     args = parser.parse_args()
     args.carry = None if args.carry == "none" else Path(args.carry).resolve()
     args.device = "cpu" if args.dry else "cuda"

@@ -8,8 +8,9 @@ run logs one row per collector batch (``logs/scalars/time/*.csv``, see ``log_sta
 seconds per stage and the env workers' milliseconds per agent step, each *measured* where it
 happens (the env workers time their own steps, physics and rendering). The benchmark reads those
 rows while the run trains and stops it once ``--warmup`` batches of updates (the first update,
-where a compiled update compiles, and the batch whose GPU activity is profiled) and then
-``--batches`` more are logged. Figures, over the measured batches:
+where a compiled update compiles, and the batch whose GPU activity is profiled) and then the
+measured ones (``--batches`` at least, and as many as hold ``--min-updates`` updates) are
+logged. Figures, over the measured batches:
 
 * **frames/s**: environment frames (agent steps × action repeat) over the run's wall time,
   everything included (collection, storing, sampling, updates, weight syncs);
@@ -89,14 +90,15 @@ SIZES = {  # train.py's flags per mode (--threads, --device are added from the f
     "cpu": ["--env", "dmc/cartpole-balance", "--preset", "cpu", "--buffer-size", "20000", "--seed-frames", "1000"],
     "gpu": ["--env", "dmc/walker-walk", "--preset", "paper", "--buffer-size", "100000", "--seed-frames", "1000"],
 }
-DEFAULTS = {  # per mode: device, warm-up batches, measured batches, deadline s, per-configuration timeout s, configurations
-    "quick": dict(device="cpu", warmup=1, batches=1, deadline=150, timeout=90,
+DEFAULTS = {  # per mode: device, warm-up batches, measured batches and updates, deadline s, per-configuration timeout s,
+    # configurations (most important first: what does not fit the deadline is skipped)
+    "quick": dict(device="cpu", warmup=1, batches=1, min_updates=1, deadline=150, timeout=90,
                   configs=[Config(1), Config(2, overlap=True, replay="device")]),
-    "cpu": dict(device="cpu", warmup=1, batches=3, deadline=3600, timeout=900,
+    "cpu": dict(device="cpu", warmup=1, batches=3, min_updates=150, deadline=3600, timeout=900,
                 configs=[Config(1), Config(2), Config(1, overlap=True), Config(2, overlap=True)]),
-    "gpu": dict(device="cuda", warmup=2, batches=2, deadline=140, timeout=45,
-                configs=[Config(8, True, replay="device"), Config(1), Config(8, replay="device"), Config(4, True, replay="device"),
-                         Config(4, replay="device"), Config(1, True, replay="device"), Config(1, replay="device")]),
+    "gpu": dict(device="cuda", warmup=2, batches=1, min_updates=100, deadline=140, timeout=60,
+                configs=[Config(8, True, replay="device"), Config(1), Config(1, replay="device"), Config(1, True, replay="device"),
+                         Config(4, True, replay="device"), Config(8, replay="device"), Config(4, replay="device")]),
 }
 
 
@@ -122,12 +124,26 @@ def weighted(rows: list[dict[str, float]], key: str, weight: str = "steps") -> f
     return sum(v * w for v, w in pairs) / total if total else None
 
 
-def summarize(rows: list[dict[str, float]], warmup: int, batches: int) -> dict[str, Any]:
-    """The figures of a run's rows (see the module docstring); ``{"error": ...}`` if the measured batches are missing."""
+def measured(rows: list[dict[str, float]], warmup: int, batches: int, min_updates: int) -> tuple[list[int], bool]:
+    """The indices of the measured rows (the batches with updates after ``warmup`` of them, ``batches`` at least and
+    ``min_updates`` updates at least), and whether they are all logged yet."""
+    updating = [index for index, row in enumerate(rows) if row["updates"] > 0][warmup:]
+    chosen, updates = [], 0
+    for index in updating:
+        if len(chosen) >= batches and updates >= min_updates:
+            break
+        chosen.append(index)
+        updates += rows[index]["updates"]
+    return chosen, len(chosen) >= batches and updates >= min_updates
+
+
+def summarize(rows: list[dict[str, float]], warmup: int, batches: int, min_updates: int = 1) -> dict[str, Any]:
+    """The figures of a run's rows (see the module docstring); ``{"error": ...}`` if no measured batch was logged."""
+    chosen, _ = measured(rows, warmup, batches, min_updates)
     updating = [index for index, row in enumerate(rows) if row["updates"] > 0]
-    if len(updating) < warmup + 1:
+    if not chosen:
         return {"error": f"{len(updating)} batches with updates logged; {warmup + 1} at least are needed"}
-    first, last = updating[warmup], updating[min(warmup + batches, len(updating)) - 1]
+    first, last = chosen[0], chosen[-1]
     window, before = rows[first:last + 1], rows[first - 1]
     wall = window[-1]["wall_s"] - before["wall_s"]
     frames = window[-1]["frames"] - before["frames"]
@@ -219,14 +235,13 @@ def run_config(config: Config, args: argparse.Namespace, scratch: Path, log, tim
     started = time.time()
     process = subprocess.Popen(command, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
     appeared: dict[float, float] = {}  # frames -> when the row was seen, on this clock (for nvidia-smi's samples)
-    needed = args.warmup + args.batches
     code = None
     while True:
         code = process.poll()
         rows = read_rows(run_dir)
         for row in rows:
             appeared.setdefault(row["frames"], time.time())
-        if code is not None or sum(row["updates"] > 0 for row in rows) >= needed or time.time() - started > timeout:
+        if code is not None or measured(rows, args.warmup, args.batches, args.min_updates)[1] or time.time() - started > timeout:
             break
         time.sleep(0.1)
     stop(process)
@@ -236,17 +251,15 @@ def run_config(config: Config, args: argparse.Namespace, scratch: Path, log, tim
     result: dict[str, Any] = {"config": dataclasses.asdict(config), "name": config.name, "command": " ".join(command),
                               "seconds": round(time.time() - started, 1), "exit_code": code, "renderers": renderers(output),
                               "rows": rows}
-    figures = summarize(rows, args.warmup, args.batches)
+    figures = summarize(rows, args.warmup, args.batches, args.min_updates)
+    chosen, complete = measured(rows, args.warmup, args.batches, args.min_updates)
     if "error" not in figures:
-        first_row = rows[0]
-        figures["start_s"] = round(appeared.get(first_row["frames"], started) - started, 1)
+        figures["start_s"] = round(appeared.get(rows[0]["frames"], started) - started, 1)
         if sampler is not None:
-            updating = [row for row in rows if row["updates"] > 0]
-            window = updating[args.warmup:needed]
-            before = rows[rows.index(window[0]) - 1]
-            figures["gpu_utilization"] = sampler.mean(appeared.get(before["frames"], 0), appeared.get(window[-1]["frames"], 0))
+            before, last = rows[chosen[0] - 1], rows[chosen[-1]]
+            figures["gpu_utilization"] = sampler.mean(appeared.get(before["frames"], 0), appeared.get(last["frames"], 0))
     result["figures"] = figures
-    result["status"] = "failed" if code not in (None, 0) else "incomplete" if "error" in figures else "passed"
+    result["status"] = "failed" if code not in (None, 0) else "passed" if complete else "incomplete"
     return result
 
 
@@ -263,12 +276,13 @@ def table(results: list[dict[str, Any]]) -> str:
                                            r["config"]["overlap"]))
     for result in order:
         f = result.get("figures", {})
-        if result["status"] != "passed":
+        if "frames_per_s" not in f:
             why = f.get("error") or result.get("reason") or f"exit {result.get('exit_code')}"
             lines.append(f"| {result['name']} | {result['status']}: {why} |" + " |" * (header.count("|") - 3))
             continue
+        name = result["name"] if result["status"] == "passed" else f"{result['name']} ({result['status']}: {f['measured_batches']} batches)"
         lines.append(
-            f"| {result['name']} | {cell(f['frames_per_s'])} | {cell(f['updates_per_s'])} | {cell(f['collect_frames_per_s'])} "
+            f"| {name} | {cell(f['frames_per_s'])} | {cell(f['updates_per_s'])} | {cell(f['collect_frames_per_s'])} "
             f"| {cell(f.get('seed_frames_per_s'))} | {cell(f['hidden'], '.0f', 100, ' %')} | {cell(f['gpu_busy'], '.0f', 100, ' %')} "
             f"| {cell(f.get('gpu_utilization'), '.0f', 100, ' %')} | {cell(f['env_step_ms'], '.2f')} | {cell(f['env_render_ms'], '.2f')} "
             f"| {cell(f['env_physics_ms'], '.2f')} | {cell(f['env_policy_ms'], '.2f')} | {cell(f['store_ms_per_step'], '.2f')} "
@@ -306,7 +320,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--updates", nargs="+", choices=["eager", "compiled"], default=None)
     parser.add_argument("--replay", nargs="+", choices=["memmap", "device"], default=None)
     parser.add_argument("--warmup", type=int, default=None, help="batches of updates left out before measuring")
-    parser.add_argument("--batches", type=int, default=None, help="batches of updates measured")
+    parser.add_argument("--batches", type=int, default=None, help="batches of updates measured, at least")
+    parser.add_argument("--min-updates", type=int, default=None, help="updates measured, at least (more batches if needed)")
     parser.add_argument("--deadline", type=float, default=None, help="seconds for every configuration together")
     parser.add_argument("--timeout", type=float, default=None, help="seconds per configuration, start-up included")
     parser.add_argument("--threads", type=int, default=None, help="train.py --threads")
@@ -316,7 +331,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     args = parser.parse_args(argv)
     args.mode = "quick" if args.quick else "gpu" if args.gpu else "cpu"
     defaults = DEFAULTS[args.mode]
-    for key in ("device", "warmup", "batches", "deadline", "timeout"):
+    for key in ("device", "warmup", "batches", "min_updates", "deadline", "timeout"):
         if getattr(args, key) is None:
             setattr(args, key, defaults[key])
     if args.threads is None and args.mode == "quick":
@@ -340,7 +355,7 @@ def main(argv: list[str] | None = None) -> int:
         "schema": 1, "started": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         "command": "python benchmarks/train_throughput.py " + " ".join(sys.argv[1:] if argv is None else argv),
         "mode": args.mode, "device": args.device, "algo": args.algo, "sizes": args.sizes, "warmup": args.warmup,
-        "batches": args.batches, "deadline_s": args.deadline, "commit": git_commit(), "results": [], "status": "running"}
+        "batches": args.batches, "min_updates": args.min_updates, "deadline_s": args.deadline, "commit": git_commit(), "results": [], "status": "running"}
     print(f"reproduce: {report['command']}", flush=True)
     sampler = UtilizationSampler() if args.device.startswith("cuda") else None
     scratch = Path(tempfile.mkdtemp(prefix="vigen-throughput-"))
@@ -367,7 +382,8 @@ def main(argv: list[str] | None = None) -> int:
     report["seconds"] = round(time.time() - started, 1)
     report["table"] = table(report["results"])
     write_json(out / "train_throughput.json", report)
-    print(f"\n{args.algo}, {' '.join(args.sizes)}, device {args.device}; {args.batches} batches measured after {args.warmup}\n")
+    print(f"\n{args.algo}, {' '.join(args.sizes)}, device {args.device}; batches measured after {args.warmup} of warm-up: "
+          f"{args.batches} at least, holding {args.min_updates} updates at least\n")
     print(report["table"], flush=True)
     rendered = sorted({name for result in report["results"] for name in result.get("renderers", [])})
     print(f"\nMuJoCo rendered with: {', '.join(rendered) or 'not reported'}", flush=True)

@@ -35,8 +35,9 @@ Keeping a GPU busy (``docs/performance.md``, "End-to-end throughput"; ``benchmar
   from ``--device``; a value you set yourself is kept).
 * ``--overlap`` collects the next batch while the loop stores the last and updates on it: the
   workers (one process at least) act with a copy of the policy whose weights are sent between
-  batches only, so every batch acts with the weights of the updates up to the batch before last,
-  exactly one batch of updates behind the serial run. The workers are kept for the whole run and
+  batches only, so batch k + 1 acts with the weights after batch k - 1's updates where the serial
+  run uses those after batch k's: exactly one batch of updates behind, whatever the timing. The
+  updates per agent step are the serial run's. The workers are kept for the whole run and
   reseeded at each segment's start. It is a setting of the run (saved in ``config.json``): it
   changes what is learned, slightly.
 * ``--replay-on-device`` keeps a copy of the replay buffer in the device's memory and samples
