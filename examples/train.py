@@ -357,12 +357,12 @@ class Training:
         self.progress.close()
 
     def collect(self) -> None:
-        """One segment: collect up to the next checkpoint with a fresh collector, storing each batch and updating as due.
+        """One segment: collect up to the next checkpoint with a fresh collector (``--overlap``: the kept, reseeded workers),
+        storing each batch and updating as due.
 
         Serial: each batch is collected after the updates due so far, with their weights. ``--overlap``: the next batch
         collects while this one is stored and updated on (:class:`vigen.run.CollectorBatches`), one batch of updates
         behind; the segment's last batch is awaited before the checkpoint, so nothing is in flight when it is written.
-        Its worker processes are kept for the whole run and reseeded at each segment's start instead of rebuilt.
         """
         env_seed = derive_seed(self.config.seed, self.steps, below=ENV_SEED_LIMIT)
         count = segment_batches(self.steps, self.total_steps, self.eval_every, self.steps_per_batch * self.config.workers)
