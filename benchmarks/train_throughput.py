@@ -24,8 +24,10 @@ logged. Figures, over the measured batches:
   policy, resets), the loop's store ms per agent step, sample and update ms per update, and the
   share of the wall time the loop spent waiting for frames;
 * **GPU busy**: the share of one whole batch (collection to updates, the batch after the first
-  updates) during which the GPU ran kernels or copies (torch.profiler, ``time/gpu_busy``); and,
-  where ``nvidia-smi`` exists, its utilization sampled every 200 ms over the measured batches.
+  updates) during which the GPU ran the training process's kernels or copies (torch.profiler,
+  ``time/gpu_busy``; the workers' acting is in other processes, not in it); and, where
+  ``nvidia-smi`` exists, **GPU util**: its utilization (every process) sampled every 200 ms over the
+  measured batches.
 
 Modes (sizes, configurations and budget; any flag overrides them):
 
