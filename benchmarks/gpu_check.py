@@ -13,7 +13,11 @@ with the folder ``python scripts/gpu_carry.py`` builds (``.gpu-carry/``) beside 
    reference: ``benchmarks/losses.py --algos drqv2 svea --compile``;
 3. one minute of end-to-end training: ``examples/train.py`` (DrQ-v2, walker-walk, batch 256), its
    environment frames/s and updates/s read from the run's logs while it trains, then stopped;
-4. the other losses as in tier 2, as many as the time left allows.
+4. the other losses as in tier 2, as many as the time left allows;
+5. (only when asked, ``--tiers 5``) the training throughput: ``benchmarks/train_throughput.py --gpu``,
+   walker-walk at batch 256 with 1/4/8 env workers, serial and overlapped collection, the replay
+   sampled on the GPU (and today's memory-mapped baseline): frames/s, updates/s, the GPU's busy
+   share and each stage's time, in 150 s (``--quick`` when ``--dry``).
 
 Each tier has a time budget and the whole check stops itself at ``--deadline`` seconds (default 450,
 install included, counted from when ``gpu_check.sh`` started), keeping what finished. It writes, under
@@ -35,6 +39,7 @@ import hashlib
 import json
 import os
 import platform
+import shlex
 import shutil
 import signal
 import statistics
@@ -48,11 +53,13 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 RESERVE_S = 5  # kept back from the deadline to stop the last command and write the figures
-TIERS = {1: "device tests", 2: "drqv2 and svea against the reference", 3: "end-to-end training", 4: "the other losses"}
+TIERS = {1: "device tests", 2: "drqv2 and svea against the reference", 3: "end-to-end training", 4: "the other losses",
+         5: "training throughput"}
+DEFAULT_TIERS = [1, 2, 3, 4]  # tier 5 runs when asked: --tiers 5
 MIN_BATCHES = 3  # tier 3 trains until this many batches of updates are logged (frames/s needs two intervals at least)
 INSTALL_S = 60  # the pip install, and then the imports, each stop there: a missing piece is named within a minute
-BUDGET_S = {"gpu": {1: 120, 2: 200, 3: 100, 4: None},  # seconds per tier; None: whatever is left before the deadline
-            "dry": {1: 60, 2: 60, 3: 40, 4: 60}}
+BUDGET_S = {"gpu": {1: 120, 2: 200, 3: 100, 4: None, 5: 150},  # seconds per tier; None: whatever is left before the deadline
+            "dry": {1: 60, 2: 60, 3: 40, 4: 60, 5: 120}}
 DRY_MODULES = ["torchrl", "tensordict", "mujoco", "dm_control", "gymnasium", "vigen"]  # --carry none: the environment's
 PREFLIGHT = r"""
 import importlib, json, os, sys, traceback
@@ -375,6 +382,25 @@ def training_tier(args: argparse.Namespace, log: Path, env: dict, timeout: float
     return {"status": status, "figures": figures, "exit_code": code}
 
 
+def throughput_tier(args: argparse.Namespace, log: Path, env: dict, timeout: float, scratch: Path) -> dict:
+    """``benchmarks/train_throughput.py --gpu`` (``--quick`` when dry), stopping itself before ``timeout``; its figures and
+    table into figures.json, its runs' output appended to the tier's log."""
+    out = scratch / "throughput"
+    chosen = shlex.split(args.throughput_args) if args.throughput_args else ["--quick" if args.dry else "--gpu"]
+    command = [args.python, "benchmarks/train_throughput.py", *chosen, "--out", str(out), "--deadline", str(round(max(timeout - 15, 10)))]
+    code, _ = run_logged(command, log, env, timeout)
+    report = json.loads((out / "train_throughput.json").read_text()) if (out / "train_throughput.json").is_file() else {}
+    if (out / "train_logs.txt").is_file():
+        with log.open("a") as whole:
+            whole.write("\n[gpu_check] the output of each examples/train.py run:\n")
+            whole.write((out / "train_logs.txt").read_text(errors="replace"))
+    figures = {"command": " ".join(["python", *command[1:-4]]), "table": report.get("table"),
+               "results": [{key: result.get(key) for key in ("name", "status", "reason", "seconds", "figures", "rows")}
+                           for result in report.get("results", [])]}
+    status = "timed_out" if code is None else "passed" if code == 0 else "timed_out" if report.get("status") == "incomplete" else "failed"
+    return {"status": status, "figures": figures, "exit_code": code}
+
+
 def device_tests_tier(args: argparse.Namespace, log: Path, env: dict, timeout: float, scratch: Path) -> dict:
     junit = scratch / "device-tests.xml"
     select = "(test_devices or cuda) and drqv2 and not evaluation" if args.dry else "test_devices or cuda"
@@ -394,9 +420,13 @@ def main() -> int:
     parser.add_argument("--out", type=Path, default=Path(os.environ.get("OUT") or ROOT / "gpu-check"))
     parser.add_argument("--deadline", type=float, default=None, help="seconds for everything, install included "
                         "(default 450: under 8 minutes; --dry 300), counted from GPU_CHECK_T0 (set by gpu_check.sh)")
-    parser.add_argument("--tiers", type=int, nargs="+", default=[1, 2, 3, 4], choices=sorted(TIERS))
+    parser.add_argument("--tiers", type=int, nargs="+", default=DEFAULT_TIERS, choices=sorted(TIERS),
+                        help="which tiers, in this order (default 1 2 3 4; 5, the training throughput, runs when named)")
     parser.add_argument("--train-seconds", type=float, default=None, help="tier 3's training, from its first update (60; --dry 3)")
     parser.add_argument("--python", default=sys.executable, help="the interpreter whose torch is checked (default this one)")
+    parser.add_argument("--throughput-args", default=None, help="tier 5: benchmarks/train_throughput.py's flags instead of "
+                        "--gpu (--quick when --dry), as one string, e.g. \"--gpu --workers 8 --collection overlap --updates compiled "
+                        "--replay device --timeout 140\"")
     args = parser.parse_args()
     args.carry = None if args.carry == "none" else Path(args.carry).resolve()
     args.device = "cpu" if args.dry else "cuda"
@@ -468,6 +498,8 @@ def check(args: argparse.Namespace, clock: Clock, budgets: dict, report: dict, f
             result = losses_tier(args, ["drqv2"] if args.dry else ["drqv2", "svea"], log, env, timeout)
         elif tier == 3:
             result = training_tier(args, log, env, timeout, scratch)
+        elif tier == 5:
+            result = throughput_tier(args, log, env, timeout, scratch)
         else:
             algos = ast.literal_eval((ROOT / "benchmarks" / "losses.py").read_text().split("\nALGOS = ", 1)[1].split("\n")[0])
             others = [algo for algo in algos if algo not in ("drqv2", "svea")]

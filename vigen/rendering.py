@@ -105,3 +105,95 @@ class RenderSettings:
         else:
             global_.offwidth = max(global_.offwidth, width)
             global_.offheight = max(global_.offheight, height)
+
+
+EGL_EXTENSIONS = 0x3055
+EGL_CUDA_DEVICE_NV = 0x323A  # EGL_NV_device_cuda: the CUDA device ordinal of an EGL device
+
+
+def egl_devices() -> list[dict[str, Any]]:
+    """The EGL devices this process can render on, in the order ``MUJOCO_EGL_DEVICE_ID`` indexes them.
+
+    Each is ``{"index": i, "extensions": [...], "cuda": ordinal or None}``: NVIDIA's devices name
+    their CUDA device (``EGL_NV_device_cuda``); Mesa's software device (``EGL_MESA_device_software``)
+    has none. Empty where EGL or its device enumeration is missing.
+
+    Examples:
+        >>> from vigen.rendering import egl_devices
+        >>> all(device["index"] == i for i, device in enumerate(egl_devices()))
+        True
+    """
+    if os.environ.setdefault("PYOPENGL_PLATFORM", "egl") != "egl":
+        return []
+    import ctypes
+
+    try:  # NVIDIA's EGL wants libOpenGL loaded globally before PyOpenGL (as dm_control's EGL backend loads it)
+        ctypes.CDLL("libOpenGL.so.0", mode=ctypes.RTLD_GLOBAL)
+    except OSError:
+        pass
+    try:
+        from OpenGL import EGL
+
+        query_devices = ctypes.CFUNCTYPE(EGL.EGLBoolean, EGL.EGLint, ctypes.POINTER(EGL.EGLDeviceEXT), ctypes.POINTER(EGL.EGLint))(
+            EGL.eglGetProcAddress("eglQueryDevicesEXT"))
+        query_string = ctypes.CFUNCTYPE(ctypes.c_char_p, EGL.EGLDeviceEXT, EGL.EGLint)(EGL.eglGetProcAddress("eglQueryDeviceStringEXT"))
+        query_attribute = ctypes.CFUNCTYPE(EGL.EGLBoolean, EGL.EGLDeviceEXT, EGL.EGLint, ctypes.POINTER(ctypes.c_ssize_t))(
+            EGL.eglGetProcAddress("eglQueryDeviceAttribEXT"))
+        handles = (EGL.EGLDeviceEXT * 16)()
+        count = EGL.EGLint()
+        if not query_devices(16, handles, ctypes.byref(count)):
+            return []
+    except Exception:  # noqa: BLE001 - no EGL, or an EGL without device enumeration: nothing to choose from
+        return []
+    devices = []
+    for index in range(count.value):
+        extensions = (query_string(handles[index], EGL_EXTENSIONS) or b"").decode().split()
+        cuda = None
+        if "EGL_NV_device_cuda" in extensions:
+            value = ctypes.c_ssize_t(-1)
+            if query_attribute(handles[index], EGL_CUDA_DEVICE_NV, ctypes.byref(value)) and value.value >= 0:
+                cuda = int(value.value)
+        devices.append({"index": index, "extensions": extensions, "cuda": cuda})
+    return devices
+
+
+def render_on_cuda_device(cuda_index: int) -> int | None:
+    """Make MuJoCo render on the EGL device of CUDA device ``cuda_index``, here and in every process started later.
+
+    Sets ``MUJOCO_EGL_DEVICE_ID`` (which MuJoCo's and dm_control's EGL backends read when they
+    are first imported) to the EGL device whose ``EGL_NV_device_cuda`` ordinal is ``cuda_index``;
+    env workers (a ``MultiSyncCollector``'s processes, ``ParallelEnv``'s) inherit it. Returns the
+    EGL device chosen, or ``None`` and changes nothing where ``MUJOCO_GL`` is not ``egl``, where the
+    user set ``MUJOCO_EGL_DEVICE_ID`` already (returned as it is), or where no EGL device names that
+    CUDA device (a machine without NVIDIA's EGL: MuJoCo keeps its own choice, e.g. Mesa's software
+    rasterizer). dm_control picks its device once per process: in a process that rendered before
+    the call, only the processes started afterwards follow it.
+
+    Examples:
+        >>> from vigen.rendering import render_on_cuda_device
+        >>> render_on_cuda_device(0) is None or isinstance(render_on_cuda_device(0), int)  # None without NVIDIA's EGL
+        True
+    """
+    if "MUJOCO_EGL_DEVICE_ID" in os.environ:
+        return int(os.environ["MUJOCO_EGL_DEVICE_ID"])
+    if os.environ.get("MUJOCO_GL") != "egl":
+        return None
+    chosen = next((device["index"] for device in egl_devices() if device["cuda"] == cuda_index), None)
+    if chosen is not None:
+        os.environ["MUJOCO_EGL_DEVICE_ID"] = str(chosen)
+    return chosen
+
+
+def gl_renderer(physics: Any) -> str:
+    """The OpenGL renderer a dm_control ``Physics`` draws with: the GPU's name, or e.g. ``llvmpipe`` for Mesa's software one.
+
+    Examples:
+        >>> from dm_control import suite
+        >>> from vigen.rendering import gl_renderer
+        >>> isinstance(gl_renderer(suite.load("cartpole", "balance").physics), str)
+        True
+    """
+    from OpenGL import GL
+
+    with physics.contexts.gl.make_current() as context:
+        return context.call(GL.glGetString, GL.GL_RENDERER).decode()

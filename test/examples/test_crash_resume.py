@@ -143,3 +143,39 @@ def test_malicious_checkpoints_are_refused_by_both_scripts(uninterrupted, tmp_pa
     assert evaluated.returncode != 0 and "refused" in evaluated.stderr
     assert not marker.exists(), "loading a checkpoint ran code"
     assert not (tmp_path / "report").exists()
+
+
+# --overlap: a worker process, 100-frame batches, two per segment, so each segment collects its second batch in the
+# background while it updates on the first; 400 frames are two segments, and the 80-slot buffer wraps in the second
+OVERLAP = ["--overlap", "--eval-every", "200"]
+
+
+@pytest.mark.slow
+@pytest.mark.render
+def test_an_overlapped_run_killed_while_checkpointing_resumes_exactly_with_its_replay_on_the_device(tmp_path):
+    """--overlap collects the next batch while updating, but the weights each batch acts with are fixed by the sequence and
+    nothing is in flight at a checkpoint: killed and resumed (with the replay's device copy, the CPU standing in), the run
+    ends as the one never killed, bit for bit, and with the serial run's update ratio."""
+    whole, killed = tmp_path / "whole", tmp_path / "killed"
+    result = train("--frames", "400", "--out", whole, *TINY, *OVERLAP, "--time-stages")
+    assert result.returncode == 0, result.stderr[-3000:]
+    result = train("--frames", "400", "--out", killed, *TINY, *OVERLAP, "--replay-on-device", kill_at=2)
+    assert result.returncode == -9, result.stderr[-3000:]
+    result = train("--resume", killed, "--frames", "400", "--replay-on-device")
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert "resuming from frames_00000200.pt" in result.stdout
+
+    final = "checkpoints/frames_00000400.pt"
+    a, b = (torch.load(run / final, weights_only=True) for run in (whole, killed))
+    assert (a["steps"], a["updates"]) == (b["steps"], b["updates"]) == (200, 180), "one update per agent step after 20 seed steps"
+    assert_same_tensors(a["loss"], b["loss"], "loss")
+    assert_same_tensors(a["optimizer"]["state"], b["optimizer"]["state"], "optimizer")
+    assert a["replay"] == b["replay"] and a["replay"]["write_count"] > 80
+    stored, restored = (TensorDict.load_memmap(run / "replay_buffer" / "storage") for run in (whole, killed))
+    assert (stored == restored).all()
+    timing = [path for path in csv_rows(whole) if "/time/" in path]
+    assert timing, "--time-stages logged the stages"
+    assert {k: v for k, v in csv_rows(whole).items() if k not in timing} == csv_rows(killed)
+    waits = [float(value) for _, value in csv.reader((whole / "logs/scalars/time/wait_s.csv").open())]
+    collects = [float(value) for _, value in csv.reader((whole / "logs/scalars/time/collect_s.csv").open())]
+    assert min(w / c for w, c in zip(waits[1::2], collects[1::2])) < 0.5, "each segment's second batch was collected while updating"

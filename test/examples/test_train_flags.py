@@ -51,11 +51,29 @@ def test_flags_build_the_same_config_as_the_preset_with_overrides(train, tmp_pat
     (["--ray-address", "10.0.0.1:6379"], "--ray-address names the Ray cluster of --collector ray"),
     (["--lr", "-1"], "--lr must be > 0"),
     (["--protocol", "dmcgb", "--env", "robosuite/lift"], "--protocol dmcgb: protocol 'dmcgb' covers the dmc suite"),
+    (["--overlap", "--collector", "ray"], "--overlap collects in this machine's worker processes"),
 ])
 def test_bad_flags_stop_before_any_work(train, flags, message):
     with pytest.raises(SystemExit) as stop:
         train.parse_args(flags)
     assert message in str(stop.value.code)
+
+
+def test_overlap_is_a_setting_of_the_run_and_the_replay_copy_and_timers_are_how_it_runs(train, tmp_path):
+    """--overlap changes what is learned (one batch of policy lag), so config.json keeps it and a resume may not change it;
+    --replay-on-device and --time-stages change only where batches are sampled and what is logged."""
+    config, launch = train.parse_args(["--overlap", "--workers", "4", "--replay-on-device", "--time-stages", "--out", str(tmp_path)])
+    assert (config.overlap, config.workers, launch.replay_on_device, launch.time_stages) == (True, 4, True, True)
+    assert config.to_json()["overlap"] is True
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "config.json").write_text(json.dumps(replace(config, observation_shape=(9, 84, 84), action_dim=1).to_json()))
+    config, launch = train.parse_args(["--resume", str(run), "--replay-on-device"])
+    assert config.overlap and launch.replay_on_device and not launch.time_stages
+    (run / "config.json").write_text(json.dumps({**config.to_json(), "overlap": False}))
+    with pytest.raises(SystemExit) as stop:
+        train.parse_args(["--resume", str(run), "--overlap"])
+    assert "--overlap true (the run has false)" in str(stop.value.code).lower()
 
 
 def test_resume_needs_a_run_folder_and_no_out(train, tmp_path):

@@ -17,6 +17,7 @@ first:
 from __future__ import annotations
 
 import math
+import time
 from typing import Any
 
 import dm_env
@@ -26,6 +27,7 @@ import torch
 from dm_control import suite
 from dm_control.mujoco.engine import Camera
 from dm_control.suite.wrappers import pixels
+from tensordict import TensorDictBase
 from torchrl.envs.libs.dm_control import DMControlWrapper
 
 from vigen.envs.pixels import check_env_arguments
@@ -82,6 +84,8 @@ class ActionRepeat(dm_env.Environment):
         self._episode_length = episode_length
         self._elapsed = 0
         self._needs_reset = True
+        self.physics_seconds = 0.0
+        """Wall seconds spent in the simulator's steps so far (resets excluded), read by :class:`DMCPixelEnv`'s timing."""
 
     @property
     def physics(self) -> Any:
@@ -99,6 +103,13 @@ class ActionRepeat(dm_env.Environment):
     def step(self, action: Any) -> dm_env.TimeStep:
         if self._needs_reset:
             return self.reset()
+        started = time.perf_counter()
+        try:
+            return self._repeat_step(action)
+        finally:
+            self.physics_seconds += time.perf_counter() - started
+
+    def _repeat_step(self, action: Any) -> dm_env.TimeStep:
         reward, discount = 0.0, 1.0
         for _ in range(self._repeat):
             time_step = self._env.step(action)
@@ -229,6 +240,7 @@ class DMCPixelEnv(DMControlWrapper):
             pixels_only=True,
             render_kwargs={"height": image_size, "width": image_size, "camera_id": camera_id},
         )
+        self._step_seconds = 0.0
         DMControlWrapper.__init__(self, rendered, device=device)
         self.camera_id = camera_id
         self.image_size, self.action_repeat, self.episode_length = image_size, action_repeat, episode_length
@@ -246,6 +258,31 @@ class DMCPixelEnv(DMControlWrapper):
     def physics(self) -> Any:
         """The live dm_control ``Physics``: MuJoCo model and data, and the render contexts."""
         return self._env.physics
+
+    def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
+        started = time.perf_counter()
+        try:
+            return super()._step(tensordict)
+        finally:
+            self._step_seconds += time.perf_counter() - started
+
+    @property
+    def simulator_seconds(self) -> dict[str, float]:
+        """Wall seconds spent so far in the steps' physics and rendering (resets excluded), summed since the env was built.
+
+        ``physics`` is the simulator's steps (all of an action repeat); ``render`` is the rest of
+        the base env's step: rendering the frame once, and handing it to TorchRL as a tensor.
+        :class:`vigen.envs.SimulatorTimes` turns them into per-step figures.
+
+        Examples:
+            >>> from vigen.envs.dmc_env import DMCPixelEnv
+            >>> env = DMCPixelEnv("cartpole", "balance", image_size=16, seed=0)
+            >>> _ = env.rollout(3)
+            >>> {name: seconds > 0 for name, seconds in env.simulator_seconds.items()}
+            {'physics': True, 'render': True}
+        """
+        physics = self._env._env.physics_seconds
+        return {"physics": physics, "render": max(self._step_seconds - physics, 0.0)}
 
     def render_frame(self) -> np.ndarray:
         """The current view as uint8 ``[H, W, 3]``, rendered as the env renders its observations."""

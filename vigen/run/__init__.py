@@ -8,7 +8,11 @@
 * :func:`add_flags`, :func:`given_flags`: the command line generated from the config's fields;
 * :func:`check_runnable`: the checks that need the simulators, losses or Ray; :func:`build_agent`:
   the loss and acting policy of a config, shared by training and evaluation; :func:`load_agent`:
-  the same with a run's trained weights.
+  the same with a run's trained weights;
+* the training loop's parts: :class:`CollectorBatches` (a collector's batches, serial or collected
+  in the background while the loop updates), :class:`RunReplay` (the memory-mapped replay buffer
+  and its optional copy in the device's memory), :class:`StageClock` and :class:`GpuBusy` (where
+  the loop's time goes).
 
 ``vigen.run.config`` imports no simulator, loss, torch or Ray module (this package loads its
 names lazily).
@@ -31,6 +35,8 @@ from typing import Any
 _HOMES = {
     "Agent": "agent", "TrainedAgent": "agent", "build_agent": "agent", "check_runnable": "agent",
     "env_action_spec": "agent", "exploration_std": "agent", "load_agent": "agent",
+    "CollectorBatches": "collection", "GpuBusy": "timing", "RunReplay": "replay", "StageClock": "timing",
+    "busy_seconds": "timing", "to_device": "replay", "transition_bytes": "replay",
     "add_flags": "cli", "flag_name": "cli", "flag_value": "cli", "given_flags": "cli", "setting": "cli",
     "DEFAULT_FRAMES": "config", "PRESETS": "config", "PROTOCOL_KEYS": "config", "TrainConfig": "config",
     "new_config": "config", "resumed_config": "config", "with_protocol": "config",

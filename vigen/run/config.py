@@ -71,6 +71,9 @@ class TrainConfig:
     workers: int = setting(1, "envs collecting in parallel, one per process (local collector: >1 is a MultiSyncCollector)")
     collector: Literal["local", "ray"] = setting(
         "local", "local: this machine's processes; ray: TorchRL's RayCollector, one Ray actor per worker")
+    overlap: bool = setting(False, "collect the next batch in worker processes while updating on the last (local collector): "
+                                   "the same updates per agent step, the policy acting one batch of updates behind the serial "
+                                   "run; resumes exactly")
     eval_levels: tuple[str, ...] = setting(("train",), "levels evaluated at every checkpoint")
     logger: Literal["csv", "wandb"] = setting("csv", "csv, or wandb offline")
     episode_length: int | None = setting(
@@ -114,10 +117,13 @@ class TrainConfig:
     """The action's size, read from the env at the run's start."""
 
     def to_json(self) -> dict[str, Any]:
-        """The run's ``config.json``: every field but ``frames``, the protocol's two only with a protocol, tuples as lists."""
+        """The run's ``config.json``: every field but ``frames``, the protocol's two only with a protocol, ``overlap`` only when
+        set, tuples as lists."""
         saved = {field.name: _plain(getattr(self, field.name)) for field in dataclasses.fields(self) if field.name != "frames"}
         if self.protocol is None:
             del saved["protocol_settings"], saved["protocol_overrides"]
+        if not self.overlap:  # written only when set: a run without it keeps the format of the runs before the setting
+            del saved["overlap"]
         return saved
 
     @classmethod
@@ -169,6 +175,9 @@ class TrainConfig:
                              f"{self.std_final} and {self.reward_scale}.")
         if self.episode_length is not None and self.episode_length < 1:
             raise ValueError(f"--episode-length must be >= 1, got {self.episode_length}.")
+        if self.overlap and self.collector != "local":
+            raise ValueError(f"--overlap collects in this machine's worker processes; it does not combine with --collector "
+                             f"{self.collector}. Drop one of them.")
 
 
 PRESETS: Mapping[str, TrainConfig] = MappingProxyType({
