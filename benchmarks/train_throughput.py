@@ -75,6 +75,20 @@ class Config:
     overlap: bool = False
     compiled: bool = False
     replay: str = "memmap"  # or "device": --replay-on-device
+    seconds: float | None = None  # this configuration's own time limit (default: --timeout)
+
+    @classmethod
+    def parse(cls, spec: str) -> Config:
+        """``WORKERS[/overlap][/compiled][/device][@SECONDS]``, e.g. ``8/overlap/compiled/device@130``."""
+        head, _, seconds = spec.partition("@")
+        workers, *words = head.split("/")
+        unknown = set(words) - {"overlap", "compiled", "device"}
+        if not workers.isdigit() or int(workers) < 1 or unknown:
+            raise argparse.ArgumentTypeError(
+                f"--configs {spec!r}: expected WORKERS[/overlap][/compiled][/device][@SECONDS], e.g. 8/overlap/device@60"
+                + (f" ({', '.join(sorted(unknown))} unknown)" if unknown else ""))
+        return cls(int(workers), "overlap" in words, "compiled" in words, "device" if "device" in words else "memmap",
+                   float(seconds) if seconds else None)
 
     @property
     def name(self) -> str:
@@ -318,6 +332,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--device", default=None)
     parser.add_argument("--workers", type=int, nargs="+", default=None, help="replaces the mode's configurations with the "
                         "product of --workers, --collection, --updates and --replay")
+    parser.add_argument("--configs", nargs="+", type=Config.parse, default=None, metavar="SPEC",
+                        help="the configurations in this order, each WORKERS[/overlap][/compiled][/device][@SECONDS] "
+                             "(instead of --workers/--collection/--updates/--replay)")
     parser.add_argument("--collection", nargs="+", choices=["serial", "overlap"], default=None)
     parser.add_argument("--updates", nargs="+", choices=["eager", "compiled"], default=None)
     parser.add_argument("--replay", nargs="+", choices=["memmap", "device"], default=None)
@@ -339,7 +356,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     if args.threads is None and args.mode == "quick":
         args.threads = 1
     args.sizes = [*SIZES[args.mode], *args.train_flags]
-    if any(value is not None for value in (args.workers, args.collection, args.updates, args.replay)):
+    if args.configs is not None:
+        if any(value is not None for value in (args.workers, args.collection, args.updates, args.replay)):
+            raise SystemExit("--configs names every configuration: leave out --workers, --collection, --updates and --replay")
+    elif any(value is not None for value in (args.workers, args.collection, args.updates, args.replay)):
         args.configs = [Config(workers, collection == "overlap", updates == "compiled", replay) for workers, collection, updates, replay
                         in itertools.product(args.workers or [1], args.collection or ["serial"], args.updates or ["eager"],
                                              args.replay or ["memmap"])]
@@ -365,11 +385,12 @@ def main(argv: list[str] | None = None) -> int:
         with (out / "train_logs.txt").open("w") as log:
             for config in args.configs:
                 left = args.deadline - (time.time() - started)
-                if left < min(args.timeout, 20):
+                limit = args.timeout if config.seconds is None else config.seconds
+                if left < min(limit, 20):
                     report["results"].append({"config": dataclasses.asdict(config), "name": config.name, "status": "skipped",
                                               "reason": f"{left:.0f} s left before the deadline", "figures": {}})
                     continue
-                result = run_config(config, args, scratch, log, min(args.timeout, left), sampler)
+                result = run_config(config, args, scratch, log, min(limit, left), sampler)
                 report["results"].append(result)
                 write_json(out / "train_throughput.json", report)
                 figures = result["figures"]
