@@ -552,18 +552,19 @@ def make_collector(make, policy, config: TrainConfig, *, env_seed: int, steps_pe
         return collector, sync_weights
     options["auto_register_policy_transforms"] = False
     device = next(policy.parameters()).device
-    if device.type != "cpu":  # envs step on the CPU; the policy acts on the device; frames are stored on the CPU
-        options.update(policy_device=device, env_device="cpu", storing_device="cpu")
-    if config.overlap:
-        acting = copy.deepcopy(policy)
+    if config.overlap or (workers > 1 and device.type != "cpu"):
+        # worker processes act with a CPU copy of the policy, sent between batches: a copy on the GPU would be shared
+        # with the workers through CUDA IPC, and TorchRL's weight set-up with 8 such workers timed out on the H200
+        # (2026-11-28); on the CPU each worker's exploration noise also comes from its own seeded CPU generator
+        acting = copy.deepcopy(policy).to("cpu")
         collector = MultiSyncCollector(makers, acting, cat_results="stack", **options)
 
         def send_weights() -> None:
             TensorDict.from_module(acting).data.update_(TensorDict.from_module(policy).data)
-            if device.type == "cuda":  # the workers read the copy from other processes: it must be written first
-                torch.cuda.synchronize(device)
             collector.update_policy_weights_()
         return collector, send_weights
+    if device.type != "cpu":  # envs step on the CPU; the policy acts on the device; frames are stored on the CPU
+        options.update(policy_device=device, env_device="cpu", storing_device="cpu")
     if workers > 1:
         collector = MultiSyncCollector(makers, policy, cat_results="stack", **options)
     else:
