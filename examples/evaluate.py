@@ -56,6 +56,10 @@ run folders are its positional arguments) and of ``Launch`` (``--ray``, ``--work
 Runs and shipped agents alike are built by ``vigen.run.build_agent`` from the config they were
 trained with (``vigen.run.load_agent``, ``vigen.pretrained.load_agent``).
 
+The report folder may lie inside a run folder of ``examples/train.py``: the command then holds that
+run's writer lock (one process writes a run folder at a time) and stops at once, naming the
+process, while the run trains or resumes there.
+
 ``--ray`` spreads the (level, seed) jobs over Ray workers (``pip install -e ".[ray]"``): a local
 cluster started for the evaluation (on 127.0.0.1 only), or the cluster at ``--ray ADDRESS``;
 ``--workers N`` caps the jobs in flight (default: the cluster's CPUs). The rows are the serial ones:
@@ -87,7 +91,7 @@ from vigen.envs.registry import get_suite
 from vigen.evaluation import (comparison_table, evaluate, generalization_gaps, improvements, markdown_table, plot_comparison,
                               plot_intensity, plot_levels, plot_performance_profile, summarize, sweep, write_csv)
 from vigen.evaluation.report import interval_cell, label_stand_ins
-from vigen.io import atomic_write, unused_path
+from vigen.io import FolderInUse, RunFolderLock, atomic_write, unused_path
 from vigen.protocols import PROTOCOLS
 from vigen.ray_cluster import ray_session
 from vigen.rendering import RenderSettings
@@ -187,15 +191,16 @@ def main(argv: list[str] | None = None) -> None:
     device = acting_device(launch)
     check_agents_named(config)
     sweeps, videos = [parse_sweep(items) for items in config.sweep], parse_videos(config.videos)
-    agents = [load_run(path, device) for path in config.runs] + [load_shipped(name, device) for name in config.pretrained]
-    comparison = compared_with(config)
-    levels = levels_per_env(agents, config, comparison, sweeps)
-    runs = [run_evaluated(trained, config.episode_length) for trained in agents]
-    if comparison is not None:  # the published numbers need the same protocol and data: check before any episode runs
-        check_comparable(runs, levels, videos, comparison)
-    evaluations = runs + (random_evaluated(runs) if config.random else [])
-    rows = play(evaluations, levels, videos, config, launch, device)
-    report = write_report(rows, unused_path(launch.out), sweeps, comparison, played=config.episodes * len(config.seeds))
+    with hold_run_folder(launch.out):  # a report inside a run folder: one writer at a time, checked before any episode
+        agents = [load_run(path, device) for path in config.runs] + [load_shipped(name, device) for name in config.pretrained]
+        comparison = compared_with(config)
+        levels = levels_per_env(agents, config, comparison, sweeps)
+        runs = [run_evaluated(trained, config.episode_length) for trained in agents]
+        if comparison is not None:  # the published numbers need the same protocol and data: check before any episode runs
+            check_comparable(runs, levels, videos, comparison)
+        evaluations = runs + (random_evaluated(runs) if config.random else [])
+        rows = play(evaluations, levels, videos, config, launch, device)
+        report = write_report(rows, unused_path(launch.out), sweeps, comparison, played=config.episodes * len(config.seeds))
     print_report(report, rows, comparison)
 
 
@@ -261,6 +266,22 @@ def parse_sweep(items: tuple[str, ...] | list[str]) -> list[dict[str, float]]:
         if not values:
             error = f"give the intensities after the factor, e.g. --sweep {factor} 0 0.1 0.3"
         raise SystemExit(f"--sweep {' '.join(items)}: {error}") from None
+
+
+def hold_run_folder(out: Path) -> contextlib.AbstractContextManager:
+    """The writer lock of the run folder of examples/train.py that the report folder lies in (nothing outside one).
+
+    A run folder holds ``config.json`` and ``checkpoints/`` or its lock; the lock is taken now, or
+    the command stops naming the process that writes the run (a training run, a ``--resume``).
+    """
+    folder = next((parent for parent in out.absolute().parents if (parent / "config.json").is_file()
+                   and ((parent / "checkpoints").is_dir() or (parent / RunFolderLock.LOCK).exists())), None)
+    if folder is None:
+        return contextlib.nullcontext()
+    try:
+        return RunFolderLock(folder).acquire()
+    except FolderInUse as error:
+        raise SystemExit(f"--out {out}: {error} Or write the report outside the run folder.") from None
 
 
 # -- the agents and their levels -----------------------------------------------------------------

@@ -77,3 +77,19 @@ def test_a_sweep_without_intensities_names_the_fix(evaluate):
     with pytest.raises(SystemExit, match="give the intensities after the factor, e.g. --sweep camera_rotation 0 0.1 0.3"):
         evaluate.parse_sweep(("camera_rotation",))
 
+
+def test_a_report_inside_a_run_folder_in_use_stops_naming_its_writer(evaluate, tmp_path):
+    from vigen.io import FolderInUse, RunFolderLock
+
+    run = tmp_path / "runs" / "drqv2-s0"
+    (run / "checkpoints").mkdir(parents=True)
+    (run / "config.json").write_text("{}")
+    with RunFolderLock(run):  # the run trains
+        with pytest.raises(SystemExit, match=r"--out .*/reports/eval: .* is in use by process \d+ .*outside the run folder"):
+            evaluate.hold_run_folder(run / "reports" / "eval")
+    with evaluate.hold_run_folder(run / "reports" / "eval"):  # the run has ended: the report holds the folder meanwhile
+        with pytest.raises(FolderInUse, match="is in use by process"):
+            RunFolderLock(run).acquire()
+    RunFolderLock(run).acquire().release()
+    with evaluate.hold_run_folder(tmp_path / "reports" / "eval") as held:
+        assert held is None, "outside a run folder: no lock"
