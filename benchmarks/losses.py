@@ -241,7 +241,7 @@ class Reference:
 
         h = h.detach()
         if self.algo == "vrl3":
-            pre_tanh = self.actor.policy(self.actor.trunk(h))
+            pre_tanh = self.actor.action_head(self.actor.trunk(h))
             actor_q = torch.min(*self.critic(h, noisy(torch.tanh(pre_tanh))))
             penalty = 0.001 * (pre_tanh.abs() - 5).clamp(min=0).pow(2).mean()
             actor_loss = -actor_q.mean() + penalty

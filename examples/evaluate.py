@@ -50,6 +50,16 @@ default to the protocol's test levels; the report gains a "Published" table and 
 
     python examples/evaluate.py runs/svea-walker-walk-s0 --compare dmcgb --episodes 100
 
+The flags are made from the fields of ``EvaluationConfig`` below (what is evaluated and reported; the
+run folders are its positional arguments) and of ``Launch`` (``--ray``, ``--workers``, ``--device``,
+``--out``: how this command runs, not what it measures); ``--help`` lists them with their defaults.
+Runs and shipped agents alike are built by ``vigen.run.build_agent`` from the config they were
+trained with (``vigen.run.load_agent``, ``vigen.pretrained.load_agent``).
+
+The report folder may lie inside a run folder of ``examples/train.py``: the command then holds that
+run's writer lock (one process writes a run folder at a time) and stops at once, naming the
+process, while the run trains or resumes there.
+
 ``--ray`` spreads the (level, seed) jobs over Ray workers (``pip install -e ".[ray]"``): a local
 cluster started for the evaluation (on 127.0.0.1 only), or the cluster at ``--ray ADDRESS``;
 ``--workers N`` caps the jobs in flight (default: the cluster's CPUs). The rows are the serial ones:
@@ -63,13 +73,16 @@ import argparse
 import contextlib
 import fnmatch
 import sys
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import torch
+from tensordict.nn import TensorDictModuleBase
 from tqdm import tqdm
 
+from vigen import pretrained
 from vigen.checkpoint import CheckpointError
 from vigen.devices import resolve_device
 from vigen.envs import factors, level_label
@@ -78,78 +91,160 @@ from vigen.envs.registry import get_suite
 from vigen.evaluation import (comparison_table, evaluate, generalization_gaps, improvements, markdown_table, plot_comparison,
                               plot_intensity, plot_levels, plot_performance_profile, summarize, sweep, write_csv)
 from vigen.evaluation.report import interval_cell, label_stand_ins
-from vigen.io import atomic_write, unused_path
+from vigen.io import FolderInUse, RunFolderLock, atomic_write, unused_path
 from vigen.protocols import PROTOCOLS
 from vigen.ray_cluster import ray_session
 from vigen.rendering import RenderSettings
 from vigen.results import SOURCES, ProtocolMismatch, compare, load, published
 from vigen.results.compare import VALUE_UNITS
-from vigen.pretrained import available, info, load_policy
-from vigen.run import TrainConfig, load_agent
-
+from vigen.run import TrainConfig, TrainedAgent, add_flags, given_flags, load_agent, setting
 
 DEFAULT_GROUPS = {"dmc": "dmcgb", "robosuite": "rlvigen", "adroit": "rlvigen"}
+"""The test levels evaluated by default beside ``train``, per suite (others: ``all``)."""
 
 
-def parse_args() -> argparse.Namespace:
+@dataclass(frozen=True)
+class EvaluationConfig:
+    """What is evaluated and reported: the agents, the levels, the episodes and seeds, the data shown, the comparison."""
+
+    runs: tuple[Path, ...] = setting((), "run folders or checkpoint files of examples/train.py", positional=True)
+    pretrained: tuple[str, ...] = setting(
+        (), f"agents that ship with vigen (vigen.pretrained): {', '.join(pretrained.available()) or 'none yet'}; or the "
+            ".pt file of one written by vigen.pretrained.export_policy (its .json beside it)", metavar="NAME")
+    levels: tuple[str, ...] | None = setting(
+        None, "levels or groups of the runs' suite (dmc: dmcgb, rlvigen, corruptions; robosuite: rlvigen, camera, "
+              "embodiment; adroit: rlvigen, camera, light)",
+        unset="train and the suite's dmcgb (dmc) or rlvigen group; with --compare, train and the protocol's test levels")
+    sweep: tuple[tuple[str, ...], ...] = setting(
+        (), "a factor and its intensities in [0, 1], e.g. --sweep camera_rotation 0 0.1 0.3; repeatable; adds their levels "
+            "and an intensity_FACTOR.png curve", metavar="FACTOR I1 I2")
+    episodes: int = setting(10, "episodes per level and seed")
+    seeds: tuple[int, ...] = setting((0,), "env and level seeds (robosuite: also the scene, seed %% 10; RL-ViGen: "
+                                           "--seeds 0 1 ... 9)")
+    random: bool = setting(False, "also evaluate a random policy as a baseline")
+    videos: tuple[str, ...] = setting(
+        (), "video folders per level: LEVEL=FOLDER, LEVEL a level or a shell pattern (video_easy=DIR video_hard=DIR "
+            "'dcs_*'=DAVIS), or one FOLDER for every video level; levels without one show the data fetched with python -m "
+            "vigen.data (docs/data.md), else procedural stand-ins", metavar="[LEVEL=]FOLDER")
+    episode_length: int | None = setting(None, "simulator steps per episode", unset="the run's")
+    compare: str | None = setting(
+        None, "put the runs beside the published numbers of a protocol (all its sources) or of one source",
+        choices=lambda: sorted({*PROTOCOLS, *SOURCES}))
+    allow_budget_mismatch: bool = setting(
+        False, "with --compare: show runs trained for another length than the published numbers, marked")
+    allow_stand_ins: bool = setting(
+        False, "with --compare: show levels that showed vigen's stand-ins (procedural videos, statistics-matched colours) "
+               "beside the published numbers, each line saying so")
+
+
+@dataclass(frozen=True)
+class Launch:
+    """How this command runs the evaluation and where it writes the report; the rows do not depend on them."""
+
+    ray: str | None = setting(None, "run the (level, seed) jobs on Ray: a local cluster, or the cluster at ADDRESS",
+                              unset="no Ray", bare="local", metavar="ADDRESS")
+    workers: int | None = setting(None, "with --ray: jobs in flight at once", unset="the cluster's CPUs")
+    device: str = setting("auto", "where the policies act: auto (CUDA when present), cpu, cuda, cuda:N; envs step on the "
+                                  "CPU. A checkpoint made on a GPU evaluates on a CPU-only machine (with --ray: cpu)")
+    out: Path = setting(Path("reports/evaluation"), "the report folder; never overwritten: a new name is picked if it exists")
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """``--compare``: the protocol, its sources, and what may be shown beside them anyway."""
+
+    name: str
+    protocol: str
+    sources: list[str]
+    allow_budget_mismatch: bool
+    allow_stand_ins: bool
+
+
+@dataclass(frozen=True)
+class Evaluated:
+    """One policy to evaluate (``None``: random actions) in its env, with the env's options and the columns of its rows."""
+
+    policy: TensorDictModuleBase | None
+    env: str
+    env_options: dict[str, Any]
+    tags: dict[str, Any]
+
+
+@dataclass
+class Report:
+    """The report folder as it is written: ``report.md``'s text and the files beside it, in the order they are listed."""
+
+    folder: Path
+    text: str = ""
+    tables: list[Path] = field(default_factory=list)
+    figures: list[Path] = field(default_factory=list)
+    curves: list[Path] = field(default_factory=list)
+    lines: list[dict] = field(default_factory=list)
+    """The summary lines (summary.csv): per method and level."""
+    published_table: str = ""
+    """With --compare: the runs beside the published numbers, as printed."""
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Check the command, load the agents, resolve their levels, play the episodes, write and print the report."""
+    config, launch = parse_args(argv)
+    device = acting_device(launch)
+    check_agents_named(config)
+    sweeps, videos = [parse_sweep(items) for items in config.sweep], parse_videos(config.videos)
+    with hold_run_folder(launch.out):  # a report inside a run folder: one writer at a time, checked before any episode
+        agents = [load_run(path, device) for path in config.runs] + [load_shipped(name, device) for name in config.pretrained]
+        comparison = compared_with(config)
+        levels = levels_per_env(agents, config, comparison, sweeps)
+        runs = [run_evaluated(trained, config.episode_length) for trained in agents]
+        if comparison is not None:  # the published numbers need the same protocol and data: check before any episode runs
+            check_comparable(runs, levels, videos, comparison)
+        evaluations = runs + (random_evaluated(runs) if config.random else [])
+        rows = play(evaluations, levels, videos, config, launch, device)
+        report = write_report(rows, unused_path(launch.out), sweeps, comparison, played=config.episodes * len(config.seeds))
+    print_report(report, rows, comparison)
+
+
+# -- the command line ----------------------------------------------------------------------------
+def make_parser() -> argparse.ArgumentParser:
+    """The arguments: one per field of EvaluationConfig (the run folders first, positional) and of Launch."""
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("runs", nargs="*", type=Path, help="run folders or checkpoint files of examples/train.py")
-    parser.add_argument("--pretrained", nargs="+", default=[], metavar="NAME",
-                        help=f"agents that ship with vigen (vigen.pretrained): {', '.join(available()) or 'none yet'}; "
-                             "or the .pt file of one written by vigen.pretrained.export_policy (its .json beside it)")
-    parser.add_argument("--levels", nargs="+", default=None,
-                        help="levels or groups of the runs' suite (dmc: dmcgb, rlvigen, corruptions; robosuite: rlvigen, "
-                             "camera, embodiment; adroit: rlvigen, camera, light); default: train and the suite's "
-                             "dmcgb (dmc) or rlvigen group")
-    parser.add_argument("--sweep", nargs="+", action="append", default=[], metavar="FACTOR I1 I2",
-                        help="a factor and its intensities in [0, 1], e.g. --sweep camera_rotation 0 0.1 0.3; "
-                             "repeatable; adds their levels and an intensity_FACTOR.png curve")
-    parser.add_argument("--episodes", type=int, default=10, help="episodes per level and seed")
-    parser.add_argument("--seeds", nargs="+", type=int, default=[0],
-                        help="env and level seeds (robosuite: also the scene, seed %% 10; RL-ViGen: --seeds 0 1 ... 9)")
-    parser.add_argument("--random", action="store_true", help="also evaluate a random policy as a baseline")
-    parser.add_argument("--videos", nargs="+", default=[], metavar="[LEVEL=]FOLDER",
-                        help="video folders per level: LEVEL=FOLDER, LEVEL a level or a shell pattern (video_easy=DIR "
-                             "video_hard=DIR 'dcs_*'=DAVIS), or one FOLDER for every video level. Default: the data "
-                             "fetched with python -m vigen.data (docs/data.md), else procedural stand-ins")
-    parser.add_argument("--episode-length", type=int, default=None, help="simulator steps per episode (default: the run's)")
-    parser.add_argument("--compare", default=None, choices=sorted({*PROTOCOLS, *SOURCES}),
-                        help="put the runs beside the published numbers of a protocol (all its sources) or of one source")
-    parser.add_argument("--allow-budget-mismatch", action="store_true",
-                        help="with --compare: show runs trained for another length than the published numbers, marked")
-    parser.add_argument("--allow-stand-ins", action="store_true",
-                        help="with --compare: show levels that showed vigen's stand-ins (procedural videos, statistics-"
-                             "matched colours) beside the published numbers, each line saying so")
-    parser.add_argument("--ray", nargs="?", const="local", default=None, metavar="ADDRESS",
-                        help="run the (level, seed) jobs on Ray: a local cluster, or the cluster at ADDRESS")
-    parser.add_argument("--workers", type=int, default=None, help="with --ray: jobs in flight at once (default: the cluster's CPUs)")
-    parser.add_argument("--device", default="auto",
-                        help="where the policies act: auto (CUDA when present), cpu, cuda, cuda:N; envs step on the CPU. "
-                             "A checkpoint made on a GPU evaluates on a CPU-only machine (with --ray: cpu)")
-    parser.add_argument("--out", type=Path, default=Path("reports/evaluation"))
-    args = parser.parse_args()
+    add_flags(parser, EvaluationConfig, given_only=True)
+    add_flags(parser, Launch, given_only=True)
+    return parser
+
+
+def parse_args(argv: list[str] | None = None) -> tuple[EvaluationConfig, Launch]:
+    """What to evaluate and how, from the command line (each field its default where its flag is not given)."""
+    args = make_parser().parse_args(argv)
+    return EvaluationConfig(**given_flags(args, EvaluationConfig)), Launch(**given_flags(args, Launch))
+
+
+def acting_device(launch: Launch) -> torch.device:
+    """Where the policies act: ``--device``, or the CPU under ``--ray`` (its tasks act on their own CPU); checks ``--workers``."""
     try:
-        args.device = resolve_device(args.device)
+        device = resolve_device(launch.device)
     except ValueError as error:
         raise SystemExit(f"--device: {error}") from None
-    if args.ray is not None and args.device.type != "cpu":
-        args.device = torch.device("cpu")  # Ray's evaluation tasks act on their own CPU
-    if args.workers is not None and (args.ray is None or args.workers < 1):
-        raise SystemExit(f"--workers {args.workers}: it sets the Ray jobs in flight (>= 1) and needs --ray.")
-    if not args.runs and not args.pretrained:
+    if launch.ray is not None and device.type != "cpu":
+        device = torch.device("cpu")
+    if launch.workers is not None and (launch.ray is None or launch.workers < 1):
+        raise SystemExit(f"--workers {launch.workers}: it sets the Ray jobs in flight (>= 1) and needs --ray.")
+    return device
+
+
+def check_agents_named(config: EvaluationConfig) -> None:
+    """Stop unless there is something to evaluate and every ``--pretrained`` name is a shipped agent or an exported file."""
+    if not config.runs and not config.pretrained:
         raise SystemExit("give run folders of examples/train.py, or --pretrained NAME (shipped: "
-                         f"{', '.join(available()) or 'none yet'}).")
-    for name in args.pretrained:
+                         f"{', '.join(pretrained.available()) or 'none yet'}).")
+    for name in config.pretrained:
         try:
-            info(name)
+            pretrained.info(name)
         except KeyError as error:
             raise SystemExit(f"--pretrained {name}: {error.args[0]}") from None
-    args.sweep = [parse_sweep(items) for items in args.sweep]
-    args.videos = parse_videos(args.videos)
-    return args
 
 
-def parse_videos(items: list[str]) -> list[tuple[str, Path]]:
+def parse_videos(items: tuple[str, ...] | list[str]) -> list[tuple[str, Path]]:
     """``--videos`` -> (level pattern, folder) pairs, in order; a bare FOLDER applies to every level (``*``)."""
     pairs = []
     for item in items:
@@ -162,30 +257,8 @@ def parse_videos(items: list[str]) -> list[tuple[str, Path]]:
     return pairs
 
 
-def videos_for(env: str, level: Any, pairs: list[tuple[str, Path]]) -> dict[str, str]:
-    """The ``level_options`` a level gets from ``--videos``: the first matching pattern's folder, if the level plays videos."""
-    suite, task = env.split("/", 1)
-    if not pairs or "videos" not in get_suite(suite).options_taken(level, task):
-        return {}
-    label = level_label(level)
-    folder = next((folder for pattern, folder in pairs if fnmatch.fnmatchcase(label, pattern)), None)
-    return {} if folder is None else {"videos": str(folder)}
-
-
-def in_runs(levels: list[Any], options_of: Any) -> list[tuple[list[Any], dict[str, str]]]:
-    """Consecutive levels that share their ``level_options``, in order (one evaluate() call each keeps Ray's parallelism)."""
-    runs: list[tuple[list[Any], dict[str, str]]] = []
-    for level in levels:
-        options = options_of(level)
-        if runs and runs[-1][1] == options:
-            runs[-1][0].append(level)
-        else:
-            runs.append(([level], options))
-    return runs
-
-
-def parse_sweep(items: list[str]) -> list[dict[str, float]]:
-    """``["camera_rotation", "0", "0.1"]`` -> the sweep's levels, or an exit naming what is wrong."""
+def parse_sweep(items: tuple[str, ...] | list[str]) -> list[dict[str, float]]:
+    """``("camera_rotation", "0", "0.1")`` -> the sweep's levels, or an exit naming what is wrong."""
     factor, *values = items
     try:
         return sweep(factor, [float(value) for value in values])
@@ -195,45 +268,100 @@ def parse_sweep(items: list[str]) -> list[dict[str, float]]:
         raise SystemExit(f"--sweep {' '.join(items)}: {error}") from None
 
 
-@dataclass
-class Evaluated:
-    """What is evaluated: an acting policy, the config it was trained with, and its training frames."""
+def hold_run_folder(out: Path) -> contextlib.AbstractContextManager:
+    """The writer lock of the run folder of examples/train.py that the report folder lies in (nothing outside one).
 
-    policy: Any
-    config: TrainConfig
-    frames: int
+    A run folder holds ``config.json`` and ``checkpoints/`` or its lock; the lock is taken now, or
+    the command stops naming the process that writes the run (a training run, a ``--resume``).
+    """
+    folder = next((parent for parent in out.absolute().parents if (parent / "config.json").is_file()
+                   and ((parent / "checkpoints").is_dir() or (parent / RunFolderLock.LOCK).exists())), None)
+    if folder is None:
+        return contextlib.nullcontext()
+    try:
+        return RunFolderLock(folder).acquire()
+    except FolderInUse as error:
+        raise SystemExit(f"--out {out}: {error} Or write the report outside the run folder.") from None
 
 
-def load_run(path: Path, device: torch.device) -> Evaluated:
-    """The run's config and policy with the weights of ``path`` (or the run's newest checkpoint that loads), on ``device``."""
+# -- the agents and their levels -----------------------------------------------------------------
+def load_run(path: Path, device: torch.device) -> TrainedAgent:
+    """The run's agent with the weights of ``path`` (or the run's newest checkpoint that loads), on ``device``."""
     try:
         trained = load_agent(path, device=device)
     except (CheckpointError, FileNotFoundError) as error:
         raise SystemExit(f"{path}: {error}") from None
     for bad, why in trained.skipped:
         print(f"skipped checkpoint {bad}: {why}", file=sys.stderr)
-    return Evaluated(trained.agent.policy, trained.config, trained.frames)
+    return trained
 
 
-def load_shipped(name: str, device: torch.device) -> Evaluated:
-    """A shipped agent (``vigen.pretrained``), or an exported one by its file: its deterministic policy, config and frames."""
-    record = info(name)
-    return Evaluated(load_policy(name, device=device), TrainConfig.from_json(record["config"]), record["frames"])
+def load_shipped(name: str, device: torch.device) -> TrainedAgent:
+    """A shipped agent (``vigen.pretrained``), or an exported one by its file, built as its run was (``build_agent``)."""
+    try:
+        return pretrained.load_agent(name, device=device)
+    except CheckpointError as error:
+        raise SystemExit(f"--pretrained {name}: {error}") from None
+
+
+def compared_with(config: EvaluationConfig) -> Comparison | None:
+    """``--compare NAME`` -> the comparison: a protocol names every source published under it, a source its protocol."""
+    if config.compare is None:
+        return None
+    if config.compare in PROTOCOLS:
+        protocol, sources = config.compare, [source for source in SOURCES if any(row.protocol == config.compare
+                                                                                 for row in load(source))]
+    else:
+        protocol, sources = load(config.compare)[0].protocol, [config.compare]
+    return Comparison(config.compare, protocol, sources, config.allow_budget_mismatch, config.allow_stand_ins)
+
+
+def levels_per_env(agents: list[TrainedAgent], config: EvaluationConfig, comparison: Comparison | None,
+                   sweeps: list[list[dict[str, float]]]) -> dict[str, list[Any]]:
+    """Each env's levels: ``--levels`` (default: train and the suite's group, or the protocol's test levels), then the sweeps'."""
+    levels = {}
+    for env in dict.fromkeys(trained.config.env for trained in agents):
+        suite = env.split("/")[0]
+        try:
+            default = (["train", *PROTOCOLS[comparison.protocol].test_levels(env)] if comparison
+                       else ["train", DEFAULT_GROUPS.get(suite, "all")])
+            levels[env] = resolve_levels(list(config.levels or default), suite=suite)
+        except ValueError as error:
+            raise SystemExit(f"--compare {comparison.name}: {error}" if comparison else str(error)) from None
+        for swept in sweeps:
+            if swept[0].factor not in factors(env):
+                raise SystemExit(f"--sweep {swept[0].factor}: not a factor of {env}; its factors are {', '.join(factors(env))}.")
+            levels[env] += swept
+    return levels
 
 
 RUN_SETTINGS = ("action_repeat", "frame_stack", "image_size")
 """The env options a run was trained with (``config.json``); its evaluation uses the same."""
 
 
-def run_env_options(config: TrainConfig, args: argparse.Namespace) -> dict:
+def run_evaluated(trained: TrainedAgent, episode_length: int | None) -> Evaluated:
+    """A run's policy in its env as it was trained (the episode length asked for), with the columns its rows carry."""
+    options = run_env_options(trained.config, episode_length)
+    return Evaluated(trained.agent.policy, trained.config.env, options, run_tags(trained, options))
+
+
+def random_evaluated(runs: list[Evaluated]) -> list[Evaluated]:
+    """``--random``: a random policy in each env, as the env's first run saw it."""
+    first: dict[str, dict] = {}
+    for run in runs:
+        first.setdefault(run.env, run.env_options)
+    return [Evaluated(None, env, env_options, {"method": "random", "run": 0}) for env, env_options in first.items()]
+
+
+def run_env_options(config: TrainConfig, episode_length: int | None) -> dict:
     """The evaluation env of a run: its action repeat, frame stack and image size, and the episode length asked for."""
-    length = args.episode_length or config.episode_length
+    length = episode_length or config.episode_length
     return {"render_settings": RenderSettings.fast(),
             **({} if length is None else {"episode_length": length}),
             **{name: getattr(config, name) for name in RUN_SETTINGS if getattr(config, name) is not None}}
 
 
-def run_tags(trained: Evaluated, env_options: dict) -> dict:
+def run_tags(trained: TrainedAgent, env_options: dict) -> dict:
     """The columns every row of a run carries: method, run, frames, its training batch and the settings a protocol fixes (for --compare)."""
     config = trained.config
     channels, _, width = config.observation_shape  # uint8 [3 * frame stack, H, W]
@@ -245,134 +373,173 @@ def run_tags(trained: Evaluated, env_options: dict) -> dict:
             **{name: value for name, value in settings.items() if value is not None}}
 
 
-def compare_sources(name: str) -> tuple[str, list[str]]:
-    """``--compare NAME`` -> (the protocol, its sources): a protocol names every source published under it."""
-    if name in PROTOCOLS:
-        return name, [source for source in SOURCES if any(row.protocol == name for row in load(source))]
-    return load(name)[0].protocol, [name]
+def check_comparable(runs: list[Evaluated], levels: dict[str, list[Any]], videos: list[tuple[str, Path]],
+                     comparison: Comparison) -> None:
+    """Stop, naming every difference, unless each run followed the protocol and its levels show the benchmark's data."""
+    probe = [{**run.tags, "env": run.env, "level": level, "return": 0.0, "success": 0.0, **shown_data(run.env, level, videos)}
+             for run in runs for level in levels[run.env] if isinstance(level, str)]
+    try:
+        published_lines(probe, comparison)
+    except ValueError as error:  # ProtocolMismatch and StandInRows included
+        raise SystemExit(f"--compare {comparison.name}: {error}") from None
 
 
-def main() -> None:
-    args = parse_args()
-    agents = [load_run(path, args.device) for path in args.runs] + [load_shipped(name, args.device) for name in args.pretrained]
-    protocol, sources = compare_sources(args.compare) if args.compare else (None, [])
-    levels = {}  # env name -> its levels
-    for env in dict.fromkeys(trained.config.env for trained in agents):
-        suite = env.split("/")[0]
-        try:
-            default = ["train", *PROTOCOLS[protocol].test_levels(env)] if protocol else ["train", DEFAULT_GROUPS.get(suite, "all")]
-            levels[env] = resolve_levels(args.levels or default, suite=suite)
-        except ValueError as error:
-            raise SystemExit(f"--compare {args.compare}: {error}" if protocol else str(error)) from None
-        for swept in args.sweep:
-            if swept[0].factor not in factors(env):
-                raise SystemExit(f"--sweep {swept[0].factor}: not a factor of {env}; its factors are {', '.join(factors(env))}.")
-            levels[env] += swept
-    options = [run_env_options(trained.config, args) for trained in agents]
-    if protocol is not None:  # the published numbers need the same protocol and data: check before any episode runs
-        probe = [{**run_tags(trained, env_options), "env": trained.config.env, "level": level, "return": 0.0, "success": 0.0,
-                  **shown_data(trained.config.env, level, args.videos)}
-                 for trained, env_options in zip(agents, options) for level in levels[trained.config.env] if isinstance(level, str)]
-        try:
-            published_lines(probe, sources, protocol, args.allow_budget_mismatch, args.allow_stand_ins)
-        except ValueError as error:  # ProtocolMismatch and StandInRows included
-            raise SystemExit(f"--compare {args.compare}: {error}") from None
-    evaluations = [(trained.policy, trained.config.env, env_options, run_tags(trained, env_options))
-                   for trained, env_options in zip(agents, options)]
-    if args.random:  # in each env as its first run saw it
-        first: dict[str, dict] = {}
-        for trained, env_options in zip(agents, options):
-            first.setdefault(trained.config.env, env_options)
-        evaluations += [(None, env, env_options, {"method": "random", "run": 0}) for env, env_options in first.items()]
-    backend = {} if args.ray is None else {"backend": "ray", "workers": args.workers}
+# -- the episodes --------------------------------------------------------------------------------
+def play(evaluations: list[Evaluated], levels: dict[str, list[Any]], videos: list[tuple[str, Path]],
+         config: EvaluationConfig, launch: Launch, device: torch.device) -> list[dict]:
+    """Every policy's episodes on its env's levels (one Ray cluster for all with ``--ray``), with a progress bar of jobs."""
+    backend = {} if launch.ray is None else {"backend": "ray", "workers": launch.workers}
     rows = []
     with contextlib.ExitStack() as stack:
-        if args.ray is not None:  # one cluster for every run's jobs
-            stack.enter_context(ray_session(None if args.ray == "local" else args.ray))
-        progress = stack.enter_context(tqdm(total=sum(len(levels[env]) for _, env, _, _ in evaluations) * len(args.seeds),
+        if launch.ray is not None:  # one cluster for every run's jobs
+            stack.enter_context(ray_session(None if launch.ray == "local" else launch.ray))
+        progress = stack.enter_context(tqdm(total=sum(len(levels[run.env]) for run in evaluations) * len(config.seeds),
                                             unit="job", desc="(level, seed) jobs", dynamic_ncols=True))
-        for policy, env, env_options, tags in evaluations:
-            for share, level_options in in_runs(levels[env], lambda level: videos_for(env, level, args.videos)):
-                rows += evaluate(policy, env, share, episodes=args.episodes, seeds=args.seeds,
-                                 env_options={**env_options, "level_options": level_options or None}, tags=tags,
-                                 device=args.device, progress=lambda done, total: progress.update(1), **backend)
+        for run in evaluations:
+            for share, level_options in in_runs(levels[run.env], lambda level: videos_for(run.env, level, videos)):
+                rows += evaluate(run.policy, run.env, share, episodes=config.episodes, seeds=list(config.seeds),
+                                 env_options={**run.env_options, "level_options": level_options or None}, tags=run.tags,
+                                 device=device, progress=lambda done, total: progress.update(1), **backend)
+    return rows
 
-    out = unused_path(args.out)
-    out.mkdir(parents=True)
-    lines = summarize(rows)
-    written = [write_csv(rows, out / "episodes.csv"), write_csv(lines, out / "summary.csv")]
-    task = ", ".join(dict.fromkeys(row["env"] for row in rows))
-    report = f"# Zero-shot evaluation: {task}\n\n## Episode return\n\n{markdown_table(label_stand_ins(lines, rows))}\n"
+
+def videos_for(env: str, level: Any, pairs: list[tuple[str, Path]]) -> dict[str, str]:
+    """The ``level_options`` a level gets from ``--videos``: the first matching pattern's folder, if the level plays videos."""
+    suite, task = env.split("/", 1)
+    if not pairs or "videos" not in get_suite(suite).options_taken(level, task):
+        return {}
+    label = level_label(level)
+    folder = next((folder for pattern, folder in pairs if fnmatch.fnmatchcase(label, pattern)), None)
+    return {} if folder is None else {"videos": str(folder)}
+
+
+def in_runs(levels: list[Any], options_of: Callable[[Any], dict[str, str]]) -> list[tuple[list[Any], dict[str, str]]]:
+    """Consecutive levels that share their ``level_options``, in order (one evaluate() call each keeps Ray's parallelism)."""
+    runs: list[tuple[list[Any], dict[str, str]]] = []
+    for level in levels:
+        options = options_of(level)
+        if runs and runs[-1][1] == options:
+            runs[-1][0].append(level)
+        else:
+            runs.append(([level], options))
+    return runs
+
+
+# -- the report ----------------------------------------------------------------------------------
+def write_report(rows: list[dict], folder: Path, sweeps: list[list[dict[str, float]]], comparison: Comparison | None,
+                 played: int) -> Report:
+    """The report folder: the rows and their tables, report.md and the figures, each section written by its own step."""
+    folder.mkdir(parents=True)
+    report = Report(folder, lines=summarize(rows))
+    add_returns(report, rows)
+    add_gaps(report, rows)
+    add_improvements(report, rows)
+    add_figures(report, rows, sweeps)
+    if comparison is not None:
+        add_published(report, rows, comparison, played)
+    atomic_write(folder / "report.md", report.text)
+    return report
+
+
+def task_names(rows: list[dict]) -> str:
+    """The envs of the rows, in order: the report's title."""
+    return ", ".join(dict.fromkeys(row["env"] for row in rows))
+
+
+def add_returns(report: Report, rows: list[dict]) -> None:
+    """episodes.csv and summary.csv; the return per level and method, what each level showed, the success rate."""
+    report.tables += [write_csv(rows, report.folder / "episodes.csv"), write_csv(report.lines, report.folder / "summary.csv")]
+    report.text += (f"# Zero-shot evaluation: {task_names(rows)}\n\n## Episode return\n\n"
+                    f"{markdown_table(label_stand_ins(report.lines, rows))}\n")
     if any(row["stand_in"] for row in rows):
-        report += ("\nLevels marked (stand-in) showed vigen's stand-ins (procedural videos, statistics-matched colours), not "
-                   "the benchmark's own data; `python -m vigen.data fetch ...` gets the data (docs/data.md).\n")
-    report += f"\n## What each level showed\n\n{level_notes(rows, heading=False)}"
+        report.text += ("\nLevels marked (stand-in) showed vigen's stand-ins (procedural videos, statistics-matched colours), "
+                        "not the benchmark's own data; `python -m vigen.data fetch ...` gets the data (docs/data.md).\n")
+    report.text += f"\n## What each level showed\n\n{level_notes(rows, heading=False)}"
     if all("success" in row for row in rows):  # tasks with a success check: the success rate in %
         success = summarize([dict(row, success=100.0 * row["success"]) for row in rows], value="success")
-        written.append(write_csv(success, out / "summary_success.csv"))
-        report += f"\n## Success rate (%)\n\n{markdown_table(success)}\n"
+        report.tables.append(write_csv(success, report.folder / "summary_success.csv"))
+        report.text += f"\n## Success rate (%)\n\n{markdown_table(success)}\n"
+
+
+def add_gaps(report: Report, rows: list[dict]) -> None:
+    """gaps.csv: each method's test / train return per level, with its 95 % CI (the random policy has no gap)."""
     gaps = generalization_gaps([row for row in rows if row["method"] != "random"])
     if gaps:
-        written.append(write_csv(gaps, out / "gaps.csv"))
-        report += "\n## Generalization gap (test / train return of the same runs, 95 % CI)\n\n" + markdown_table(
+        report.tables.append(write_csv(gaps, report.folder / "gaps.csv"))
+        report.text += "\n## Generalization gap (test / train return of the same runs, 95 % CI)\n\n" + markdown_table(
             gaps, cell=lambda line: interval_cell(line["gap"], line["gap_low"], line["gap_high"], line["runs"])) + "\n"
-    if len({row["method"] for row in rows}) > 1:
-        better = improvements(rows)
-        written.append(write_csv(better, out / "improvements.csv"))
-        report += "\n## Probability of improvement P(row beats column), per level (95 % CI)\n\n" + "\n\n".join(
-            f"{level}:\n\n" + markdown_table([line for line in better if line["level"] == level], rows="method", columns="over",
-                                              cell=lambda line: interval_cell(line["probability"], line["low"], line["high"],
-                                                                                max(line["runs"], line["over_runs"])))
-            for level in dict.fromkeys(line["level"] for line in better)) + "\n"
-    figures = [plot_levels(lines, out / "levels.png", title=f"{task}: zero-shot IQM per level (95 % CI)")]
+
+
+def add_improvements(report: Report, rows: list[dict]) -> None:
+    """improvements.csv, with two methods or more: P(row beats column) per level, with its 95 % CI."""
+    if len({row["method"] for row in rows}) <= 1:
+        return
+    better = improvements(rows)
+    report.tables.append(write_csv(better, report.folder / "improvements.csv"))
+    report.text += "\n## Probability of improvement P(row beats column), per level (95 % CI)\n\n" + "\n\n".join(
+        f"{level}:\n\n" + markdown_table([line for line in better if line["level"] == level], rows="method", columns="over",
+                                          cell=lambda line: interval_cell(line["probability"], line["low"], line["high"],
+                                                                            max(line["runs"], line["over_runs"])))
+        for level in dict.fromkeys(line["level"] for line in better)) + "\n"
+
+
+def add_figures(report: Report, rows: list[dict], sweeps: list[list[dict[str, float]]]) -> None:
+    """levels.png; profile.png over the test levels; one intensity_FACTOR.png robustness curve per swept factor."""
+    task, folder, lines = task_names(rows), report.folder, report.lines
+    report.figures.append(plot_levels(lines, folder / "levels.png", title=f"{task}: zero-shot IQM per level (95 % CI)"))
     if any(row["level"] != "train" for row in rows):
-        figures.append(plot_performance_profile(rows, out / "profile.png"))
-        report += "\n## Performance profile over the test levels\n\n![profile.png](profile.png)\n"
-    swept_factors = dict.fromkeys(swept[0].factor for swept in args.sweep)
-    curves = [plot_intensity(lines, out / f"intensity_{factor}.png", factor=factor,
-                             title=f"{task}: IQM against {factor} (95 % CI)") for factor in swept_factors]
-    if curves:
-        report += "\n## Robustness curves\n\n" + "".join(f"![{curve.name}]({curve.name})\n" for curve in curves)
-    published_table = ""
-    if protocol is not None:
-        compared = published_lines([row for row in rows if row["method"] != "random"], sources, protocol,
-                                   args.allow_budget_mismatch, args.allow_stand_ins)
-        written.append(write_csv(compared, out / "published.csv"))
-        for unit in dict.fromkeys(line["unit"] for line in compared):
-            name = "published.png" if unit == "return" else f"published_{unit}.png"
-            figures.append(plot_comparison([line for line in compared if line["unit"] == unit], out / name,
-                                           ylabel="episode return" if unit == "return" else "success rate (%)"))
-        played = args.episodes * len(args.seeds)
-        wanted = PROTOCOLS[protocol].test.episodes
-        published_table = comparison_table(compared) + ("" if played >= wanted else
-            f"\nThis evaluation played {played} episodes per level and run; protocol {protocol} plays {wanted} "
-            f"(--episodes {wanted}): fewer episodes, a noisier mean.")
-        report += (f"\n## Published ({PROTOCOLS[protocol].title}; sources: {', '.join(sources)})\n\n{published_table}\n\n"
-                   f"{level_notes(rows)}\n" + "".join(f"![{figure.name}]({figure.name})\n"
-                                                                   for figure in figures if figure.name.startswith("published")))
-    atomic_write(out / "report.md", report)
-    print(markdown_table(label_stand_ins(lines, rows)))
-    if published_table:
-        print(f"\nPublished numbers, protocol {protocol}:\n\n{published_table}\n\n{level_notes(rows)}")
-    names = [path.name for path in [*written, out / "report.md", *figures, *curves]]
-    print(f"\nwrote {out}/: {', '.join(names)}")
+        report.figures.append(plot_performance_profile(rows, folder / "profile.png"))
+        report.text += "\n## Performance profile over the test levels\n\n![profile.png](profile.png)\n"
+    swept_factors = dict.fromkeys(swept[0].factor for swept in sweeps)
+    report.curves += [plot_intensity(lines, folder / f"intensity_{factor}.png", factor=factor,
+                                     title=f"{task}: IQM against {factor} (95 % CI)") for factor in swept_factors]
+    if report.curves:
+        report.text += "\n## Robustness curves\n\n" + "".join(f"![{curve.name}]({curve.name})\n" for curve in report.curves)
 
 
-def published_lines(rows: list[dict], sources: list[str], protocol: str, allow_budget_mismatch: bool,
-                    allow_stand_ins: bool) -> list[dict]:
+def add_published(report: Report, rows: list[dict], comparison: Comparison, played: int) -> None:
+    """published.csv and published*.png: the runs beside the published numbers, with what each level showed."""
+    protocol = comparison.protocol
+    compared = published_lines([row for row in rows if row["method"] != "random"], comparison)
+    report.tables.append(write_csv(compared, report.folder / "published.csv"))
+    for unit in dict.fromkeys(line["unit"] for line in compared):
+        name = "published.png" if unit == "return" else f"published_{unit}.png"
+        report.figures.append(plot_comparison([line for line in compared if line["unit"] == unit], report.folder / name,
+                                              ylabel="episode return" if unit == "return" else "success rate (%)"))
+    wanted = PROTOCOLS[protocol].test.episodes
+    report.published_table = comparison_table(compared) + ("" if played >= wanted else
+        f"\nThis evaluation played {played} episodes per level and run; protocol {protocol} plays {wanted} "
+        f"(--episodes {wanted}): fewer episodes, a noisier mean.")
+    report.text += (f"\n## Published ({PROTOCOLS[protocol].title}; sources: {', '.join(comparison.sources)})\n\n"
+                    f"{report.published_table}\n\n{level_notes(rows)}\n"
+                    + "".join(f"![{figure.name}]({figure.name})\n" for figure in report.figures
+                              if figure.name.startswith("published")))
+
+
+def print_report(report: Report, rows: list[dict], comparison: Comparison | None) -> None:
+    """The return table, the published numbers (with --compare) and the files written."""
+    print(markdown_table(label_stand_ins(report.lines, rows)))
+    if comparison is not None:
+        print(f"\nPublished numbers, protocol {comparison.protocol}:\n\n{report.published_table}\n\n{level_notes(rows)}")
+    names = [path.name for path in [*report.tables, report.folder / "report.md", *report.figures, *report.curves]]
+    print(f"\nwrote {report.folder}/: {', '.join(names)}")
+
+
+def published_lines(rows: list[dict], comparison: Comparison) -> list[dict]:
     """compare() on the return and, where the rows and the sources have one, the success rate (Adroit publishes success only)."""
     lines, nothing = [], []
     for value in ("return", "success"):
-        if all(value in row for row in rows) and published(source=sources, unit=VALUE_UNITS[value]):
+        if all(value in row for row in rows) and published(source=comparison.sources, unit=VALUE_UNITS[value]):
             try:
-                lines += compare(rows, source=sources, protocol=protocol, value=value, allow_budget_mismatch=allow_budget_mismatch,
-                                 allow_stand_ins=allow_stand_ins)
+                lines += compare(rows, source=comparison.sources, protocol=comparison.protocol, value=value,
+                                 allow_budget_mismatch=comparison.allow_budget_mismatch,
+                                 allow_stand_ins=comparison.allow_stand_ins)
             except ProtocolMismatch:
                 raise
             except ValueError as error:  # nothing published in this unit for these rows
                 nothing.append(str(error))
     if not lines:
-        raise ValueError(" ".join(nothing) or f"{', '.join(sources)} publish nothing comparable.")
+        raise ValueError(" ".join(nothing) or f"{', '.join(comparison.sources)} publish nothing comparable.")
     return lines
 
 

@@ -10,7 +10,7 @@ from torchrl.data import Bounded
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from vigen.checkpoint import CheckpointError
-from vigen.pretrained import available, export_policy, info, load_config, load_policy
+from vigen.pretrained import available, export_policy, info, load_agent, load_config, load_policy
 from vigen.run import TrainConfig, build_agent
 
 SHAPE = (9, 32, 32)
@@ -119,6 +119,21 @@ def test_each_shipped_agent_loads_and_acts_within_its_bounds(name):
     assert action.std(0).max() > 0, f"{name} acts the same on every observation"
     evaluated = {row["level"] for row in record["evaluation"]}
     assert {"train", "color_hard", "video_hard"} <= evaluated and all(len(row["returns"]) == 10 for row in record["evaluation"])
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_each_shipped_agent_is_its_runs_agent_with_the_files_weights_bit_for_bit(name):
+    stored = torch.load(policy_file(name), weights_only=True)["parts"]
+    assert any(key.startswith("policy.") for key in stored["actor"]), "the shipped files keep the actor's old MLP name"
+    shipped = load_agent(name)
+    assert shipped.config == TrainConfig.from_json(info(name)["config"]) and shipped.frames == info(name)["frames"]
+    assert type(shipped.agent.loss).__name__ == {"drqv2": "DrQv2Loss", "svea": "SVEALoss"}[shipped.config.algo]
+    assert shipped.agent.exploration_noise.sigma == 0, "built with the run's config, acting without noise"
+    for part, tensors in stored.items():
+        state = getattr(shipped.agent.loss, part).state_dict()
+        for key, value in tensors.items():
+            today = "action_head." + key.removeprefix("policy.") if part == "actor" and key.startswith("policy.") else key
+            assert state[today].dtype == torch.float32 and torch.equal(state[today], value.float()), f"{part}.{key}"
 
 
 def policy_file(name):

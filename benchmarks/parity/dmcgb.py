@@ -120,7 +120,7 @@ def dmcgb_maps(convs: list[ModuleMap]) -> list[ModuleMap]:
     """DMC-GB's SAC networks → vigen's: the shared convolutions (``convs``), the critic's projection and Q
     heads (through the driver's ``critic``), the actor's projection and MLP, log α."""
     return [*convs, ModuleMap("critic", "critic"), ModuleMap("agent.actor.encoder.projection.projection", "actor.trunk"),
-            ModuleMap("agent.actor.mlp", "actor.policy"), ModuleMap("agent.log_alpha", "sampler.log_alpha")]
+            ModuleMap("agent.actor.mlp", "actor.action_head"), ModuleMap("agent.log_alpha", "sampler.log_alpha")]
 
 
 def shared_cnn_map(attribute: str, prefix: str, layers: int = 11) -> ModuleMap:

@@ -32,7 +32,7 @@ def build_sada(reference: Path, setup: Setup) -> Case:
                      max_value=255, init_temperature=0.1, augmentation=replay_augmentation(views.weak(), "shift"),
                      strong_augmentation=replay_augmentation(strong_pairs, "strong"))
     loss.make_value_estimator(gamma=setup.gamma)
-    modules = [ModuleMap("encoder", "encoder"), ModuleMap("actor", "actor"),
+    modules = [ModuleMap("encoder", "encoder"), ModuleMap("actor", "actor", (("policy", "action_head"),)),
                ModuleMap("critic", "critic", (("Q1", "q1"), ("Q2", "q2"))), ModuleMap("log_alpha", "sampler.log_alpha")]
     steps = [
         StepMap("critic", "loss_critic", (("critic_opt", 0), ("encoder_opt", 0))),

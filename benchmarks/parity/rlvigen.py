@@ -32,7 +32,7 @@ CRITIC_STEPS = [
     StepMap("actor", "loss_actor", (("actor_opt", 0),)),
 ]
 CRITIC_MODULES = [
-    ModuleMap("actor", "actor"),
+    ModuleMap("actor", "actor", (("policy", "action_head"),)),  # DrQ-v2's actor calls its MLP policy
     ModuleMap("critic", "critic", (("Q1", "q1"), ("Q2", "q2"))),
 ]
 DDPG_METRICS = [("target_mean", "critic_target_q"), ("q_mean", "critic_q1")]
@@ -203,7 +203,7 @@ def build_drq(reference: Path, setup: Setup) -> Case:
                    Critic(repr_dim, setup.action_dim, setup.feature_dim, setup.hidden_dim),
                    sampler=SquashedGaussian(init_temperature=0.1), augmentation=replay_augmentation(views.weak(), "shift"))
     loss.make_value_estimator(gamma=setup.gamma)
-    modules = [ModuleMap("encoder", "encoder"), ModuleMap("actor", "actor", (("trunk", "policy"),)),
+    modules = [ModuleMap("encoder", "encoder"), ModuleMap("actor", "actor", (("trunk", "action_head"),)),
                ModuleMap("critic", "critic", (("Q1", "q1"), ("Q2", "q2"))), ModuleMap("log_alpha", "sampler.log_alpha")]
     steps = [
         StepMap("critic", "loss_critic", (("critic_opt", 0), ("encoder_opt", 0))),

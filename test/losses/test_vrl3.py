@@ -77,8 +77,8 @@ def test_pretanh_penalty_by_hand():
 def _saturated(loss: VRL3Loss, scale: float = 200.0) -> None:
     """Blow up the actor's last layer so its pre-tanh output leaves [-5, 5]."""
     with torch.no_grad():
-        loss.actor_params["policy", "4", "weight"].mul_(scale)
-        loss.actor_params["policy", "4", "bias"].fill_(3.0)
+        loss.actor_params["action_head", "4", "weight"].mul_(scale)
+        loss.actor_params["action_head", "4", "bias"].fill_(3.0)
 
 
 def test_the_actor_loss_adds_the_weighted_penalty():
@@ -89,7 +89,7 @@ def test_the_actor_loss_adds_the_weighted_penalty():
     out = loss(batch)
     with torch.no_grad():
         features = loss.encoder(batch["pixels"])
-        u = loss.actor.policy(loss.actor.trunk(features))
+        u = loss.actor.action_head(loss.actor.trunk(features))
         action = torch.tanh(u).clamp(-1 + 1e-6, 1 - 1e-6)
         q = torch.min(*loss.critic(features, action)).squeeze(-1)
         penalty = 0.01 * ((u.abs() - 2.0).clamp(min=0) ** 2).mean(-1)
@@ -113,13 +113,13 @@ def test_the_penalty_trains_the_actor_only_and_shrinks_the_pre_tanh_output():
     free.load_state_dict(loss.state_dict())
     optimizer = torch.optim.SGD(free.actor_params.values(True, True), lr=1e-4)
     pixels = make_batch()["pixels"]
-    before = free.actor.policy(free.actor.trunk(free.encoder(pixels).detach())).abs().max()
+    before = free.actor.action_head(free.actor.trunk(free.encoder(pixels).detach())).abs().max()
     for _ in range(5):
         optimizer.zero_grad()
         out = free(make_batch())
         out["loss_actor"].backward()
         optimizer.step()
-    after = free.actor.policy(free.actor.trunk(free.encoder(pixels).detach())).abs().max()
+    after = free.actor.action_head(free.actor.trunk(free.encoder(pixels).detach())).abs().max()
     assert after < before
 
 
@@ -302,8 +302,8 @@ def test_make_loss_passes_stage1_weights_to_the_encoder(tmp_path):
 
 
 def test_the_actor_reads_the_same_actor_as_vigens():
-    """The penalty's ``u = actor.policy(actor.trunk(h))`` is the input of vigen's Actor's final tanh."""
+    """The penalty's ``u = actor.action_head(actor.trunk(h))`` is the input of vigen's Actor's final tanh."""
     actor = Actor(32, ACTIONS, feature_dim=8, hidden_dim=16)
     loss = VRL3Loss(_encoder(channels=4), actor, Critic(32, ACTIONS, feature_dim=8, hidden_dim=16))
     features = torch.randn(5, 32)
-    assert torch.allclose(torch.tanh(actor.policy(actor.trunk(features))), loss.actor_output(features))
+    assert torch.allclose(torch.tanh(actor.action_head(actor.trunk(features))), loss.actor_output(features))

@@ -95,7 +95,7 @@ def test_the_actors_act_with_the_weights_sent_after_each_batch(ray_cluster):
     batches = iter(remote)
     first = next(batches)
     assert first["action"].std() > 0.5, "σ = 1 at first: exploring"
-    actor_head = policy[0].module.head.policy[-1]  # the last linear layer: zero weights, a bias of atanh(0.3), σ = 0
+    actor_head = policy[0].module.head.action_head[-1]  # the last linear layer: zero weights, a bias of atanh(0.3), σ = 0
     with torch.no_grad():
         actor_head.weight.zero_()
         actor_head.bias.fill_(math.atanh(0.3))
@@ -111,8 +111,8 @@ def test_the_actors_act_with_the_weights_sent_after_each_batch(ray_cluster):
 def test_each_actor_explores_with_its_own_seeded_noise(ray_cluster):
     _, policy = agent()
     with torch.no_grad():  # a constant mean action of 0: what the actors act is their exploration noise (σ = 1)
-        policy[0].module.head.policy[-1].weight.zero_()
-        policy[0].module.head.policy[-1].bias.zero_()
+        policy[0].module.head.action_head[-1].weight.zero_()
+        policy[0].module.head.action_head[-1].bias.zero_()
 
     def noise(env_seed: int) -> torch.Tensor:
         remote, _ = collector("ray", 2, policy, env_seed=env_seed)

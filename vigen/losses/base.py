@@ -37,7 +37,7 @@ from torchrl.objectives.utils import ValueEstimators, dispatch_value_estimator
 
 from vigen.devices import host_reads_are_free
 from vigen.losses.samplers import ActorOutput, NoisyDeterministic, Sampler, SquashedGaussian
-from vigen.models import weight_init
+from vigen.models import Actor, GaussianActor, rename_actor_keys, weight_init
 from vigen.pixel_format import check_pixels
 from vigen.seeding import derive_seed
 from vigen.transforms import ImageAugmentation, RandomOverlay, RandomShift
@@ -50,7 +50,8 @@ LEGACY_STATE_KEYS = {
     "svea_alpha": "weak_weight", "svea_beta": "strong_weight",
 }
 """State-dict keys of vigen's older losses → today's: before one name per coefficient, and before the sampler
-was ``loss.sampler`` (it was ``loss.policy``, a name that now means the acting module only)."""
+was ``loss.sampler`` (it was ``loss.policy``, a name that now means the acting module only). The actor's renamed
+submodules (``actor_params.policy.*``) are :data:`vigen.models.ACTOR_RENAMES`."""
 
 PARAM_GROUP_OPTIONS = frozenset({"lr", "lr_scale", "betas", "eps", "weight_decay"})
 """The options a per-module optimizer group (``param_groups``) may set; ``lr_scale`` is a multiple of the base lr."""
@@ -317,7 +318,7 @@ class ActorCriticLoss(LossModule):
         self.register_buffer("nonfinite_calls", torch.zeros((), dtype=torch.long), persistent=False)
         self._scanned_pixels = False  # whether a batch's float pixels were scanned once (check_batch)
         self.param_groups = self._checked_param_groups(param_groups or {})
-        self._register_load_state_dict_pre_hook(_rename_legacy_keys)
+        self.register_load_state_dict_pre_hook(_rename_legacy_keys)
 
     @property
     def out_keys(self) -> list[str]:
@@ -816,11 +817,14 @@ class RunningStatistics(nn.Module):
                 norm.train(True)
 
 
-def _rename_legacy_keys(state_dict: dict[str, Any], prefix: str, *args: Any) -> None:
-    """Load a state dict saved before one name per coefficient (see :data:`LEGACY_STATE_KEYS`)."""
+def _rename_legacy_keys(loss: ActorCriticLoss, state_dict: dict[str, Any], prefix: str, *args: Any) -> None:
+    """Load a state dict saved before one name per coefficient or per concept (:data:`LEGACY_STATE_KEYS`; in the
+    parameters of vigen's actors, :data:`~vigen.models.ACTOR_RENAMES`)."""
     for old, new in LEGACY_STATE_KEYS.items():
         if prefix + old in state_dict and prefix + new not in state_dict:
             state_dict[prefix + new] = state_dict.pop(prefix + old)
+    if isinstance(loss.actor, (Actor, GaussianActor)):
+        rename_actor_keys(state_dict, f"{prefix}actor_params.")
 
 
 def _reinitialise(module: nn.Module) -> None:

@@ -119,7 +119,7 @@ class VRL3Loss(ActorCriticLoss):
     Args:
         encoder: pixels → features, e.g. :class:`~vigen.models.VRL3Encoder` (``make_loss("vrl3")``).
         actor: features → action mean ``tanh(u)``; for the penalty the loss reads ``u`` as
-            ``actor.policy(actor.trunk(h))``, the shape of vigen's :class:`~vigen.models.Actor`.
+            ``actor.action_head(actor.trunk(h))``, the shape of vigen's :class:`~vigen.models.Actor`.
         critic: (features, action) → (Q1, Q2), e.g. :class:`~vigen.models.Critic`.
         sampler: DrQ-v2's :class:`~vigen.losses.NoisyDeterministic`; default VRL3's fixed std 0.01, clip 0.3.
         augmentation: the weak view; ``"default"`` is ``RandomShift(pad=4)``.
@@ -182,11 +182,11 @@ class VRL3Loss(ActorCriticLoss):
         for arg, value in (("pretanh_threshold", pretanh_threshold), ("pretanh_weight", pretanh_weight)):
             if value < 0:
                 raise ValueError(f"{name}: {arg} must be >= 0, got {value!r}.")
-        readable = all(isinstance(getattr(actor, part, None), nn.Module) for part in ("trunk", "policy"))
+        readable = all(isinstance(getattr(actor, part, None), nn.Module) for part in ("trunk", "action_head"))
         if pretanh_weight > 0 and not readable:
             raise TypeError(
-                f"{name} penalises the actor's output before its tanh, which it reads as actor.policy(actor.trunk(h)) "
-                f"(vigen.models.Actor); {type(actor).__name__} has no trunk and policy. Use vigen.models.Actor, "
+                f"{name} penalises the actor's output before its tanh, which it reads as actor.action_head(actor.trunk(h)) "
+                f"(vigen.models.Actor); {type(actor).__name__} has no trunk and action_head. Use vigen.models.Actor, "
                 "or pass pretanh_weight=0."
             )
         super().__init__(encoder, actor, critic, sampler=NoisyDeterministic(std=VRL3_STD) if sampler is None else sampler,
@@ -207,7 +207,7 @@ class VRL3Loss(ActorCriticLoss):
         detached, metrics = features.detach(), {}
         if self.pretanh_weight > 0:
             with self.actor_params.to_module(self.actor, preserve_module_state=False):
-                pre_tanh = self.actor.policy(self.actor.trunk(detached))  # u, the action before vigen's Actor's tanh
+                pre_tanh = self.actor.action_head(self.actor.trunk(detached))  # u, the action before vigen's Actor's tanh
             loss_actor, _ = self.actor_loss(detached, actor_output=torch.tanh(pre_tanh))
             penalty = self.pretanh_weight * pretanh_penalty(pre_tanh, self.pretanh_threshold)
             loss_actor = loss_actor + penalty

@@ -12,11 +12,46 @@ zero biases.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from types import MappingProxyType
+from typing import Any
+
 import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
 from vigen.pixel_format import check_pixels, white_value
+
+
+ACTOR_RENAMES: Mapping[str, str] = MappingProxyType({"policy": "action_head"})
+"""Submodules of :class:`Actor` and :class:`GaussianActor` renamed since vigen first wrote checkpoints: old name → today's.
+
+``policy`` (DrQ-v2's name for the MLP after the trunk) was one more meaning of "policy", which in
+vigen names the acting module only (issue 42); it is ``action_head``. A state dict with an old name
+loads bit for bit: the actors rename it when they load (:func:`rename_actor_keys`), the losses for
+their ``actor_params``. The shipped agents' weights (:mod:`vigen.pretrained`) keep the old names."""
+
+
+def rename_actor_keys(state_dict: dict[str, Any], prefix: str = "") -> None:
+    """Rename, in place, the keys of an actor's state dict under ``prefix`` from their old names (:data:`ACTOR_RENAMES`).
+
+    A key already under its new name wins: the old one is then left for ``load_state_dict`` to report.
+
+    Examples:
+        >>> state = {"actor.trunk.0.weight": 1, "actor.policy.0.weight": 2}
+        >>> rename_actor_keys(state, "actor.")
+        >>> sorted(state)
+        ['actor.action_head.0.weight', 'actor.trunk.0.weight']
+    """
+    for old, new in ACTOR_RENAMES.items():
+        for key in [key for key in state_dict if key.startswith(f"{prefix}{old}.")]:
+            renamed = f"{prefix}{new}{key[len(prefix) + len(old):]}"
+            if renamed not in state_dict:
+                state_dict[renamed] = state_dict.pop(key)
+
+
+def _load_old_names(module: nn.Module, state_dict: dict[str, Any], prefix: str, *args: Any) -> None:
+    rename_actor_keys(state_dict, prefix)
 
 
 def weight_init(module: nn.Module) -> None:
@@ -223,10 +258,11 @@ def _mlp(in_dim: int, hidden_dim: int, out_dim: int) -> nn.Sequential:
 
 
 class Actor(nn.Module):
-    """DrQ-v2's deterministic actor head: trunk Linear → LayerNorm → Tanh, then an MLP and ``tanh``.
+    """DrQ-v2's deterministic actor head: ``trunk`` Linear → LayerNorm → Tanh, then an MLP (``action_head``) and ``tanh``.
 
     Returns the action mean μ in [-1, 1]; the exploration noise (a clipped normal with scheduled
-    std) is added by the loss or the exploration module.
+    std) is added by the loss or the exploration module. DrQ-v2 calls the MLP ``policy``; a state
+    dict with that name loads (:data:`ACTOR_RENAMES`).
 
     Paper: DrQ-v2, https://arxiv.org/abs/2107.09645.
 
@@ -239,15 +275,16 @@ class Actor(nn.Module):
     def __init__(self, repr_dim: int, action_dim: int, feature_dim: int = 50, hidden_dim: int = 1024) -> None:
         super().__init__()
         self.trunk = _trunk(repr_dim, feature_dim)
-        self.policy = _mlp(feature_dim, hidden_dim, action_dim)
+        self.action_head = _mlp(feature_dim, hidden_dim, action_dim)
         self.apply(weight_init)
+        self.register_load_state_dict_pre_hook(_load_old_names)
 
     def forward(self, hidden: Tensor) -> Tensor:
-        return torch.tanh(self.policy(self.trunk(hidden)))
+        return torch.tanh(self.action_head(self.trunk(hidden)))
 
 
 class GaussianActor(nn.Module):
-    """A SAC actor: an MLP on the encoder features, with an optional LayerNorm trunk in front.
+    """A SAC actor: an MLP (``action_head``) on the encoder features, with an optional LayerNorm ``trunk`` in front.
 
     Returns the mean μ and log σ of a tanh-squashed Gaussian; log σ is ``tanh`` rescaled into
     ``log_std_bounds`` as in DrQ. ``hidden_depth`` hidden layers of ``hidden_dim`` units.
@@ -280,12 +317,13 @@ class GaussianActor(nn.Module):
         for index in range(hidden_depth):
             layers += [nn.Linear(in_dim if index == 0 else hidden_dim, hidden_dim), nn.ReLU(inplace=True)]
         layers.append(nn.Linear(hidden_dim if hidden_depth else in_dim, 2 * action_dim))
-        self.policy = nn.Sequential(*layers)
+        self.action_head = nn.Sequential(*layers)
         self.log_std_bounds = log_std_bounds
         self.apply(weight_init)
+        self.register_load_state_dict_pre_hook(_load_old_names)
 
     def forward(self, hidden: Tensor) -> tuple[Tensor, Tensor]:
-        mean, log_std = self.policy(self.trunk(hidden)).chunk(2, dim=-1)
+        mean, log_std = self.action_head(self.trunk(hidden)).chunk(2, dim=-1)
         low, high = self.log_std_bounds
         return mean, low + 0.5 * (high - low) * (torch.tanh(log_std) + 1)
 

@@ -5,7 +5,8 @@ plain data, loaded with ``weights_only=True``, stored in float16 to keep the whe
 restored to float32), and ``<name>.json``, its provenance: the vigen commit and command that
 trained it, its algorithm, env, seed and frames, the SHA-256 of the weights file, and its
 zero-shot evaluation table, measured on these very weights. :func:`export_policy` writes both
-from a run of ``examples/train.py``.
+from a run of ``examples/train.py``; :func:`load_agent` builds an agent back through
+:func:`vigen.run.build_agent` from its recorded config, and :func:`load_policy` gives its policy.
 
 Examples:
     >>> import tempfile, torch
@@ -28,6 +29,7 @@ from __future__ import annotations
 import hashlib
 import json
 from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -37,7 +39,8 @@ from torchrl.data import Bounded, TensorSpec
 
 from vigen.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
 from vigen.io import atomic_write
-from vigen.losses import ALGOS, ActorCriticLoss, make_loss
+from vigen.losses import ActorCriticLoss
+from vigen.run.agent import TrainedAgent, build_agent
 from vigen.run.config import TrainConfig
 
 AGENTS = Path(__file__).parent / "agents"
@@ -47,6 +50,9 @@ FORMAT = 1
 ACTING_PARTS = ("input_mask", "encoder", "actor")
 """The loss's modules a policy acts with (``input_mask`` only where the algorithm has one, e.g. MaDi)."""
 SHAPE_KEYS = ("algo", "observation_shape", "action_dim", "feature_dim", "hidden_dim")
+"""The config fields the weights file records: what the networks are built with."""
+NO_EXPLORATION = {"std_init": 0.0, "std_final": 0.0}
+"""The config settings a shipped agent's policy is built with: it acts without exploration noise."""
 
 
 def available(root: str | Path | None = None) -> list[str]:
@@ -75,17 +81,30 @@ def load_config(name: str, *, root: str | Path | None = None) -> TrainConfig:
     return TrainConfig.from_json(info(name, root=root)["config"])
 
 
-def load_policy(name: str, *, device: torch.device | str = "cpu", root: str | Path | None = None) -> TensorDictModuleBase:
-    """The acting policy of a shipped agent: a TorchRL module from ``"pixels"`` (uint8, ``(3·frames, H, W)``) to ``"action"``.
+def load_agent(name: str, *, device: torch.device | str = "cpu", root: str | Path | None = None) -> TrainedAgent:
+    """A shipped agent as a run's agent: built from its training config by :func:`vigen.run.build_agent`, with its weights.
 
-    The policy acts deterministically: DrQ-v2-style agents output the actor's action with no
-    exploration noise (clamped to the env's bounds), SAC-style ones the squashed mean unless run
-    under ``ExplorationType.RANDOM``. The weights file is checked against the checksum in the
-    provenance and loaded with ``weights_only=True``.
+    The agent is built as ``examples/train.py`` builds it, with the exploration std set to 0: its
+    policy acts without noise (see :func:`load_policy`). Only the acting parts are loaded (encoder,
+    actor, input mask); the critic keeps its initial weights. The weights file is checked against
+    the checksum in the provenance and loaded with ``weights_only=True``; float16 values are
+    restored to float32 exactly, and the actor's old parameter names load (the shipped files keep
+    ``policy.*``, :data:`vigen.models.ACTOR_RENAMES`).
+
+    Returns:
+        The config the agent was trained with (its recorded ``config``, with the file's network
+        sizes), the agent, its training frames (0 where the provenance records none) and the
+        weights file.
 
     Raises:
         KeyError: no agent of that name (the message lists the available ones).
         CheckpointError: the weights file is corrupt, altered, or not in this format.
+
+    Examples:
+        >>> from vigen.pretrained import load_agent
+        >>> shipped = load_agent("svea-cartpole-balance")
+        >>> shipped.config.algo, shipped.frames, type(shipped.agent.loss).__name__
+        ('svea', 30000, 'SVEALoss')
     """
     weights, provenance = _files(name, root)
     record = json.loads(provenance.read_text())
@@ -96,17 +115,29 @@ def load_policy(name: str, *, device: torch.device | str = "cpu", root: str | Pa
     state = load_checkpoint(weights)
     if state.get("format") != FORMAT or any(key not in state for key in (*SHAPE_KEYS, "parts", "action_low", "action_high")):
         raise CheckpointError(f"{weights} is not a vigen policy file of format {FORMAT}; write it with export_policy.")
-    algo = state["algo"]
-    options = {"std": 0.0} if ALGOS[algo].takes_std else {}
-    loss = make_loss(algo, tuple(state["observation_shape"]), state["action_dim"], feature_dim=state["feature_dim"],
-                     hidden_dim=state["hidden_dim"], **options)
-    for part, tensors in state["parts"].items():
-        module = getattr(loss, part)
-        reference = module.state_dict()
-        module.load_state_dict({key: value.to(reference[key].dtype) for key, value in tensors.items()})
+    shapes = {**{key: state[key] for key in SHAPE_KEYS}, "observation_shape": tuple(state["observation_shape"])}
+    config = replace(TrainConfig.from_json(record.get("config", {})), **shapes)
     low, high = state["action_low"], state["action_high"]
-    policy = loss.make_policy(Bounded(low, high, shape=low.shape))
-    return TensorDictSequential(policy, selected_out_keys=["action"]).to(device)
+    agent = build_agent(replace(config, **NO_EXPLORATION), Bounded(low, high, shape=low.shape), device=device,
+                        pretrained=False)
+    for part, tensors in state["parts"].items():
+        getattr(agent.loss, part).load_state_dict(tensors)  # copied into float32 parameters: float16 values exactly
+    return TrainedAgent(config, agent, record.get("frames", 0), weights, [])
+
+
+def load_policy(name: str, *, device: torch.device | str = "cpu", root: str | Path | None = None) -> TensorDictModuleBase:
+    """The acting policy of a shipped agent: a TorchRL module from ``"pixels"`` (uint8, ``(3·frames, H, W)``) to ``"action"``.
+
+    The policy acts deterministically: DrQ-v2-style agents output the actor's action with no
+    exploration noise (clamped to the env's bounds), SAC-style ones the squashed mean unless run
+    under ``ExplorationType.RANDOM``. It is the policy of :func:`load_agent`'s agent.
+
+    Raises:
+        KeyError: no agent of that name (the message lists the available ones).
+        CheckpointError: the weights file is corrupt, altered, or not in this format.
+    """
+    policy = load_agent(name, device=device, root=root).agent.policy
+    return TensorDictSequential(policy, selected_out_keys=["action"])
 
 
 def export_policy(

@@ -1,0 +1,95 @@
+"""examples/evaluate.py's flags come from its EvaluationConfig and Launch: every flag of the hand-written parser keeps its
+name and meaning, and the command's checks stop with the flag and the fix before any agent loads."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+
+ROOT = Path(__file__).resolve().parents[2]
+# evaluate.py's flags before EvaluationConfig (README, docs/, tests and scripts use them)
+FLAGS = ["--pretrained", "--levels", "--sweep", "--episodes", "--seeds", "--random", "--videos", "--episode-length",
+         "--compare", "--allow-budget-mismatch", "--allow-stand-ins", "--ray", "--workers", "--device", "--out"]
+
+
+@pytest.fixture(scope="module")
+def evaluate():
+    spec = importlib.util.spec_from_file_location("evaluate_example", ROOT / "examples" / "evaluate.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up there
+    spec.loader.exec_module(module)
+    yield module
+    del sys.modules[spec.name]
+
+
+def test_every_earlier_flag_is_still_there(evaluate):
+    options = {option for action in evaluate.make_parser()._actions for option in action.option_strings}
+    assert set(FLAGS) <= options
+
+
+def test_the_flags_keep_their_meanings(evaluate):
+    config, launch = evaluate.parse_args(["runs/a", "runs/b", "--pretrained", "svea-cartpole-balance", "--levels", "train",
+                                          "color_hard", "--sweep", "camera_rotation", "0", "0.1", "--sweep", "light_color",
+                                          "0.5", "--episodes", "3", "--seeds", "0", "1", "--random", "--videos", "/v",
+                                          "--episode-length", "20", "--compare", "dmcgb", "--allow-budget-mismatch",
+                                          "--allow-stand-ins", "--ray", "--workers", "2", "--device", "cpu", "--out", "r"])
+    assert config == evaluate.EvaluationConfig(
+        runs=(Path("runs/a"), Path("runs/b")), pretrained=("svea-cartpole-balance",), levels=("train", "color_hard"),
+        sweep=(("camera_rotation", "0", "0.1"), ("light_color", "0.5")), episodes=3, seeds=(0, 1), random=True,
+        videos=("/v",), episode_length=20, compare="dmcgb", allow_budget_mismatch=True, allow_stand_ins=True)
+    assert launch == evaluate.Launch(ray="local", workers=2, device="cpu", out=Path("r"))
+    assert evaluate.parse_args(["--ray", "10.0.0.1:6379"])[1].ray == "10.0.0.1:6379"
+
+
+def test_the_defaults_are_the_earlier_ones(evaluate):
+    config, launch = evaluate.parse_args(["runs/a"])
+    assert (config.levels, config.sweep, config.episodes, config.seeds, config.random, config.videos) == (None, (), 10, (0,),
+                                                                                                         False, ())
+    assert (config.pretrained, config.episode_length, config.compare) == ((), None, None)
+    assert launch == evaluate.Launch(ray=None, workers=None, device="auto", out=Path("reports/evaluation"))
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["runs/a", "--device", "tpu"], "--device: device 'tpu' is not a device name"),
+    (["runs/a", "--workers", "2"], "--workers 2: it sets the Ray jobs in flight (>= 1) and needs --ray."),
+    ([], "give run folders of examples/train.py, or --pretrained NAME (shipped: drqv2-cartpole-balance"),
+    (["--pretrained", "nope"], "--pretrained nope: no pretrained agent 'nope'"),
+])
+def test_the_command_checks_name_the_flag(evaluate, argv, message):
+    config, launch = evaluate.parse_args(argv)
+    with pytest.raises(SystemExit) as stop:
+        evaluate.acting_device(launch)
+        evaluate.check_agents_named(config)
+    assert message in str(stop.value)
+
+
+def test_ray_acts_on_the_cpu(evaluate):
+    assert evaluate.acting_device(evaluate.Launch(ray="local")) == torch.device("cpu"), "Ray's tasks act on their own CPU"
+    with pytest.raises(SystemExit, match="needs --ray"):
+        evaluate.acting_device(evaluate.Launch(workers=0, ray=None))
+
+
+def test_a_sweep_without_intensities_names_the_fix(evaluate):
+    with pytest.raises(SystemExit, match="give the intensities after the factor, e.g. --sweep camera_rotation 0 0.1 0.3"):
+        evaluate.parse_sweep(("camera_rotation",))
+
+
+def test_a_report_inside_a_run_folder_in_use_stops_naming_its_writer(evaluate, tmp_path):
+    from vigen.io import FolderInUse, RunFolderLock
+
+    run = tmp_path / "runs" / "drqv2-s0"
+    (run / "checkpoints").mkdir(parents=True)
+    (run / "config.json").write_text("{}")
+    with RunFolderLock(run):  # the run trains
+        with pytest.raises(SystemExit, match=r"--out .*/reports/eval: .* is in use by process \d+ .*outside the run folder"):
+            evaluate.hold_run_folder(run / "reports" / "eval")
+    with evaluate.hold_run_folder(run / "reports" / "eval"):  # the run has ended: the report holds the folder meanwhile
+        with pytest.raises(FolderInUse, match="is in use by process"):
+            RunFolderLock(run).acquire()
+    RunFolderLock(run).acquire().release()
+    with evaluate.hold_run_folder(tmp_path / "reports" / "eval") as held:
+        assert held is None, "outside a run folder: no lock"
