@@ -121,7 +121,13 @@ def git_state(carry: dict | None) -> dict:
         return result.stdout.strip() if result.returncode == 0 else None
     commit = git("rev-parse", "HEAD")
     if commit:
-        return {"commit": commit, "dirty": bool(git("status", "--porcelain", "--untracked-files=no")), "from": "git"}
+        state = {"commit": commit, "dirty": bool(git("status", "--porcelain", "--untracked-files=no")), "from": "git"}
+        if carry and carry.get("commit") and carry["commit"] != commit:
+            # seen on the device tool's copy (2026-11-28): its .git named an older commit than the tree it carried
+            state["carry_commit"] = carry["commit"]
+            state["note"] = ("the copy's .git and the carry folder name different commits; the carry folder was "
+                             "built from the tree that was sent, so its commit is likely the one checked")
+        return state
     if carry and carry.get("commit"):
         return {"commit": carry["commit"], "dirty": carry.get("dirty"), "from": "the carry folder's MANIFEST.json"}
     return {"commit": None, "dirty": None, "from": "unknown: no .git and no carry manifest"}
