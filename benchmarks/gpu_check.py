@@ -159,9 +159,9 @@ def run_logged(command: list[str], log: Path, env: dict, timeout: float, cwd: Pa
             return None, time.time() - started
 
 
-def stop(process: subprocess.Popen) -> None:
-    """End a command and everything it started (its own process group)."""
-    for sig, wait in ((signal.SIGTERM, 5), (signal.SIGKILL, 5)):
+def stop(process: subprocess.Popen, term_wait: float = 5) -> None:
+    """End a command and everything it started (its own process group): SIGTERM, ``term_wait`` s, then SIGKILL."""
+    for sig, wait in ((signal.SIGTERM, term_wait), (signal.SIGKILL, 5)):
         try:
             os.killpg(process.pid, sig)
         except ProcessLookupError:

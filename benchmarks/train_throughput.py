@@ -54,7 +54,6 @@ import json
 import os
 import re
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
@@ -62,6 +61,8 @@ import threading
 import time
 from pathlib import Path
 from typing import Any
+
+from gpu_check import stop  # benchmarks/gpu_check.py, beside this script
 
 ROOT = Path(__file__).resolve().parents[1]
 BASE_KEYS = ("wall_s", "steps", "updates")
@@ -214,20 +215,6 @@ class UtilizationSampler:
             self.process.wait(timeout=5)
 
 
-def stop(process: subprocess.Popen) -> None:
-    """End a run and its worker processes (its own process group)."""
-    for sig, wait in ((signal.SIGTERM, 10), (signal.SIGKILL, 5)):
-        try:
-            os.killpg(process.pid, sig)
-        except ProcessLookupError:
-            return
-        try:
-            process.wait(timeout=wait)
-            return
-        except subprocess.TimeoutExpired:
-            continue
-
-
 def renderers(output: str) -> list[str]:
     """What the run's processes said they render with (``--time-stages``: "... renders with NAME (MUJOCO_EGL_DEVICE_ID=...)").
 
@@ -260,7 +247,7 @@ def run_config(config: Config, args: argparse.Namespace, scratch: Path, log, tim
         if code is not None or measured(rows, args.warmup, args.batches, args.min_updates)[1] or time.time() - started > timeout:
             break
         time.sleep(0.1)
-    stop(process)
+    stop(process, term_wait=10)  # a run and its worker processes
     rows = read_rows(run_dir)
     log.flush()
     output = Path(log.name).read_text(errors="replace").rsplit(f"===== {config.name}\n", 1)[-1]

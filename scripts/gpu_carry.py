@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import hashlib
 import importlib.metadata as metadata
 import json
 import os
@@ -43,6 +42,8 @@ from pathlib import Path
 from packaging.markers import Marker
 from packaging.requirements import Requirement
 from packaging.utils import canonicalize_name
+
+from vigen.data.checksums import sha256_file
 
 ROOT = Path(__file__).resolve().parents[1]
 TRAVEL_LIMIT = 64 * 2**20  # what one device call may send: the working tree and the carried paths
@@ -129,14 +130,6 @@ def wheel_name(path: Path) -> tuple[str, str]:
     return canonicalize_name(name), version
 
 
-def sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with path.open("rb") as file:
-        for block in iter(lambda: file.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
 def trimmed_dm_control(version: str, cache: Path, out: Path) -> tuple[Path, int]:
     """dm-control's wheel, rezipped without DM_CONTROL_LEFT_OUT; (the zip, its unpacked size)."""
     pip_download([f"dm-control=={version}"], cache)
@@ -214,7 +207,7 @@ def main() -> None:
     debs = gl_packages(out / "gl")
 
     def entry(path: Path, **more: object) -> dict[str, object]:
-        return {"file": str(path.relative_to(out)), "bytes": path.stat().st_size, "sha256": sha256(path), **more}
+        return {"file": str(path.relative_to(out)), "bytes": path.stat().st_size, "sha256": sha256_file(path), **more}
     modules = sorted(set().union(*(archive_modules(path) for path in [*wheels, dm_zip])))
     carry = folder_bytes(out) - ((out / "MANIFEST.json").stat().st_size if (out / "MANIFEST.json").exists() else 0)
     tree = travel_bytes()
