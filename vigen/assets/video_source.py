@@ -97,9 +97,7 @@ class VideoSource:
             source = cls(davis_split_folders(root, split), max_frames=max_frames, name=f"{root} ({split})")
             source.split = split
             return source
-        videos = [p for p in root.rglob("*") if p.suffix.lower() in VIDEO_SUFFIXES]
-        frame_dirs = {p.parent for p in root.rglob("*") if p.suffix.lower() in IMAGE_SUFFIXES}
-        paths = sorted(videos + list(frame_dirs), key=lambda path: natural_key(path.relative_to(root)))
+        paths = folder_videos(root)
         if not paths:
             found = sorted(str(p.relative_to(root)) for p in root.rglob("*") if p.is_file())
             listing = ", ".join(found[:10]) + (f" and {len(found) - 10} more" if len(found) > 10 else "")
@@ -157,6 +155,25 @@ class VideoSource:
 
     def __repr__(self) -> str:
         return f"VideoSource({self.name})"
+
+
+def folder_videos(root: str | os.PathLike) -> list[Path]:
+    """The videos :meth:`VideoSource.from_folder` plays from ``root``: video files and frame folders under it, in natural order.
+
+    Nothing is opened: this is the count a command can check before any work.
+
+    Examples:
+        >>> import tempfile, pathlib
+        >>> root = pathlib.Path(tempfile.mkdtemp())
+        >>> for name in ("video10.mp4", "video2.mp4", "notes.txt"):
+        ...     _ = (root / name).write_bytes(b"")
+        >>> [path.name for path in folder_videos(root)]
+        ['video2.mp4', 'video10.mp4']
+    """
+    root = Path(root).expanduser()
+    videos = [p for p in root.rglob("*") if p.suffix.lower() in VIDEO_SUFFIXES]
+    frame_dirs = {p.parent for p in root.rglob("*") if p.suffix.lower() in IMAGE_SUFFIXES}
+    return sorted(videos + list(frame_dirs), key=lambda path: natural_key(path.relative_to(root)))
 
 
 def natural_key(path: str | os.PathLike) -> tuple:
