@@ -109,7 +109,7 @@ from vigen.io import FolderInUse, RunFolderLock, atomic_write, unused_path
 from vigen.protocols import PROTOCOLS, Protocol
 from vigen.ray_cluster import ray_session
 from vigen.rendering import RenderSettings
-from vigen.results import SOURCES, ProtocolMismatch, compare, load, published
+from vigen.results import SOURCES, PartialData, ProtocolMismatch, StandInRows, compare, load, published
 from vigen.results.compare import VALUE_UNITS
 from vigen.run import TrainConfig, TrainedAgent, add_flags, given_flags, load_agent, setting
 
@@ -609,7 +609,7 @@ def published_lines(rows: list[dict], comparison: Comparison) -> list[dict]:
                                  allow_budget_mismatch=comparison.allow_budget_mismatch,
                                  allow_stand_ins=comparison.allow_stand_ins,
                                  allow_partial_data=comparison.allow_partial_data)
-            except ProtocolMismatch:
+            except (ProtocolMismatch, StandInRows, PartialData):  # the run or its data, not the unit: stop
                 raise
             except ValueError as error:  # nothing published in this unit for these rows
                 nothing.append(str(error))
