@@ -95,6 +95,7 @@ from tqdm import tqdm
 
 import vigen.data
 from vigen import pretrained
+from vigen.data.identity import not_in_full
 from vigen.assets.video_source import folder_videos
 from vigen.checkpoint import CheckpointError
 from vigen.devices import resolve_device
@@ -528,6 +529,9 @@ def add_returns(report: Report, rows: list[dict]) -> None:
     if any(row["stand_in"] for row in rows):
         report.text += ("\nLevels marked (stand-in) showed vigen's stand-ins (procedural videos, statistics-matched colours), "
                         "not the benchmark's own data; `python -m vigen.data fetch ...` gets the data (docs/data.md).\n")
+    if any(not_in_full(row.get("data")) for row in rows):
+        report.text += ("\nLevels marked (partial data) showed less than their data set in full (fewer files than its part, "
+                        "a user's folder, or files not verified against the pinned ids): their `data` column says what.\n")
     report.text += f"\n## What each level showed\n\n{level_notes(rows, heading=False)}"
     if all("success" in row for row in rows):  # tasks with a success check: the success rate in %
         success = summarize([dict(row, success=100.0 * row["success"]) for row in rows], value="success")

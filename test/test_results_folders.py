@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vigen.data.identity import parse_identity
+from vigen.data.identity import label_parts, parse_identity
 from vigen.results import published
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -76,7 +76,7 @@ def test_every_row_says_what_its_level_showed(folder):
         assert row["stand_in"] == ("stand-in" in row["data"]), row["level"]
     if folder.name == "cartpole-balance-benchmark-data":  # the benchmarks' own data, and which of it each episode saw
         assert not any(row["stand_in"] for row in rows)
-        labels = {part for row in rows for part in row["data"].split("; ") if part}
+        labels = {part.strip() for row in rows for part in label_parts(row["data"]) if part}
         assert all(parse_identity(label) is not None for label in labels), "every label names a data set, no path"
         assert {row["data"] for row in rows if row["level"] == "video_easy"} == {
             "dmcgb-videos/video_easy: 6 of 10, not verified, given as a folder"}, "6 copied files no level checked"

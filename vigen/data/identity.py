@@ -43,6 +43,8 @@ CHECKS = ("verified", "shipped", "fetched", "not verified", "user")
 fetched with no pinned ids (``fetched``), not checked (``not verified``: older rows), a user's own (``user``)."""
 FULL_CHECKS = ("verified", "shipped")
 """The checks under which a data set shown in full counts as the published one."""
+DEFINED_BY_LEVEL = ("random colours",)
+"""Labels of draws a level defines by itself (vigen's colour factors: default + N(0, σ²)): no data set to show in full."""
 
 _LABEL = re.compile(r"(?P<dataset>[a-z0-9][a-z0-9._-]*)/(?P<part>[A-Za-z0-9._-]+): (?P<shown>\d+) of (?P<expected>\d+), "
                     r"(?P<check>verified|shipped|fetched|not verified)(?:, (?P<note>.+))?")
@@ -120,6 +122,45 @@ def parse_identity(label: str) -> DataIdentity | None:
         return DataIdentity(None, None, int(match["shown"]), None, "user", kind=match["kind"], where=match["what"],
                             note=match["note"] or "")
     return None
+
+
+def label_parts(label: str) -> list[str]:
+    """A row's ``data`` label split into its transforms' labels: at each ``;`` outside parentheses.
+
+    Examples:
+        >>> label_parts("dmcgb-colors/color_easy: 100 of 100, shipped; procedural stand-in videos (10; an older note)")
+        ['dmcgb-colors/color_easy: 100 of 100, shipped', ' procedural stand-in videos (10; an older note)']
+    """
+    parts, depth, start = [], 0, 0
+    for index, character in enumerate(label):
+        depth += {"(": 1, ")": -1}.get(character, 0)
+        if character == ";" and depth == 0:
+            parts.append(label[start:index])
+            start = index + 1
+    return parts + [label[start:]] if label else []
+
+
+def not_in_full(label: object) -> list[str]:
+    """The parts of a row's ``data`` label (``"; "``-joined) that are not a data set shown in full; stand-ins left out.
+
+    A part is in full where it parses as a :class:`DataIdentity` that is :attr:`~DataIdentity.full`.
+    A user's folder or file, fewer files than the part holds, files not verified, and a label that
+    names no data set (a machine path, as rows held before vigen named data by identity) are not.
+    Stand-ins (labels saying ``stand-in``) are the ``stand_in`` column's business, and draws a level
+    defines by itself (:data:`DEFINED_BY_LEVEL`) show no data set.
+
+    Examples:
+        >>> from vigen.data.identity import not_in_full
+        >>> not_in_full("dmcgb-colors/color_easy: 100 of 100, shipped; dmcgb-videos/video_easy: 6 of 10, verified")
+        ['dmcgb-videos/video_easy: 6 of 10, verified']
+        >>> not_in_full("user folder: 7 videos"), not_in_full(""), not_in_full("procedural stand-in videos (10)")
+        (['user folder: 7 videos'], [], [])
+        >>> not_in_full("random colours: default + N(0, 0.2²) per channel")
+        []
+    """
+    parts = [part.strip() for part in label_parts(str(label or "")) if part.strip()]
+    return [part for part in parts if "stand-in" not in part and not part.startswith(DEFINED_BY_LEVEL)
+            and not ((identity := parse_identity(part)) is not None and identity.full)]
 
 
 def identify_files(paths: Sequence[str | os.PathLike], datasets: Iterable[DataSet], *, kind: str = "videos",

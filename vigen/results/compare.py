@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from vigen.data.identity import parse_identity
+from vigen.data.identity import not_in_full
 from vigen.protocols import Protocol, get_protocol
 from vigen.results.published import PublishedScore, published
 from vigen.results.sources import SOURCES
@@ -93,23 +93,20 @@ class PartialData(ValueError):
 
 
 def partial_data(label: Any) -> list[str]:
-    """The parts of a row's ``data`` label that are not a data set shown in full (stand-ins left to ``stand_in``).
+    """The parts of a row's ``data`` label that are not a data set shown in full (:func:`vigen.data.identity.not_in_full`).
 
     A part is in full where it names a data set part, every one of its files, ``verified`` against
     the pinned ids or ``shipped`` with vigen (:class:`vigen.data.identity.DataIdentity`). A user's
     folder or file, fewer files than the part holds, unverified files, and a label that names no
-    data set (e.g. a machine path, as rows had before vigen named data by identity) are not.
+    data set (e.g. a machine path, as rows had before vigen named data by identity) are not;
+    stand-ins are left to the ``stand_in`` column.
 
     Examples:
         >>> from vigen.results.compare import partial_data
         >>> partial_data("dmcgb-colors/color_easy: 100 of 100, shipped; dmcgb-videos/video_easy: 6 of 10, verified")
         ['dmcgb-videos/video_easy: 6 of 10, verified']
-        >>> partial_data("user folder: 7 videos"), partial_data(""), partial_data("procedural stand-in videos (10)")
-        (['user folder: 7 videos'], [], [])
     """
-    parts = [part.strip() for part in str(label or "").split(";") if part.strip()]
-    return [part for part in parts if "stand-in" not in part
-            and not ((identity := parse_identity(part)) is not None and identity.full)]
+    return not_in_full(label)
 
 
 def _is_true(value: Any) -> bool:
