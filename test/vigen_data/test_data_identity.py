@@ -62,3 +62,24 @@ def test_only_a_whole_part_verified_or_shipped_is_full():
     assert parse_identity("/home/me/dmcgb-videos/video_hard: 100 videos") is None, "a path names no data set"
     with pytest.raises(ValueError, match="check must be one of"):
         DataIdentity("dmcgb-videos", "video_hard", 1, 100, "trusted")
+
+
+def test_the_fetched_davis_split_is_named_as_fetched_and_any_other_davis_folder_as_the_users(tmp_path, monkeypatch):
+    import cv2
+    import numpy as np
+
+    import vigen.data
+
+    davis = tmp_path / "davis2017" / "DAVIS"
+    (davis / "ImageSets" / "2017").mkdir(parents=True)
+    (davis / "ImageSets" / "2017" / "train.txt").write_text("bear\nboat\n")
+    for name in ("bear", "boat"):
+        (davis / "JPEGImages" / "480p" / name).mkdir(parents=True)
+        cv2.imwrite(str(davis / "JPEGImages" / "480p" / name / "00000.jpg"), np.zeros((8, 8, 3), np.uint8))
+    monkeypatch.setattr(vigen.data, "locate", lambda name, part=None, root=None: tmp_path / "davis2017")  # "fetched here"
+    assert str(VideoSource.from_folder(davis, split="train").identity) == "davis2017/train: 2 of 2, fetched"
+    assert not parse_identity("davis2017/train: 2 of 2, fetched").full, "DAVIS publishes no ids to verify against"
+    elsewhere = tmp_path / "mine"
+    shutil.copytree(davis, elsewhere / "DAVIS")
+    assert str(VideoSource.from_folder(elsewhere / "DAVIS", split="train").identity) == \
+        "user folder: 2 videos, DAVIS 2017 layout, train split"
