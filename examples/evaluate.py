@@ -32,9 +32,13 @@ Each level shows the benchmark's own data where vigen has it: DMC-GB's colour pr
 vigen, and its videos and DAVIS 2017 are used once fetched (``python -m vigen.data fetch
 dmcgb-videos``, ``... davis2017``; docs/data.md). Until then the video levels show procedural
 stand-ins and warn. ``--videos`` gives folders per level instead (a level name or a shell
-pattern before ``=``; one bare folder serves every video level). Every row records what its
-level showed (``data``, ``stand_in``, ``level_options``, and ``shown``: the episode's video or
-preset), and the report lists it per level:
+pattern before ``=``; one bare folder serves every video level). A folder given for a level
+of a benchmark data set must hold as many videos as that data set's part (DMC-GB's
+``video_easy`` 10, ``video_hard`` 100), checked before any episode; ``--allow-partial-data``
+evaluates on fewer (or other) videos anyway. Every row records what its level showed, by identity
+and never by path (``data``: e.g. ``dmcgb-videos/video_easy: 10 of 10, verified`` when every file
+is DMC-GB's, ``user folder: 7 videos`` otherwise; ``stand_in``; ``level_options``, a folder by its
+name; and ``shown``: the episode's video or preset), and the report lists it per level:
 
     python examples/evaluate.py --pretrained svea-cartpole-balance --levels train video_easy video_hard dcs_0.1 \\
         --videos video_easy=/data/dmcgb/video_easy video_hard=/data/dmcgb/video_hard 'dcs_*'=/data/DAVIS
@@ -45,10 +49,17 @@ source (``sgqn``, ``madi``, ``simgrl``, ``curl``). Before any episode runs, it c
 followed that protocol (its ``config.json``: action repeat, frame stack, image size; its
 checkpoint's frames against the published budget) and stops naming every difference otherwise;
 ``--allow-budget-mismatch`` shows a run that trained for another length anyway, marked, and
-``--allow-stand-ins`` levels that showed vigen's stand-ins instead of the benchmark's data. Levels
+``--allow-stand-ins`` levels that showed vigen's stand-ins instead of the benchmark's data, and
+``--allow-partial-data`` levels that showed less than the published data set in full (fewer videos,
+a user's folder, files not verified against the pinned ids), each line saying what was shown. Levels
 default to the protocol's test levels; the report gains a "Published" table and ``published.png``:
 
     python examples/evaluate.py runs/svea-walker-walk-s0 --compare dmcgb --episodes 100
+
+Under a protocol (``--compare``'s, or the one every run was trained under) the envs are seeded as
+the source seeds its test env: DMC-GB's ``seed + 42`` (``Protocol.eval_seed_offset``), so
+``--seeds 0`` plays env seed 42, the colour presets DMC-GB's evaluation of a seed-0 run draws; the
+rows' ``seed`` is the env seed played.
 
 The flags are made from the fields of ``EvaluationConfig`` below (what is evaluated and reported; the
 run folders are its positional arguments) and of ``Launch`` (``--ray``, ``--workers``, ``--device``,
@@ -82,20 +93,24 @@ import torch
 from tensordict.nn import TensorDictModuleBase
 from tqdm import tqdm
 
+import vigen.data
 from vigen import pretrained
+from vigen.data.identity import not_in_full
+from vigen.assets.video_source import folder_videos
 from vigen.checkpoint import CheckpointError
 from vigen.devices import resolve_device
 from vigen.envs import factors, level_label
+from vigen.envs.level_types import FetchedData
 from vigen.envs.levels import resolve_levels
 from vigen.envs.registry import get_suite
 from vigen.evaluation import (comparison_table, evaluate, generalization_gaps, improvements, markdown_table, plot_comparison,
                               plot_intensity, plot_levels, plot_performance_profile, summarize, sweep, write_csv)
 from vigen.evaluation.report import interval_cell, label_stand_ins
 from vigen.io import FolderInUse, RunFolderLock, atomic_write, unused_path
-from vigen.protocols import PROTOCOLS
+from vigen.protocols import PROTOCOLS, Protocol
 from vigen.ray_cluster import ray_session
 from vigen.rendering import RenderSettings
-from vigen.results import SOURCES, ProtocolMismatch, compare, load, published
+from vigen.results import SOURCES, PartialData, ProtocolMismatch, StandInRows, compare, load, published
 from vigen.results.compare import VALUE_UNITS
 from vigen.run import TrainConfig, TrainedAgent, add_flags, given_flags, load_agent, setting
 
@@ -135,6 +150,9 @@ class EvaluationConfig:
     allow_stand_ins: bool = setting(
         False, "with --compare: show levels that showed vigen's stand-ins (procedural videos, statistics-matched colours) "
                "beside the published numbers, each line saying so")
+    allow_partial_data: bool = setting(
+        False, "evaluate --videos folders that hold fewer (or other) videos than their level's data set and, with "
+               "--compare, show such levels beside the published numbers, each line saying what was shown")
 
 
 @dataclass(frozen=True)
@@ -158,6 +176,7 @@ class Comparison:
     sources: list[str]
     allow_budget_mismatch: bool
     allow_stand_ins: bool
+    allow_partial_data: bool = False
 
 
 @dataclass(frozen=True)
@@ -195,11 +214,13 @@ def main(argv: list[str] | None = None) -> None:
         agents = [load_run(path, device) for path in config.runs] + [load_shipped(name, device) for name in config.pretrained]
         comparison = compared_with(config)
         levels = levels_per_env(agents, config, comparison, sweeps)
+        check_video_counts(levels, videos, config.allow_partial_data)
         runs = [run_evaluated(trained, config.episode_length) for trained in agents]
         if comparison is not None:  # the published numbers need the same protocol and data: check before any episode runs
             check_comparable(runs, levels, videos, comparison)
         evaluations = runs + (random_evaluated(runs) if config.random else [])
-        rows = play(evaluations, levels, videos, config, launch, device)
+        seeds = env_seeds(config.seeds, evaluation_protocol(agents, comparison))
+        rows = play(evaluations, levels, videos, config, launch, device, seeds)
         report = write_report(rows, unused_path(launch.out), sweeps, comparison, played=config.episodes * len(config.seeds))
     print_report(report, rows, comparison)
 
@@ -313,7 +334,8 @@ def compared_with(config: EvaluationConfig) -> Comparison | None:
                                                                                  for row in load(source))]
     else:
         protocol, sources = load(config.compare)[0].protocol, [config.compare]
-    return Comparison(config.compare, protocol, sources, config.allow_budget_mismatch, config.allow_stand_ins)
+    return Comparison(config.compare, protocol, sources, config.allow_budget_mismatch, config.allow_stand_ins,
+                      config.allow_partial_data)
 
 
 def levels_per_env(agents: list[TrainedAgent], config: EvaluationConfig, comparison: Comparison | None,
@@ -386,21 +408,74 @@ def check_comparable(runs: list[Evaluated], levels: dict[str, list[Any]], videos
 
 # -- the episodes --------------------------------------------------------------------------------
 def play(evaluations: list[Evaluated], levels: dict[str, list[Any]], videos: list[tuple[str, Path]],
-         config: EvaluationConfig, launch: Launch, device: torch.device) -> list[dict]:
-    """Every policy's episodes on its env's levels (one Ray cluster for all with ``--ray``), with a progress bar of jobs."""
+         config: EvaluationConfig, launch: Launch, device: torch.device, seeds: list[int]) -> list[dict]:
+    """Every policy's episodes on its env's levels at env seeds ``seeds`` (one Ray cluster for all with ``--ray``), with a progress bar."""
     backend = {} if launch.ray is None else {"backend": "ray", "workers": launch.workers}
     rows = []
     with contextlib.ExitStack() as stack:
         if launch.ray is not None:  # one cluster for every run's jobs
             stack.enter_context(ray_session(None if launch.ray == "local" else launch.ray))
-        progress = stack.enter_context(tqdm(total=sum(len(levels[run.env]) for run in evaluations) * len(config.seeds),
+        progress = stack.enter_context(tqdm(total=sum(len(levels[run.env]) for run in evaluations) * len(seeds),
                                             unit="job", desc="(level, seed) jobs", dynamic_ncols=True))
         for run in evaluations:
             for share, level_options in in_runs(levels[run.env], lambda level: videos_for(run.env, level, videos)):
-                rows += evaluate(run.policy, run.env, share, episodes=config.episodes, seeds=list(config.seeds),
+                rows += evaluate(run.policy, run.env, share, episodes=config.episodes, seeds=seeds,
                                  env_options={**run.env_options, "level_options": level_options or None}, tags=run.tags,
                                  device=device, progress=lambda done, total: progress.update(1), **backend)
     return rows
+
+
+def evaluation_protocol(agents: list[TrainedAgent], comparison: Comparison | None) -> Protocol | None:
+    """The protocol the evaluation follows: ``--compare``'s, else the one every run was trained under, else none."""
+    if comparison is not None:
+        return PROTOCOLS[comparison.protocol]
+    trained = {trained.config.protocol for trained in agents}
+    return PROTOCOLS[trained.pop()] if len(trained) == 1 and None not in trained and "" not in trained else None
+
+
+def env_seeds(seeds: tuple[int, ...] | list[int], protocol: Protocol | None) -> list[int]:
+    """The env seeds played for ``--seeds``: under a protocol, as its source seeds its test env (DMC-GB: ``seed + 42``)."""
+    if protocol is None or not protocol.eval_seed_offset:
+        return list(seeds)
+    played = protocol.evaluation_seeds(seeds)
+    print(f"protocol {protocol.name}: env seeds {', '.join(map(str, played))} (seed + {protocol.eval_seed_offset}, as the "
+          "source seeds its test env)", file=sys.stderr)
+    return played
+
+
+def level_data_set(env: str, level: Any) -> tuple[str, str, int] | None:
+    """(data set, part, its files) that ``level`` plays videos from once fetched (DMC-GB's ``video_easy``: 10), or ``None``."""
+    suite, _ = env.split("/", 1)
+    named = get_suite(suite).levels.get(level) if isinstance(level, str) else None
+    for step in named.steps if named is not None else ():
+        rule = step.params.get("videos")
+        if isinstance(rule, FetchedData) and rule.part is not None:
+            dataset = vigen.data.get_dataset(rule.dataset)
+            if dataset.files:
+                return dataset.name, rule.part, len(dataset.files_of(rule.part))
+    return None
+
+
+def check_video_counts(levels: dict[str, list[Any]], videos: list[tuple[str, Path]], allow_partial_data: bool) -> None:
+    """Stop before any work where a ``--videos`` folder holds another number of videos than its level's data set part."""
+    problems = []
+    for env, env_levels in levels.items():
+        for level in env_levels:
+            folder, expected = videos_for(env, level, videos).get("videos"), level_data_set(env, level)
+            if folder is None or expected is None:
+                continue
+            dataset, part, count = expected
+            found = len(folder_videos(folder))
+            if found != count:
+                problems.append(f"{level_label(level)}={folder}: {found} video{'s' * (found != 1)}; {level_label(level)} plays "
+                                f"{dataset}/{part}, {count} videos")
+    if problems and not allow_partial_data:
+        parts = sorted({problem.split(" plays ")[1].split(",")[0] for problem in problems})
+        fetch = "; ".join(f"python -m vigen.data fetch {name.split('/')[0]} --part {name.split('/')[1]}" for name in parts)
+        raise SystemExit("--videos: a folder does not hold its level's data set:\n" + "\n".join(f"  - {p}" for p in problems)
+                         + f"\nFetch the data set ({fetch}) and drop --videos for these levels (they find it), give a folder "
+                           "holding all of it, or pass --allow-partial-data to evaluate on these videos anyway (each row "
+                           "then says what it showed).")
 
 
 def videos_for(env: str, level: Any, pairs: list[tuple[str, Path]]) -> dict[str, str]:
@@ -454,6 +529,9 @@ def add_returns(report: Report, rows: list[dict]) -> None:
     if any(row["stand_in"] for row in rows):
         report.text += ("\nLevels marked (stand-in) showed vigen's stand-ins (procedural videos, statistics-matched colours), "
                         "not the benchmark's own data; `python -m vigen.data fetch ...` gets the data (docs/data.md).\n")
+    if any(not_in_full(row.get("data")) for row in rows):
+        report.text += ("\nLevels marked (partial data) showed less than their data set in full (fewer files than its part, "
+                        "a user's folder, or files not verified against the pinned ids): their `data` column says what.\n")
     report.text += f"\n## What each level showed\n\n{level_notes(rows, heading=False)}"
     if all("success" in row for row in rows):  # tasks with a success check: the success rate in %
         success = summarize([dict(row, success=100.0 * row["success"]) for row in rows], value="success")
@@ -533,8 +611,9 @@ def published_lines(rows: list[dict], comparison: Comparison) -> list[dict]:
             try:
                 lines += compare(rows, source=comparison.sources, protocol=comparison.protocol, value=value,
                                  allow_budget_mismatch=comparison.allow_budget_mismatch,
-                                 allow_stand_ins=comparison.allow_stand_ins)
-            except ProtocolMismatch:
+                                 allow_stand_ins=comparison.allow_stand_ins,
+                                 allow_partial_data=comparison.allow_partial_data)
+            except (ProtocolMismatch, StandInRows, PartialData):  # the run or its data, not the unit: stop
                 raise
             except ValueError as error:  # nothing published in this unit for these rows
                 nothing.append(str(error))

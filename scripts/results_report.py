@@ -48,9 +48,9 @@ from vigen.results import compare, published
 
 ALPHA = 0.05
 RESOLVED_RULE = (f"resolved where the one-sided Mann–Whitney U test on the runs' mean returns gives p ≤ {ALPHA} in one "
-                 "direction and the closest pair of runs across the two methods differs by at least twice their standard "
-                 "error (for the gap difference: the test on each run's own test / train ratio, and the 95 % interval "
-                 "excludes 0)")
+                 "direction and the closest pair of runs across the two methods differs by at least twice the standard "
+                 "error of that difference, √(SE₁² + SE₂²) (for the gap difference: the test on each run's own test / train "
+                 "ratio, and the 95 % interval excludes 0)")
 """When the report calls a level resolved. With 3 runs per method the smallest p-value is 1 / C(6, 3) = 0.05."""
 INTEGER_COLUMNS = ("run", "seed", "episode", "length", "frames", "batch_size", "action_repeat", "frame_stack", "image_size", "episode_length")
 FLOAT_COLUMNS = ("return",)
@@ -121,10 +121,11 @@ def run_ratios(rows: Sequence[Mapping[str, Any]], method: str, level: str) -> np
 
 
 def closest_pair(rows: Sequence[Mapping[str, Any]], method: str, over: str, level: str) -> dict[str, float]:
-    """The pair of runs (one of ``method``, one of ``over``) whose mean returns at ``level`` lie closest, and their standard errors.
+    """The pair of runs (one of ``method``, one of ``over``) whose mean returns at ``level`` lie closest: their margin and its error.
 
-    An ordering of runs that rests on a margin far below the runs' own standard errors (the spread of
-    their episodes over the square root of their count) would likely flip with more episodes.
+    ``error`` is the standard error of the difference of the two run means, √(SE₁² + SE₂²), each
+    run's SE the spread of its episodes over the square root of their count. An ordering of runs
+    that rests on a margin under twice that error would likely flip with more episodes.
     """
     runs: dict[str, dict[Any, list[float]]] = {method: {}, over: {}}
     for row in rows:
@@ -137,7 +138,7 @@ def closest_pair(rows: Sequence[Mapping[str, Any]], method: str, over: str, leve
 
     pairs = [(mean_and_error(mine), mean_and_error(theirs)) for mine in runs[method].values() for theirs in runs[over].values()]
     (mine, mine_error), (theirs, theirs_error) = min(pairs, key=lambda pair: abs(pair[0][0] - pair[1][0]))
-    return {"margin": abs(mine - theirs), "error": max(mine_error, theirs_error)}
+    return {"margin": abs(mine - theirs), "error": math.hypot(mine_error, theirs_error)}
 
 
 def resolved(p_above: float, p_below: float, above: str, below: str) -> str:
@@ -149,7 +150,7 @@ def direction(lines: Sequence[Mapping[str, Any]], rows: Sequence[Mapping[str, An
     """Per level, P(method > over) with its interval, the Mann–Whitney p-values both ways, the closest pair and the verdict.
 
     The verdict follows :data:`RESOLVED_RULE`: a test that holds on an ordering of runs whose closest
-    pair differs by less than twice its standard error is reported as "not resolved (fragile)".
+    pair differs by less than twice the standard error of that difference is reported as "not resolved (fragile)".
     """
     reverse = {line["level"]: line["p_value"] for line in lines if line["method"] == over and line["over"] == method}
     verdicts = []
@@ -215,8 +216,9 @@ def write(folder: Path, rows: Sequence[Mapping[str, Any]], tables: Mapping[str, 
                    + ("no level can be resolved at this sample size. " if floor > ALPHA else
                       f"p = {floor:.3g} means every pair of runs agrees, the most this design can show, not certainty. ")
                    + "The closest pair is the pair of runs, one of each method, whose mean returns lie closest, with the "
-                     "larger of their standard errors (episodes' spread over √episodes); an ordering that rests on a margin "
-                     "under twice that error is fragile: more episodes could flip it.", "",
+                     "standard error of their difference, √(SE₁² + SE₂²), each run's SE its episodes' spread over "
+                     "√episodes; an ordering that rests on a margin under twice that error is fragile: more episodes could "
+                     "flip it.", "",
                    f"| level | P | 95 % CI | p ({second} > {first}) | p ({first} > {second}) | closest pair: margin | resolved |",
                    "|---|---|---|---|---|---|---|"]
         single = runs[second] == 1 and runs[first] == 1  # a bootstrap over one run each has no interval

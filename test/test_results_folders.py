@@ -7,7 +7,11 @@ import importlib.util
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
+
+from vigen.data.identity import label_parts, parse_identity
+from vigen.results import published
 
 ROOT = Path(__file__).resolve().parents[1]
 FOLDERS = sorted(path.parent for path in (ROOT / "docs" / "results").glob("*/episodes.csv"))
@@ -72,6 +76,11 @@ def test_every_row_says_what_its_level_showed(folder):
         assert row["stand_in"] == ("stand-in" in row["data"]), row["level"]
     if folder.name == "cartpole-balance-benchmark-data":  # the benchmarks' own data, and which of it each episode saw
         assert not any(row["stand_in"] for row in rows)
+        labels = {part.strip() for row in rows for part in label_parts(row["data"]) if part}
+        assert all(parse_identity(label) is not None for label in labels), "every label names a data set, no path"
+        assert {row["data"] for row in rows if row["level"] == "video_easy"} == {
+            "dmcgb-videos/video_easy: 6 of 10, not verified, given as a folder"}, "6 copied files no level checked"
+        assert {row["data"] for row in rows if row["level"] == "video_hard"} == {"dmcgb-videos/video_hard: 100 of 100, verified"}
         hard = [row["shown"] for row in rows if row["level"] == "video_hard" and row["method"] == "svea"]
         assert hard == [f"video=video{k + 1}.mp4" for k in range(10)], "DMC-GB's order: episode k plays video k + 1"
 
@@ -102,8 +111,27 @@ def test_a_level_is_resolved_only_by_the_stated_test_on_a_margin_above_the_error
     # while each run's mean has a standard error of about 100 / sqrt(10) = 31.6: more episodes could flip it
     fragile = verdict([502.0, 910.0, 920.0], [300.0, 310.0, 500.0], spread=100.0)
     assert fragile["p_value"] == pytest.approx(0.05) and fragile["fragile"]
-    assert fragile["margin"] == pytest.approx(2.0) and fragile["error"] == pytest.approx(100.0 * (10 / 9) ** 0.5 / 10 ** 0.5)
+    run_error = 100.0 * (10 / 9) ** 0.5 / 10 ** 0.5  # each run's SE: the episodes' sample std over sqrt(10)
+    assert fragile["margin"] == pytest.approx(2.0) and fragile["error"] == pytest.approx(2 ** 0.5 * run_error), \
+        "the SE of the difference of two run means, sqrt(SE1² + SE2²)"
     assert fragile["verdict"].startswith("not resolved (fragile")
+    # a margin between twice the larger run SE and twice the SE of the difference: fragile by the difference's SE
+    between = verdict([300.0 + 2.3 * run_error, 910.0, 920.0], [100.0, 110.0, 300.0], spread=100.0)
+    assert 2 * run_error < between["margin"] < 2 * 2 ** 0.5 * run_error and between["p_value"] == pytest.approx(0.05)
+    assert between["fragile"] and between["verdict"].startswith("not resolved (fragile")
     mixed = verdict([900.0, 200.0, 920.0], [300.0, 310.0, 320.0], spread=1.0)  # one svea run below every drqv2 run
     assert mixed["p_value"] == pytest.approx(0.35) and mixed["verdict"] == "not resolved"
     assert results_report.smallest_p_value(3, 3) == pytest.approx(0.05)
+
+
+def test_the_benchmark_data_page_sets_madis_rows_beside_the_shipped_agents_as_they_are():
+    folder = ROOT / "docs" / "results" / "cartpole-balance-benchmark-data"
+    lines = [line for line in (folder / "README.md").read_text().splitlines() if line.startswith(("| MaDi", "| vigen"))]
+    cells = {line.split(" | ")[0].lstrip("| "): line.rstrip(" |").rsplit(" | ", 1)[-1] for line in lines}
+    madi = {row.method: f"{row.value:.0f} ± {row.spread:.0f}" for row in published(source="madi", task="cartpole-balance")}
+    assert len(madi) == 7 and sorted(value for who, value in cells.items() if who.startswith("MaDi")) == sorted(madi.values())
+    assert cells["MaDi's SVEA"] == madi["svea"] == "579 ± 58" and cells["MaDi"] == madi["madi"]
+    rows = results_report.read_rows(folder / "episodes.csv")
+    for who, method in (("vigen DrQ-v2 (shipped)", "drqv2"), ("vigen SVEA (shipped)", "svea")):
+        returns = np.array([row["return"] for row in rows if row["method"] == method and row["level"] == "video_hard"])
+        assert cells[who] == f"{returns.mean():.1f} ± {returns.std(ddof=1):.1f} (std over {len(returns)} episodes)"

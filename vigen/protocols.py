@@ -28,7 +28,7 @@ https://arxiv.org/abs/2004.04136).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, Literal
@@ -90,6 +90,9 @@ class Protocol:
         evaluator: the source's evaluation script the published numbers are assumed to come from, and why.
         published_as: the protocol names the published rows of this protocol carry (:mod:`vigen.results`),
             besides its own name.
+        eval_seed_offset: what the source adds to a run's seed to seed its evaluation env (DMC-GB: 42,
+            ``src/eval.py:53``, ``src/train.py:55``); evaluation under the protocol plays env seeds
+            ``seed + eval_seed_offset`` (:meth:`evaluation_seeds`), so its episodes are the source's.
 
     Examples:
         >>> from vigen.protocols import PROTOCOLS
@@ -122,6 +125,7 @@ class Protocol:
     clip_returns_at: float | None = None
     evaluator: str = ""
     published_as: tuple[str, ...] = ()
+    eval_seed_offset: int = 0
 
     def __post_init__(self) -> None:
         if self.budget_unit not in BUDGET_UNITS:
@@ -215,7 +219,18 @@ class Protocol:
             **({"train_env_options": dict(self.train_env_options)} if self.train_env_options else {}),
             **({"test_env_options": dict(self.test_env_options)} if self.test_env_options else {}),
             **({"clip_returns_at": self.clip_returns_at} if self.clip_returns_at is not None else {}),
+            **({"eval_seed_offset": self.eval_seed_offset} if self.eval_seed_offset else {}),
         }
+
+    def evaluation_seeds(self, seeds: Sequence[int]) -> list[int]:
+        """The env seeds an evaluation under this protocol plays for runs or ``--seeds`` ``seeds``: each plus :attr:`eval_seed_offset`.
+
+        Examples:
+            >>> from vigen.protocols import get_protocol
+            >>> get_protocol("dmcgb").evaluation_seeds([0, 1]), get_protocol("drqv2").evaluation_seeds([0, 1])
+            ([42, 43], [0, 1])
+        """
+        return [int(seed) + self.eval_seed_offset for seed in seeds]
 
     def describe(self, env: str) -> list[str]:
         """The protocol on ``env`` as lines a run prints at its start."""
@@ -225,7 +240,8 @@ class Protocol:
             f"  frame stack {self.frame_stack}, image {self.image_size}x{self.image_size}",
             f"  while training: {self.train_eval.episodes} episodes on {', '.join(self.train_eval.levels)} every "
             f"{self.eval_every_frames(env):,} frames",
-            f"  final test: {self.test.episodes} episodes per level on {', '.join(self.test_levels(env))}",
+            f"  final test: {self.test.episodes} episodes per level on {', '.join(self.test_levels(env))}"
+            + (f", env seed = seed + {self.eval_seed_offset}" if self.eval_seed_offset else ""),
             f"  reported: {self.statistic}, {self.seeds} seeds",
             *([f"  training envs: {dict(self.train_env_options)}"] if self.train_env_options else []),
             *([f"  test envs: {dict(self.test_env_options)}"] if self.test_env_options else []),
@@ -265,8 +281,10 @@ PROTOCOLS: Mapping[str, Protocol] = _frozen({protocol.name: protocol for protoco
         test=Evaluation(episodes=100, levels=DMCGB_LEVELS),
         seeds=5, statistic="mean ± std over seeds of each seed's mean episode return",
         notes="train_steps counts agent steps, so its '500k' is 2M frames at action repeat 4 (RL-ViGen #11 confused "
-              "the two); RAD, CURL, PAD and SODA render 100x100 and crop to 84.",
+              "the two); RAD, CURL, PAD and SODA render 100x100 and crop to 84; the test env is seeded with the run's "
+              "seed + 42 (src/eval.py:53, src/train.py:55), which fixes the colour presets its episodes draw.",
         batch_size=128,  # src/arguments.py --batch_size
+        eval_seed_offset=42,  # src/eval.py:53, src/train.py:55: make_env(seed=args.seed + 42)
     ),
     Protocol(
         name="dmcgb2",

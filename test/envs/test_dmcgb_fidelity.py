@@ -153,7 +153,7 @@ def test_dmcgb2_cycle_of_the_shipped_presets_is_a_level_option(seed):
     (colors,) = DMC.level_transforms("walker-walk", "color_hard", seed=seed, draw="dmcgb2")
     start = np.random.RandomState(seed).randint(100)  # dmcgb_photometric.py:53, 58, 176-179
     assert draws(colors, 3) == [start % 100, (start + 1) % 100, (start + 2) % 100]
-    assert colors.data_source == "DMC-GB2 color_hard presets, cycled (shipped, 100)" and not colors.uses_stand_in
+    assert colors.data_source == "dmcgb-colors/color_hard: 100 of 100, shipped, cycled as DMC-GB2 does" and not colors.uses_stand_in
 
 
 def test_statistics_stand_ins_stay_by_name():
@@ -166,10 +166,10 @@ def test_statistics_stand_ins_stay_by_name():
 
 
 def test_the_levels_name_their_data():
-    for level, label in (("color_easy", "DMC-GB color_easy presets (shipped, 100)"),
-                         ("color_hard", "DMC-GB color_hard presets (shipped, 100)"),
-                         ("color_video_easy", "DMC-GB2 color_easy presets, cycled (shipped, 100)"),
-                         ("color_video_hard", "DMC-GB2 color_hard presets, cycled (shipped, 100)")):
+    for level, label in (("color_easy", "dmcgb-colors/color_easy: 100 of 100, shipped"),
+                         ("color_hard", "dmcgb-colors/color_hard: 100 of 100, shipped"),
+                         ("color_video_easy", "dmcgb-colors/color_easy: 100 of 100, shipped, cycled as DMC-GB2 does"),
+                         ("color_video_hard", "dmcgb-colors/color_hard: 100 of 100, shipped, cycled as DMC-GB2 does")):
         colors = DMC.level_transforms("walker-walk", level, seed=0)[0]
         assert colors.data_source == label and colors.uses_stand_in is False, level
     assert "its 100 presets, shipped" in DMC.levels["color_hard"].source
@@ -182,12 +182,12 @@ def test_a_users_preset_file_still_works(tmp_path):
     (colors,) = DMC.level_transforms("walker-walk", "color_hard", seed=4, palette=str(tmp_path))
     assert draws(colors, 5) == source_color_draws(4, 120, 5)
     assert colors.params["self_rgb"][0] == colors.params["preset"] / 200
-    assert colors.data_source == f"user presets {tmp_path / 'color_hard.pt'} (120)" and not colors.uses_stand_in
+    assert colors.data_source == "user file: 120 presets" and not colors.uses_stand_in, "named, never by its path"
     # dmcgb2_colors=<file>: DMC-GB2's cycle over the user's file, in place of the shipped presets
     (cycled,) = DMC.level_transforms("walker-walk", "color_hard", seed=4, dmcgb2_colors=str(tmp_path / "color_hard.pt"))
     start = np.random.RandomState(4).randint(100)
     assert draws(cycled, 2) == [start % 120, (start + 1) % 120]
-    assert cycled.data_source.endswith("(120), cycled as DMC-GB2")
+    assert cycled.data_source == "user file: 120 presets, cycled as DMC-GB2 does"
 
 
 def test_bad_palette_or_draw_names_the_choices():

@@ -111,7 +111,7 @@ def test_levels_say_what_data_they_show():
     def level(name, **options):
         return make_env("dmc/walker-walk", generalization=name, image_size=32, level_options=options or None).level
 
-    assert (level("color_hard").data_source, level("color_hard").uses_stand_in) == ("DMC-GB color_hard presets (shipped, 100)", False)
+    assert (level("color_hard").data_source, level("color_hard").uses_stand_in) == ("dmcgb-colors/color_hard: 100 of 100, shipped", False)
     stand_in = level("color_hard", palette="statistics")
     assert (stand_in.data_source, stand_in.uses_stand_in) == ("statistics-matched stand-in colours (scale=0.2)", True)
     # RL-ViGen's objects_color draws random colours by its own definition: no data, so no stand-in

@@ -34,30 +34,36 @@ def test_each_video_level_plays_its_own_folder_and_the_rows_say_so(tmp_path):
     result = subprocess.run(
         [sys.executable, str(ROOT / "examples" / "evaluate.py"), "--pretrained", "svea-cartpole-balance",
          "--levels", "train", "color_hard", "video_easy", "video_hard", "--episodes", "2", "--episode-length", "20",
-         "--videos", f"video_easy={easy}", f"video_hard={hard}", "--out", str(out)],
+         "--videos", f"video_easy={easy}", f"video_hard={hard}", "--allow-partial-data", "--out", str(out)],
         capture_output=True, text=True, cwd=ROOT, timeout=600)
     assert result.returncode == 0, result.stderr[-2000:]
     with open(out / "episodes.csv", newline="") as file:
         rows = list(csv.DictReader(file))
     by_level = {level: [row for row in rows if row["level"] == level] for level in ("train", "color_hard", "video_easy", "video_hard")}
     assert {row["data"] for row in by_level["train"]} == {""}
-    assert {row["data"] for row in by_level["color_hard"]} == {"DMC-GB color_hard presets (shipped, 100)"}
-    assert {(row["data"], row["stand_in"]) for row in by_level["video_easy"]} == {(f"{easy}: 2 videos", "False")}
-    assert {(row["data"], row["stand_in"]) for row in by_level["video_hard"]} == {(f"{hard}: 12 videos", "False")}
-    assert [row["level_options"] for row in by_level["video_hard"]] == [f'{{"videos": "{hard}"}}'] * 2
+    assert {row["data"] for row in by_level["color_hard"]} == {"dmcgb-colors/color_hard: 100 of 100, shipped"}
+    assert {(row["data"], row["stand_in"]) for row in by_level["video_easy"]} == {("user folder: 2 videos", "False")}
+    assert {(row["data"], row["stand_in"]) for row in by_level["video_hard"]} == {("user folder: 12 videos", "False")}
+    assert [row["level_options"] for row in by_level["video_hard"]] == ['{"videos": "folder hard"}'] * 2, "a name, not a path"
+    assert str(tmp_path) not in (out / "episodes.csv").read_text() + (out / "report.md").read_text()
     # DMC-GB's order: episode k plays video (k + 1) mod n, named by file
     assert [row["shown"] for row in by_level["video_easy"]] == ["video=video1.mp4", "video=video0.mp4"]
     assert [row["shown"] for row in by_level["video_hard"]] == ["video=video1.mp4", "video=video2.mp4"]
     assert all(row["shown"].startswith("preset=") for row in by_level["color_hard"])
 
 
-def test_videos_are_given_per_level_pattern():
+def evaluate_script():
     import importlib.util
 
     spec = importlib.util.spec_from_file_location("evaluate_script", ROOT / "examples" / "evaluate.py")
     script = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = script  # its dataclasses look their module up
     spec.loader.exec_module(script)
+    return script
+
+
+def test_videos_are_given_per_level_pattern():
+    script = evaluate_script()
     pairs = [("video_easy", Path("/e")), ("dcs_*", Path("/davis")), ("*", Path("/any"))]
     assert script.videos_for("dmc/walker-walk", "video_easy", pairs) == {"videos": "/e"}
     assert script.videos_for("dmc/walker-walk", "dcs_0.2", pairs) == {"videos": "/davis"}
@@ -85,3 +91,35 @@ def test_stand_in_levels_are_labelled_in_the_report_and_warned_about(tmp_path):
     report = (out / "report.md").read_text()
     assert "| video_hard (stand-in) |" in report and "| train |" in report
     assert "- video_hard: DMC-GB video_hard" in report and "showed procedural stand-in videos (10) (vigen's stand-ins" in report
+
+
+def test_a_videos_folder_is_checked_against_its_levels_data_set_before_any_work(tmp_path):
+    script = evaluate_script()
+    six = tmp_path / "video_easy"
+    six.mkdir()
+    for i in (0, 1, 2, 6, 8, 9):  # the 6 of DMC-GB's 10 video_easy files the committed results had
+        (six / f"video{i}.mp4").write_bytes(b"")  # counted, not opened
+    levels = {"dmc/cartpole-balance": ["train", "video_easy", "color_video_easy", "dcs_0.1"]}
+    videos = script.parse_videos([str(six)])  # one folder for every video level
+    with pytest.raises(SystemExit) as stopped:
+        script.check_video_counts(levels, videos, allow_partial_data=False)
+    message = str(stopped.value)
+    assert f"video_easy={six}: 6 videos; video_easy plays dmcgb-videos/video_easy, 10 videos" in message
+    assert f"color_video_easy={six}: 6 videos" in message and "dcs_0.1" not in message, "DAVIS pins no count"
+    assert "python -m vigen.data fetch dmcgb-videos --part video_easy" in message and "--allow-partial-data" in message
+    script.check_video_counts(levels, videos, allow_partial_data=True)  # asked for: no stop
+    for i in (3, 4, 5, 7):
+        (six / f"video{i}.mp4").write_bytes(b"")
+    script.check_video_counts(levels, videos, allow_partial_data=False)  # all 10
+    with pytest.raises(SystemExit, match="video_hard=.*10 videos; video_hard plays dmcgb-videos/video_hard, 100 videos"):
+        script.check_video_counts({"dmc/walker-walk": ["video_hard"]}, videos, allow_partial_data=False)
+
+
+def test_under_dmcgb_the_env_seeds_are_seed_plus_42():
+    script = evaluate_script()
+    from vigen.protocols import PROTOCOLS
+
+    assert script.env_seeds((0, 1), PROTOCOLS["dmcgb"]) == [42, 43], "DMC-GB src/eval.py:53: make_env(seed=args.seed + 42)"
+    assert script.env_seeds((0, 1), PROTOCOLS["drqv2"]) == [0, 1] and script.env_seeds((0, 1), None) == [0, 1]
+    comparison = script.Comparison("madi", "dmcgb", ["madi"], False, False)
+    assert script.evaluation_protocol([], comparison).name == "dmcgb"

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from vigen.results import ProtocolMismatch, StandInRows, compare, published
+from vigen.results import PartialData, ProtocolMismatch, StandInRows, compare, published
 
 
 def rows(method="svea", env="dmc/walker-stand", level="video_hard", frames=2_000_000, returns=(800.0, 900.0), **settings):
@@ -104,6 +104,9 @@ def test_drqv2_curves_are_matched_at_the_runs_frame_count():
     assert between["published"] == pytest.approx(at_20k + (30_000 - 20_000) / (40_000 - 20_000) * (at_40k - at_20k))
     assert between["published_frames"] == 30_000 and between["budget_matches"] is False
     assert between["notes"].startswith("published mean interpolated linearly between 20,000 frames")
+    assert between["where"] == ("interpolated between curves/dmc_cartpole_balance.csv, frame 20000 and "
+                                "curves/dmc_cartpole_balance.csv, frame 40000"), "not the first cell's 'frame 0'"
+    assert line["where"] == "curves/dmc_cartpole_balance.csv, frame 40000", "a point at the run's budget names its own"
     last = max(row.frames(2) for row in published(source="drqv2", task="cartpole-balance", statistic="mean"))
     with pytest.raises(ProtocolMismatch, match="publish.* train at 0, 20,000, 40,000.*none at or around"):
         compare([dict(row, frames=last + 10_000) for row in run], source="drqv2", protocol="drqv2")
@@ -137,5 +140,30 @@ def test_stand_in_rows_are_refused_unless_asked_for_and_then_labelled():
     as_read = [dict(row, stand_in="True") for row in run]  # as a CSV reads the rows back
     with pytest.raises(StandInRows):
         compare(as_read, source="sgqn", protocol="dmcgb")
-    real = [dict(row, data="/data/dmcgb-videos/video_hard: 100 videos", stand_in="False") for row in rows()]
+    real = [dict(row, data="dmcgb-videos/video_hard: 100 of 100, verified", stand_in="False") for row in rows()]
     assert "stand-ins" not in compare(real, source="sgqn", protocol="dmcgb")[0]["notes"]
+
+
+@pytest.mark.parametrize("shown", [
+    "dmcgb-videos/video_hard: 60 of 100, verified",  # part of the data set
+    "user folder: 100 videos",  # a user's folder, whatever it holds
+    "dmcgb-videos/video_hard: 100 of 100, not verified",  # files no level checked
+    "/data/dmcgb-videos/video_hard: 100 videos",  # a path names no data set (rows from before identities)
+])
+def test_rows_that_did_not_show_the_data_set_in_full_are_refused_unless_asked_and_then_say_what_was_shown(shown):
+    run = [dict(row, data=shown, stand_in=False) for row in rows()]
+    with pytest.raises(PartialData, match=f"video_hard: {shown}(.|\n)*allow_partial_data=True"):
+        compare(run, source="sgqn", protocol="dmcgb")
+    line = compare(run, source="sgqn", protocol="dmcgb", allow_partial_data=True)[0]
+    assert f"vigen showed {shown}, not the published data set in full" in line["notes"]
+    full = [dict(row, data="dmcgb-videos/video_hard: 100 of 100, verified") for row in rows()]
+    assert "data set" not in compare(full, source="sgqn", protocol="dmcgb")[0]["notes"]
+
+
+def test_shipped_presets_are_the_data_set_in_full_and_a_user_preset_file_is_not():
+    run = rows(env="dmc/walker-walk", level="color_hard")
+    shipped = compare([dict(row, data="dmcgb-colors/color_hard: 100 of 100, shipped") for row in run], source="dmcgb",
+                      protocol="dmcgb")[0]
+    assert "data set" not in shipped["notes"]
+    with pytest.raises(PartialData, match="color_hard: user file: 100 presets"):
+        compare([dict(row, data="user file: 100 presets") for row in run], source="dmcgb", protocol="dmcgb")

@@ -281,10 +281,12 @@ def test_video_backgrounds_name_their_data_source(tmp_path):
         writer.write(np.zeros((8, 8, 3), np.uint8))
         writer.release()
     folder = VideoBackground(tmp_path)
-    assert folder.data_source == f"{tmp_path}: 3 videos" and not folder.uses_stand_in
-    assert VideoBackground(tmp_path, num_videos=2, playback="static").data_source == f"{tmp_path}: 2 videos (the first of 3)"
-    assert VideoBackground(tmp_path, num_videos=1).data_source == f"{tmp_path}: 1 video (the first of 3)"
-    assert DMCGB2VideoBackground(tmp_path).data_source == f"{tmp_path}: 3 videos"
+    # named by identity, never by path: a folder of videos that are not a benchmark's pinned files is the user's
+    assert folder.data_source == "user folder: 3 videos" and not folder.uses_stand_in
+    assert VideoBackground(tmp_path, num_videos=2, playback="static").data_source == "user folder: 3 videos, the first 2 played"
+    assert VideoBackground(tmp_path, num_videos=1).data_source == "user folder: 3 videos, the first 1 played"
+    assert VideoBackground(tmp_path, video=4).data_source == "user folder: 3 videos, only video 1 played"
+    assert DMCGB2VideoBackground(tmp_path).data_source == "user folder: 3 videos"
     davis = tmp_path / "DAVIS"
     (davis / "ImageSets" / "2017").mkdir(parents=True)
     (davis / "ImageSets" / "2017" / "train.txt").write_text("bear\nboat\n")
@@ -292,9 +294,10 @@ def test_video_backgrounds_name_their_data_source(tmp_path):
     for name in ("bear", "boat", "cows"):
         (davis / "JPEGImages" / "480p" / name).mkdir(parents=True)
         cv2.imwrite(str(davis / "JPEGImages" / "480p" / name / "00000.jpg"), np.zeros((8, 8, 3), np.uint8))
-    assert VideoBackground(davis, split="train").data_source == f"{davis} (train): 2 videos"
-    assert VideoBackground(davis, split="val").data_source == f"{davis} (val): 1 video"
-    assert VideoBackground(davis).data_source == f"{davis}: 3 videos"
+    assert VideoBackground(davis, split="train").data_source == "user folder: 2 videos, DAVIS 2017 layout, train split"
+    assert VideoBackground(davis, split="val").data_source == "user folder: 1 video, DAVIS 2017 layout, val split"
+    assert VideoBackground(davis).data_source == "user folder: 3 videos"
+    assert str(tmp_path) not in VideoBackground(davis).data_source
 
 
 def test_video_background_playbacks_composite_the_expected_frames():

@@ -47,7 +47,8 @@ def test_video_hard_plays_the_fetched_videos_in_dmcgb_order(fetched_videos, isol
         warnings.simplefilter("error", StandInDataWarning)  # the data is there: no stand-in warning
         env = make_env("dmc/walker-walk", generalization="video_hard", seed=5, image_size=32, frame_stack=1,
                        render_settings=RenderSettings.fast())
-    assert env.level.data_source == f"{fetched_videos}: 3 videos" and not env.level.uses_stand_in
+    # every file is one of the record's pinned files (name and git blob id): named as the data set, never by path
+    assert env.level.data_source == "dmcgb-videos/video_hard: 3 of 3, verified" and not env.level.uses_stand_in
     shown = []
     for _ in range(4):
         env.reset()
@@ -70,4 +71,4 @@ def test_a_folder_in_level_options_replaces_the_cache_lookup(tmp_path, isolated_
         warnings.simplefilter("error", StandInDataWarning)  # not looked up, so no warning
         env = make_env("dmc/walker-walk", generalization="video_hard", image_size=32, frame_stack=1,
                        level_options={"videos": str(folder)})
-    assert env.level.data_source == f"{folder}: 1 video"
+    assert env.level.data_source == "user folder: 1 video"

@@ -125,7 +125,7 @@ class ImageBank:
         if max_images is not None and len(paths) > max_images:
             keep = torch.randperm(len(paths), generator=torch.Generator().manual_seed(seed))[:max_images]
             paths = [paths[i] for i in sorted(keep.tolist())]
-        return cls(torch.stack(_load_images(paths, size)), name=str(root))
+        return cls(torch.stack(_load_images(paths, size)), name=f"user folder: {len(paths)} images")  # no path: rows carry it
 
     @classmethod
     def load(cls, images: ImageBank | str | os.PathLike | Callable[[], ImageBank] | None) -> ImageBank:

@@ -23,6 +23,8 @@ from typing import Any
 import numpy as np
 import torch
 
+from vigen.data.checksums import git_blob_id
+
 PALETTE_KEYS = ("grid_rgb1", "grid_rgb2", "skybox_rgb", "self_rgb")
 """The four colours of a DMC-GB preset: floor checker (two tones), sky, and the agent's ``self`` material."""
 
@@ -66,6 +68,21 @@ def dmcgb_presets_record() -> dict[str, Any]:
     """
     data = _shipped_presets()
     return json.loads(json.dumps({key: data[key] for key in ("about", "license", "provenance")}))  # a copy
+
+
+def dmcgb_preset_file_part(path: str | os.PathLike) -> str | None:
+    """``"color_easy"`` / ``"color_hard"`` when the file at ``path`` is DMC-GB's own preset file (its git blob id), else ``None``.
+
+    Examples:
+        >>> import tempfile, pathlib
+        >>> other = pathlib.Path(tempfile.mkdtemp()) / "color_hard.pt"
+        >>> _ = other.write_bytes(b"not DMC-GB's")
+        >>> dmcgb_preset_file_part(other) is None
+        True
+    """
+    blob = git_blob_id(path)
+    files = dmcgb_presets_record()["provenance"]["files"]
+    return next((name for name, entry in files.items() if entry["git_blob"] == blob), None)
 
 
 @functools.lru_cache(maxsize=1)

@@ -9,9 +9,11 @@ from pathlib import Path
 import numpy as np
 import torch
 
+import vigen.data
 from vigen.assets.davis import davis_split_folders
 from vigen.assets.image_bank import IMAGE_SUFFIXES
 from vigen.assets.procedural import procedural_video
+from vigen.data.identity import DataIdentity, identify_files
 from vigen.seeding import derive_seed
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".webm", ".mkv")
@@ -39,6 +41,11 @@ class VideoSource:
     fail later (a file cut short in the middle) raise an ``OSError`` naming the file when that
     video is first played, instead of playing a shorter video.
 
+    :attr:`identity` says what the videos are without naming a path (evaluation rows carry it):
+    a benchmark's data set part when every file is one of its pinned files (name and git blob id,
+    :func:`vigen.data.identity.identify_files`; e.g. ``dmcgb-videos/video_easy: 10 of 10, verified``),
+    DAVIS 2017's split when the folder is the fetched one, else ``user folder: <n> videos``.
+
     Args:
         paths: video files or frame folders (for :meth:`from_folder`); ``None`` for procedural.
         count: number of procedural videos.
@@ -61,6 +68,8 @@ class VideoSource:
             count = len(paths)
         self.paths, self.count, self.max_frames, self.seed = paths, count, max_frames, seed
         self.name = name or ("procedural" if paths is None else "custom")
+        self.split: str | None = None
+        self._identity: DataIdentity | None = None
         self._cache: tuple[tuple[int, int, int], torch.Tensor] | None = None
 
     @classmethod
@@ -85,10 +94,10 @@ class VideoSource:
                 "src/env/data/video_hard) or of frame folders (e.g. DAVIS/JPEGImages/480p)."
             )
         if split is not None:
-            return cls(davis_split_folders(root, split), max_frames=max_frames, name=f"{root} ({split})")
-        videos = [p for p in root.rglob("*") if p.suffix.lower() in VIDEO_SUFFIXES]
-        frame_dirs = {p.parent for p in root.rglob("*") if p.suffix.lower() in IMAGE_SUFFIXES}
-        paths = sorted(videos + list(frame_dirs), key=lambda path: natural_key(path.relative_to(root)))
+            source = cls(davis_split_folders(root, split), max_frames=max_frames, name=f"{root} ({split})")
+            source.split = split
+            return source
+        paths = folder_videos(root)
         if not paths:
             found = sorted(str(p.relative_to(root)) for p in root.rglob("*") if p.is_file())
             listing = ", ".join(found[:10]) + (f" and {len(found) - 10} more" if len(found) > 10 else "")
@@ -101,6 +110,34 @@ class VideoSource:
 
     def __len__(self) -> int:
         return self.count
+
+    @property
+    def identity(self) -> DataIdentity | None:
+        """What the videos are, by identity (``None`` for procedural ones); checked once, at the first call.
+
+        Examples:
+            >>> import tempfile, pathlib, cv2, numpy as np
+            >>> folder = pathlib.Path(tempfile.mkdtemp())
+            >>> writer = cv2.VideoWriter(str(folder / "clip.mp4"), cv2.VideoWriter_fourcc(*"mp4v"), 25, (16, 16))
+            >>> writer.write(np.zeros((16, 16, 3), np.uint8)); writer.release()
+            >>> str(VideoSource.from_folder(folder).identity), VideoSource.procedural(2, 2).identity
+            ('user folder: 1 video', None)
+        """
+        if self.paths is None:
+            return None
+        if self._identity is None:
+            self._identity = self._davis_identity() if self.split is not None else identify_files(
+                self.paths, vigen.data.DATASETS.values(), kind="videos", where="folder")
+        return self._identity
+
+    def _davis_identity(self) -> DataIdentity:
+        """DAVIS 2017's split as fetched by ``python -m vigen.data`` (no pinned ids: ``fetched``), or a user's DAVIS folder."""
+        davis = vigen.data.get_dataset("davis2017")
+        fetched = vigen.data.locate(davis)
+        inside = fetched is not None and all(Path(path).resolve().is_relative_to(fetched.resolve()) for path in self.paths)
+        if inside:
+            return DataIdentity(davis.name, self.split, len(self.paths), len(self.paths), "fetched")
+        return DataIdentity(None, None, len(self.paths), None, "user", note=f"DAVIS 2017 layout, {self.split} split")
 
     def frames(self, index: int, height: int, width: int) -> torch.Tensor:
         """Video ``index`` as uint8 ``[T, height, width, 3]`` RGB; the last one asked for is cached."""
@@ -118,6 +155,25 @@ class VideoSource:
 
     def __repr__(self) -> str:
         return f"VideoSource({self.name})"
+
+
+def folder_videos(root: str | os.PathLike) -> list[Path]:
+    """The videos :meth:`VideoSource.from_folder` plays from ``root``: video files and frame folders under it, in natural order.
+
+    Nothing is opened: this is the count a command can check before any work.
+
+    Examples:
+        >>> import tempfile, pathlib
+        >>> root = pathlib.Path(tempfile.mkdtemp())
+        >>> for name in ("video10.mp4", "video2.mp4", "notes.txt"):
+        ...     _ = (root / name).write_bytes(b"")
+        >>> [path.name for path in folder_videos(root)]
+        ['video2.mp4', 'video10.mp4']
+    """
+    root = Path(root).expanduser()
+    videos = [p for p in root.rglob("*") if p.suffix.lower() in VIDEO_SUFFIXES]
+    frame_dirs = {p.parent for p in root.rglob("*") if p.suffix.lower() in IMAGE_SUFFIXES}
+    return sorted(videos + list(frame_dirs), key=lambda path: natural_key(path.relative_to(root)))
 
 
 def natural_key(path: str | os.PathLike) -> tuple:

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from vigen.data.identity import not_in_full
 from vigen.evaluation.statistics import performance_profile, performance_profile_ci
 from vigen.evaluation.summary import score_matrix, summarize
 from vigen.io import atomic_write
@@ -90,16 +91,24 @@ def interval_cell(value: float, low: float, high: float, runs: int | None, spec:
 
 
 def label_stand_ins(lines: Sequence[Mapping[str, Any]], rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """``lines`` with " (stand-in)" after each level whose rows showed vigen's stand-ins (``stand_in`` true), for tables.
+    """``lines`` with " (stand-in)" after each level whose rows showed vigen's stand-ins (``stand_in`` true), and
+    " (partial data)" after each level whose rows showed less than a data set in full (a user's folder, fewer files
+    than the part holds, files not verified: :func:`vigen.data.identity.not_in_full`), for tables.
 
     Examples:
         >>> from vigen.evaluation.report import label_stand_ins
-        >>> rows = [{"level": "train", "stand_in": False}, {"level": "video_hard", "stand_in": True}]
-        >>> [line["level"] for line in label_stand_ins([{"level": "train"}, {"level": "video_hard"}], rows)]
-        ['train', 'video_hard (stand-in)']
+        >>> rows = [{"level": "train", "stand_in": False}, {"level": "video_hard", "stand_in": True},
+        ...         {"level": "video_easy", "stand_in": False, "data": "dmcgb-videos/video_easy: 6 of 10, verified"}]
+        >>> [line["level"] for line in label_stand_ins([{"level": "train"}, {"level": "video_hard"}, {"level": "video_easy"}], rows)]
+        ['train', 'video_hard (stand-in)', 'video_easy (partial data)']
     """
     stand_ins = {row["level"] for row in rows if row.get("stand_in") is True or str(row.get("stand_in")) == "True"}
-    return [dict(line, level=f"{line['level']} (stand-in)") if line["level"] in stand_ins else dict(line) for line in lines]
+    partial = {row["level"] for row in rows if not_in_full(row.get("data"))}
+
+    def label(level: str) -> str:
+        return level + (" (stand-in)" if level in stand_ins else "") + (" (partial data)" if level in partial else "")
+
+    return [dict(line, level=label(line["level"])) for line in lines]
 
 
 def markdown_table(

@@ -85,10 +85,12 @@ def evaluate(
         ``episode``, ``return``, ``length`` and, where the task reports one, ``success`` (whether
         the episode ever succeeded), after the ``tags``. Rows of a generalization dict also carry
         ``factor`` and ``intensity`` after ``level`` (:func:`~vigen.evaluation.sweep.level_columns`).
-        Every row says what its level showed (:func:`data_columns`): ``data`` (e.g. ``"DMC-GB
-        color_hard presets (shipped, 100)"`` or ``"procedural stand-in videos (10)"``, ``""`` for a
-        level that shows no data), ``stand_in`` (True where vigen's stand-ins replace the source's
-        data) and ``level_options`` (the options given, as JSON); a level that shows data adds
+        Every row says what its level showed (:func:`data_columns`): ``data``, by identity and never
+        by path (:mod:`vigen.data.identity`: e.g. ``"dmcgb-colors/color_hard: 100 of 100, shipped"``,
+        ``"dmcgb-videos/video_easy: 10 of 10, verified"``, ``"user folder: 7 videos"`` or
+        ``"procedural stand-in videos (10)"``, ``""`` for a level that shows no data), ``stand_in``
+        (True where vigen's stand-ins replace the source's data) and ``level_options`` (the options
+        given, as JSON, a folder by its name: :func:`portable_option`); a level that shows data adds
         ``shown``, what that episode showed (``"video=video3.mp4"``, ``"preset=17"``).
 
     Examples:
@@ -214,12 +216,33 @@ def data_columns(env: EnvBase, level_options: Mapping[str, Any] | None) -> dict[
     Examples:
         >>> from vigen.envs import make_env
         >>> data_columns(make_env("dmc/cartpole-balance", generalization="color_hard", image_size=32), None)
-        {'data': 'DMC-GB color_hard presets (shipped, 100)', 'stand_in': False, 'level_options': ''}
+        {'data': 'dmcgb-colors/color_hard: 100 of 100, shipped', 'stand_in': False, 'level_options': ''}
     """
     level = getattr(env, "level", None)
-    given = {key: value for key, value in (level_options or {}).items()}
+    given = {key: portable_option(value) for key, value in (level_options or {}).items()}
     return {"data": "" if level is None else level.data_source, "stand_in": bool(level is not None and level.uses_stand_in),
             "level_options": json.dumps(given, sort_keys=True, default=str) if given else ""}
+
+
+def portable_option(value: Any) -> Any:
+    """A level option as a row records it: a folder or file by its name (``"folder video_easy"``), never the machine's path.
+
+    Rows are shared and committed; the ``data`` column says what the folder held (its data set
+    and file count, :mod:`vigen.data.identity`).
+
+    Examples:
+        >>> import tempfile, pathlib
+        >>> folder = pathlib.Path(tempfile.mkdtemp()) / "video_easy"
+        >>> folder.mkdir()
+        >>> portable_option(str(folder)), portable_option(folder), portable_option(0.5), portable_option("dmcgb2")
+        ('folder video_easy', 'folder video_easy', 0.5, 'dmcgb2')
+    """
+    if isinstance(value, (str, os.PathLike)):
+        text = os.fspath(value)
+        path = Path(text).expanduser()
+        if isinstance(value, os.PathLike) or os.path.isabs(text) or text.startswith("~") or (os.sep in text and path.exists()):
+            return f"{'folder' if path.is_dir() else 'file'} {path.name}"
+    return value
 
 
 def shown_data(env: EnvBase) -> str:

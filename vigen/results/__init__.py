@@ -17,12 +17,13 @@ Examples:
 """
 
 from vigen.results.aggregates import seed_aggregates, task_means
-from vigen.results.compare import ProtocolMismatch, StandInRows, check_protocol, compare
+from vigen.results.compare import PartialData, ProtocolMismatch, StandInRows, check_protocol, compare
 from vigen.results.published import COLUMNS, PublishedScore, as_dicts, load, published
 from vigen.results.sources import SOURCES, Source
 
 __all__ = [
     "COLUMNS",
+    "PartialData",
     "ProtocolMismatch",
     "PublishedScore",
     "SOURCES",

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from vigen.data.identity import not_in_full
 from vigen.protocols import Protocol, get_protocol
 from vigen.results.published import PublishedScore, published
 from vigen.results.sources import SOURCES
@@ -69,6 +70,43 @@ class StandInRows(ValueError):
             + "\n".join(f"  - {level}: {data}" for level, data in self.levels)
             + "\nFetch the data (python -m vigen.data fetch ...) and evaluate again, or pass allow_stand_ins=True "
               "(--allow-stand-ins) to show them anyway, each line saying so.")
+
+
+class PartialData(ValueError):
+    """Rows whose level did not show the published data set in full; ``levels`` lists (level, data shown).
+
+    Examples:
+        >>> from vigen.results.compare import PartialData
+        >>> print(PartialData([("video_easy", "dmcgb-videos/video_easy: 6 of 10, verified")]))  # doctest: +ELLIPSIS
+        cannot set these rows beside published numbers: their level did not show the published data set in full:
+          - video_easy: dmcgb-videos/video_easy: 6 of 10, verified
+        Evaluate on the whole data set (python -m vigen.data fetch ..., without --videos), or pass allow_partial_data=True ...
+    """
+
+    def __init__(self, levels: Sequence[tuple[str, str]]) -> None:
+        self.levels = list(levels)
+        super().__init__(
+            "cannot set these rows beside published numbers: their level did not show the published data set in full:\n"
+            + "\n".join(f"  - {level}: {data}" for level, data in self.levels)
+            + "\nEvaluate on the whole data set (python -m vigen.data fetch ..., without --videos), or pass "
+              "allow_partial_data=True (--allow-partial-data) to show them anyway, each line saying what was shown.")
+
+
+def partial_data(label: Any) -> list[str]:
+    """The parts of a row's ``data`` label that are not a data set shown in full (:func:`vigen.data.identity.not_in_full`).
+
+    A part is in full where it names a data set part, every one of its files, ``verified`` against
+    the pinned ids or ``shipped`` with vigen (:class:`vigen.data.identity.DataIdentity`). A user's
+    folder or file, fewer files than the part holds, unverified files, and a label that names no
+    data set (e.g. a machine path, as rows had before vigen named data by identity) are not;
+    stand-ins are left to the ``stand_in`` column.
+
+    Examples:
+        >>> from vigen.results.compare import partial_data
+        >>> partial_data("dmcgb-colors/color_easy: 100 of 100, shipped; dmcgb-videos/video_easy: 6 of 10, verified")
+        ['dmcgb-videos/video_easy: 6 of 10, verified']
+    """
+    return not_in_full(label)
 
 
 def _is_true(value: Any) -> bool:
@@ -153,6 +191,8 @@ class PublishedPoint:
     seeds: int | None
     frames: int | None
     note: str = ""
+    where: str = ""
+    """Where the point is in the source; an interpolated point names both ends (``"interpolated between ... and ..."``)."""
 
 
 def _at_budget(budgets: Mapping[int | None, list[PublishedScore]], run_frames: int | None, repeat: int
@@ -164,10 +204,10 @@ def _at_budget(budgets: Mapping[int | None, list[PublishedScore]], run_frames: i
     ``None`` and the budgets that exist. A point at another budget is never returned.
     """
     if list(budgets) == [None]:
-        return PublishedPoint(*_published_mean(budgets[None]), frames=None), ""
+        return PublishedPoint(*_published_mean(budgets[None]), frames=None, where=budgets[None][0].where), ""
     at_frames = {cell[0].frames(repeat): cell for budget, cell in budgets.items() if budget is not None}
     if run_frames in at_frames:
-        return PublishedPoint(*_published_mean(at_frames[run_frames]), frames=run_frames), ""
+        return PublishedPoint(*_published_mean(at_frames[run_frames]), frames=run_frames, where=at_frames[run_frames][0].where), ""
     below = [frames for frames in at_frames if run_frames is not None and frames < run_frames]
     above = [frames for frames in at_frames if run_frames is not None and frames > run_frames]
     if below and above:
@@ -177,7 +217,8 @@ def _at_budget(budgets: Mapping[int | None, list[PublishedScore]], run_frames: i
         seeds = None if low_seeds is None or high_seeds is None else min(low_seeds, high_seeds)
         return PublishedPoint(low_mean + weight * (high_mean - low_mean), None, seeds, run_frames,
                               f"published mean interpolated linearly between {low:,} frames ({low_mean:.1f}) and "
-                              f"{high:,} frames ({high_mean:.1f}); the source publishes no point at {run_frames:,}"), ""
+                              f"{high:,} frames ({high_mean:.1f}); the source publishes no point at {run_frames:,}",
+                              f"interpolated between {at_frames[low][0].where} and {at_frames[high][0].where}"), ""
     shown = ", ".join(f"{frames:,}" for frames in sorted(at_frames)[:6]) + (" ..." if len(at_frames) > 6 else "")
     some = next(iter(at_frames.values()))[0]
     return None, f"{shown} frames ({some.budget_text} at action repeat {repeat}), none at or around the run's"
@@ -191,6 +232,7 @@ def compare(
     value: str = "return",
     allow_budget_mismatch: bool = False,
     allow_stand_ins: bool = False,
+    allow_partial_data: bool = False,
 ) -> list[dict[str, Any]]:
     """A vigen evaluation beside the published numbers of the same method, env and level, one line per pair.
 
@@ -211,6 +253,11 @@ def compare(
             says in ``notes`` that the source showed its own data. Without it such rows raise
             :class:`StandInRows`. Rows without a ``stand_in`` column (evaluations older than the
             column, or rows made by hand) are taken as showing the benchmark's data.
+        allow_partial_data: set rows beside the published numbers whose level did not show the
+            published data set in full (:func:`partial_data`: fewer files than the data set's part,
+            a user's folder, files not verified against the pinned ids, a ``data`` label naming no
+            data set); each such line says in ``notes`` what was shown. Without it such rows raise
+            :class:`PartialData`. Rows without a ``data`` column are taken as showing it in full.
 
     Returns:
         Lines with the vigen side (``runs``, ``mean``, ``std`` over runs of each run's mean, as
@@ -228,6 +275,9 @@ def compare(
 
     Raises:
         ProtocolMismatch: the protocols, a setting, the budget or the unit differ (each difference listed).
+        StandInRows: rows showed vigen's stand-ins (without ``allow_stand_ins``).
+        PartialData: rows showed less than the published data set, or not the benchmark's files (without
+            ``allow_partial_data``).
         ValueError: the source publishes nothing for the rows' methods, envs and levels.
 
     Examples:
@@ -270,6 +320,9 @@ def compare(
     stand_ins = {(str(row["level"]), str(row.get("data", ""))) for row in rows if _is_true(row.get("stand_in"))}
     if stand_ins and not allow_stand_ins:  # after the protocol: a run under another protocol is refused for that first
         raise StandInRows(sorted(stand_ins))
+    partial = {(str(row["level"]), "; ".join(partial_data(row.get("data")))) for row in rows if partial_data(row.get("data"))}
+    if partial and not allow_partial_data:
+        raise PartialData(sorted(partial))
 
     cells: dict[tuple, list[PublishedScore]] = defaultdict(list)
     for row in candidates:
@@ -326,6 +379,9 @@ def compare(
             if shown:
                 notes.append(f"vigen showed stand-ins ({'; '.join(sorted(shown))}) where the source showed its own data: "
                              "not the benchmark's number")
+            partly = sorted({part for row in members for part in partial_data(row.get("data"))})
+            if partly:
+                notes.append(f"vigen showed {'; '.join(partly)}, not the published data set in full")
             lines.append({
                 "method": method, "env": env, "level": level, "runs": len(scores), "frames": run_frames,
                 "mean": float(np.mean(scores)), "std": float(np.std(scores, ddof=1)) if len(scores) > 1 else float("nan"),
@@ -334,7 +390,7 @@ def compare(
                 "published_frames": published_frames,
                 "budget_matches": None if published_frames is None else not point.note,
                 "difference": float(np.mean(scores)) - mean, "unit": cell[0].unit, "notes": "; ".join(notes),
-                "where": cell[0].where,
+                "where": point.where,
             })
     if budget_problems:
         raise ProtocolMismatch([

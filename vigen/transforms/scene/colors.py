@@ -10,7 +10,9 @@ import mujoco
 import numpy as np
 import torch
 
-from vigen.assets.palettes import DMCGB_PRESETS, PALETTE_KEYS, check_palette, dmcgb_presets, load_dmcgb_palette
+from vigen.assets.palettes import (DMCGB_PRESETS, PALETTE_KEYS, check_palette, dmcgb_preset_file_part, dmcgb_presets,
+                                   load_dmcgb_palette)
+from vigen.data.identity import DataIdentity
 from vigen.transforms.scene.base import Defaults, SceneHandle, SceneParams, ScenePerturbation
 from vigen.transforms.scene.builtin_textures import (
     CUBE_FACES,
@@ -108,7 +110,7 @@ class RandomSceneColors(ScenePerturbation):
         >>> colors
         RandomSceneColors(palette='color_hard', parts=('grid', 'skybox', 'self'), rebuild_textures=True, seed=0)
         >>> colors.data_source, colors.uses_stand_in
-        ('DMC-GB color_hard presets (shipped, 100)', False)
+        ('dmcgb-colors/color_hard: 100 of 100, shipped', False)
         >>> env = make_env("dmc/walker-walk").append_transform(colors)
         >>> env.reset()["pixels"].shape
         torch.Size([9, 84, 84])
@@ -184,18 +186,27 @@ class RandomSceneColors(ScenePerturbation):
 
     @property
     def data_source(self) -> str:
-        """What the colours are, in a few words, e.g. ``"DMC-GB color_hard presets (shipped, 100)"``."""
+        """What the colours are, by identity (never a path), e.g. ``"dmcgb-colors/color_hard: 100 of 100, shipped"``.
+
+        DMC-GB's presets as shipped name the data set part (``dmcgb-colors/color_hard``) and
+        ``shipped``; a user's preset file that is DMC-GB's own (its git blob id the pinned one) is
+        ``verified``; any other is ``user file: <n> presets``.
+        """
         if self.palette is None:
             if not self.stands_in:
                 return f"random colours: default + N(0, {self.scale}²) per channel"
             return f"statistics-matched stand-in colours (scale={self.scale})"
         count = len(self.palette)
+        cycled = "cycled as DMC-GB2 does" if self.cycle else ""
         if self.palette_name is not None:
-            if self.cycle:
-                return f"DMC-GB2 {self.palette_name} presets, cycled (shipped, {count})"
-            return f"DMC-GB {self.palette_name} presets (shipped, {count})"
-        where = "given in code" if self.palette_source == "entries" else str(self.palette_source)
-        return f"user presets {where} ({count})" + (", cycled as DMC-GB2" if self.cycle else "")
+            return str(DataIdentity("dmcgb-colors", self.palette_name, count, count, "shipped", note=cycled))
+        part = None if self.palette_source == "entries" else dmcgb_preset_file_part(self.palette_source)
+        if part is not None:  # a copy of DMC-GB's own file: its git blob id is the pinned one
+            return str(DataIdentity("dmcgb-colors", part, count, count, "verified", note=cycled))
+        return str(DataIdentity(None, None, count, None, "user", kind="presets",
+                                where="files" if self.palette_source == "entries" else "file",
+                                note=", ".join(filter(None, ["given in code" if self.palette_source == "entries" else "",
+                                                             cycled]))))
 
     def episode_data(self) -> dict[str, Any]:
         """The preset this episode shows (its index in the palette), or nothing for random colours.

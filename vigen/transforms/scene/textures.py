@@ -92,7 +92,7 @@ class RandomTextures(ScenePerturbation):
 
     @property
     def data_source(self) -> str:
-        """What the textures are drawn from, e.g. ``"generated stand-in textures"`` or a folder.
+        """What the textures are drawn from, e.g. ``"generated stand-in textures"`` or a user's folder (never its path).
 
         Examples:
             >>> RandomTextures().data_source, RandomTextures().uses_stand_in
@@ -105,6 +105,8 @@ class RandomTextures(ScenePerturbation):
         images = self._images
         if isinstance(images, functools.partial):
             return f"{images.func.__name__}({', '.join(map(repr, images.args))})"
+        if isinstance(images, (str, os.PathLike)):
+            return "a user folder of images"  # named, not its path: evaluation rows carry this label
         return str(images if isinstance(images, ImageBank) else (images or "stand-in"))
 
     @property

@@ -5,6 +5,7 @@ DMC-GB's ``video_easy`` / ``video_hard`` and the Distracting Control Suite's bac
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections.abc import Sequence
 from typing import Any
@@ -213,10 +214,12 @@ class VideoBackground(SceneTransform):
 
     @property
     def data_source(self) -> str:
-        """A short label of the videos this transform plays, with their count, e.g. ``"procedural stand-in videos (10)"``.
+        """What this transform plays, by identity, never by path: e.g. ``"dmcgb-videos/video_hard: 100 of 100, verified"``.
 
-        The count respects ``num_videos`` (the first ones of the source) and ``split`` (the source
-        holds only that split); a fixed ``video`` names the one video played.
+        Videos from a folder are named by :attr:`VideoSource.identity <vigen.assets.video_source.VideoSource.identity>`
+        (a data set part whose pinned files they all are, or ``user folder: <n> videos``);
+        procedural ones as stand-ins with their count. ``num_videos`` (the first ones of the
+        source) and a fixed ``video`` are added as a note.
 
         Examples:
             >>> VideoBackground().data_source, VideoBackground().uses_stand_in
@@ -226,13 +229,14 @@ class VideoBackground(SceneTransform):
         """
         total = len(self.videos)
         count = self.num_videos or total
-        if self.video is not None:
-            index = self.video % (total if self.playback == "forward" else count)
-            return f"procedural stand-in video {index} of {count}" if self.uses_stand_in else \
-                f"{self.videos.name}: video {index} of {count}"
+        index = None if self.video is None else self.video % (total if self.playback == "forward" else count)
         if self.uses_stand_in:
-            return f"procedural stand-in videos ({count})"
-        return f"{self.videos.name}: {count} video{'s' * (count != 1)}" + (f" (the first of {total})" if count < total else "")
+            return f"procedural stand-in videos ({count})" if index is None else f"procedural stand-in video {index} of {count}"
+        identity = self.videos.identity
+        notes = [identity.note] if identity.note else []
+        notes += [f"the first {count} played"] if count < total else []
+        notes += [f"only video {index} played"] if index is not None else []
+        return str(dataclasses.replace(identity, note=", ".join(notes)))
 
     def episode_data(self) -> dict[str, Any]:
         """The video this episode plays: its file or folder name (``"video3.mp4"``), or ``"procedural <i>"``.
