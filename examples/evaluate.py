@@ -126,7 +126,7 @@ class EvaluationConfig:
         (), "video folders per level: LEVEL=FOLDER, LEVEL a level or a shell pattern (video_easy=DIR video_hard=DIR "
             "'dcs_*'=DAVIS), or one FOLDER for every video level; levels without one show the data fetched with python -m "
             "vigen.data (docs/data.md), else procedural stand-ins", metavar="[LEVEL=]FOLDER")
-    episode_length: int | None = setting(None, "simulator steps per episode", unset="the run's")
+    episode_length: int | None = setting(None, "control steps per episode", unset="the run's")
     compare: str | None = setting(
         None, "put the runs beside the published numbers of a protocol (all its sources) or of one source",
         choices=lambda: sorted({*PROTOCOLS, *SOURCES}))

@@ -2,7 +2,7 @@
 
 A protocol is what a paper fixes and a reader cannot see in its tables: how long agents train
 and in which unit (DMC-GB counts *agent steps*, DrQ-v2 and RL-ViGen count *frames*, i.e.
-simulator steps with the action repeat), the action repeat per task, the frame stack and image
+control steps: agent steps × action repeat), the action repeat per task, the frame stack and image
 size, how the agent is evaluated while it trains and at the end (episodes and levels), how many
 seeds, and which statistic the tables print. Two published numbers, or a run and a published
 number, are only comparable under the same protocol (``vigen.results.compare`` checks it).
@@ -68,14 +68,14 @@ class Protocol:
         budget: training length in ``budget_unit``; ``budget_by_task`` overrides it per task
             (``"cheetah-run"``) or per domain (``"cheetah"``).
         budget_unit: ``"agent_steps"`` (DMC-GB's ``train_steps``) or ``"frames"`` (agent steps × action repeat).
-        action_repeat: simulator steps per agent step; ``action_repeat_by_task`` overrides it per task, domain or
+        action_repeat: control steps per agent step; ``action_repeat_by_task`` overrides it per task, domain or
             suite (``None``: the suite has no action repeat, its control rate is fixed, e.g. robosuite's 20 Hz).
         frame_stack: frames stacked in an observation.
         image_size: pixels per side.
         train_eval: the evaluation while training (``every`` in ``budget_unit``).
         test: the final zero-shot evaluation the tables report; ``test_levels_by_suite`` replaces its
             levels on other suites than the first.
-        episode_length: simulator steps per episode, per suite (the returns' scale depends on it).
+        episode_length: control steps per episode, per suite (the returns' scale depends on it).
         level_differences: levels whose vigen version is not the paper's, and how it differs.
         seeds: seeds per method in the papers' tables.
         statistic: what the tables print, in words.
@@ -159,7 +159,7 @@ class Protocol:
         return self._lookup(self.budget_by_task, env, self.budget)
 
     def frames(self, env: str) -> int:
-        """The training length on ``env`` in frames (simulator steps), whatever unit the protocol counts in."""
+        """The training length on ``env`` in frames (control steps), whatever unit the protocol counts in."""
         budget = self.budget_for(env)
         return budget * self.action_repeat_for(env) if self.budget_unit == "agent_steps" else budget
 
@@ -180,7 +180,7 @@ class Protocol:
         return self._lookup(self.action_repeat_by_task, env, self.action_repeat)
 
     def episode_length_for(self, env: str) -> int | None:
-        """Simulator steps per episode on ``env``'s suite; ``None`` where the protocol leaves it to the suite."""
+        """Control steps per episode on ``env``'s suite; ``None`` where the protocol leaves it to the suite."""
         self._task(env)
         return self.episode_length.get(env.split("/", 1)[0])
 

@@ -65,7 +65,7 @@ class LocoPixelEnv(DMCPixelEnv):
             for the Unitree tasks, RL-ViGen's robot).
         max_mesh_faces: meshes with more faces are simplified to this many (the source Go1 draws 700k
             triangles per frame, 30× slower than the walker); ``None`` renders the source meshes.
-        action_repeat: simulator steps per agent step; only the last one is rendered.
+        action_repeat: control steps (0.01 s) per agent step; only the last one is rendered.
         image_size: height and width of the rendered frame.
         camera_id: 0 (RL-ViGen's default: the Unitree's ``back_above``, the Franka's ``side_table``), or
             another camera of the scene (Unitree: 1 ``side``, 2 ``side_low``; Franka: 1 ``above_table``).
