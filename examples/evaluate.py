@@ -199,7 +199,7 @@ def main(argv: list[str] | None = None) -> None:
         if comparison is not None:  # the published numbers need the same protocol and data: check before any episode runs
             check_comparable(runs, levels, videos, comparison)
         evaluations = runs + (random_evaluated(runs) if config.random else [])
-        rows = play(evaluations, levels, videos, config, launch, device)
+        rows = play(evaluations, levels, videos, config, launch, device, comparison.protocol if comparison else None)
         report = write_report(rows, unused_path(launch.out), sweeps, comparison, played=config.episodes * len(config.seeds))
     print_report(report, rows, comparison)
 
@@ -386,8 +386,16 @@ def check_comparable(runs: list[Evaluated], levels: dict[str, list[Any]], videos
 
 # -- the episodes --------------------------------------------------------------------------------
 def play(evaluations: list[Evaluated], levels: dict[str, list[Any]], videos: list[tuple[str, Path]],
-         config: EvaluationConfig, launch: Launch, device: torch.device) -> list[dict]:
-    """Every policy's episodes on its env's levels (one Ray cluster for all with ``--ray``), with a progress bar of jobs."""
+         config: EvaluationConfig, launch: Launch, device: torch.device, compared: str | None = None) -> list[dict]:
+    """Every policy's episodes on its env's levels (one Ray cluster for all with ``--ray``), with a progress bar of jobs.
+
+    The levels are the protocol's versions of them (``evaluate(..., protocol=)``: DMC-GB2's colour cycle, video order
+    and screen under ``dmcgb2``): the ``--compare`` protocol's, else the one each run was trained under (the random
+    policy takes its env's first run's).
+    """
+    protocols: dict[str, str | None] = {}
+    for run in evaluations:
+        protocols.setdefault(run.env, compared or run.tags.get("protocol") or None)
     backend = {} if launch.ray is None else {"backend": "ray", "workers": launch.workers}
     rows = []
     with contextlib.ExitStack() as stack:
@@ -397,9 +405,10 @@ def play(evaluations: list[Evaluated], levels: dict[str, list[Any]], videos: lis
                                             unit="job", desc="(level, seed) jobs", dynamic_ncols=True))
         for run in evaluations:
             for share, level_options in in_runs(levels[run.env], lambda level: videos_for(run.env, level, videos)):
+                protocol = compared or (run.tags.get("protocol") if "protocol" in run.tags else protocols[run.env]) or None
                 rows += evaluate(run.policy, run.env, share, episodes=config.episodes, seeds=list(config.seeds),
                                  env_options={**run.env_options, "level_options": level_options or None}, tags=run.tags,
-                                 device=device, progress=lambda done, total: progress.update(1), **backend)
+                                 device=device, progress=lambda done, total: progress.update(1), protocol=protocol, **backend)
     return rows
 
 
