@@ -93,3 +93,26 @@ def test_a_report_inside_a_run_folder_in_use_stops_naming_its_writer(evaluate, t
     RunFolderLock(run).acquire().release()
     with evaluate.hold_run_folder(tmp_path / "reports" / "eval") as held:
         assert held is None, "outside a run folder: no lock"
+
+
+def test_runs_play_the_levels_of_their_protocol(evaluate, monkeypatch):
+    """A run trained under a protocol, and the random policy beside it, play that protocol's version of each level
+    (evaluate(..., protocol=)); --compare's protocol wins; a run without one plays vigen's levels as named."""
+    seen = []
+
+    def fake_evaluate(policy, env, levels, **kwargs):
+        seen.append((kwargs["tags"]["method"], env, kwargs["protocol"]))
+        return []
+
+    monkeypatch.setattr(evaluate, "evaluate", fake_evaluate)
+    config, launch = evaluate.parse_args(["runs/a", "--levels", "color_hard"])
+    runs = [evaluate.Evaluated(None, "dmc/walker-walk", {}, {"method": "sada", "protocol": "dmcgb2"}),
+            evaluate.Evaluated(None, "dmc/cheetah-run", {}, {"method": "drqv2", "protocol": ""})]
+    runs += evaluate.random_evaluated(runs)
+    levels = {"dmc/walker-walk": ["color_hard"], "dmc/cheetah-run": ["color_hard"]}
+    evaluate.play(runs, levels, [], config, launch, torch.device("cpu"))
+    assert seen == [("sada", "dmc/walker-walk", "dmcgb2"), ("drqv2", "dmc/cheetah-run", None),
+                    ("random", "dmc/walker-walk", "dmcgb2"), ("random", "dmc/cheetah-run", None)]
+    seen.clear()
+    evaluate.play(runs, levels, [], config, launch, torch.device("cpu"), "dmcgb")
+    assert {protocol for _, _, protocol in seen} == {"dmcgb"}
