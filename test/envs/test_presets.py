@@ -117,7 +117,7 @@ def test_levels_say_what_data_they_show():
     # RL-ViGen's objects_color draws DMC-GB's presets (dmcvgb/wrappers.py:53-56); vigen's object_color factor draws random
     # colours by its own definition: no data, so no stand-in
     objects = level("objects_color_hard")
-    assert (objects.data_source, objects.uses_stand_in) == ("DMC-GB color_hard presets (shipped, 100)", False)
+    assert (objects.data_source, objects.uses_stand_in) == (level("color_hard").data_source, False), "the same presets"
     factor = make_env("dmc/walker-walk", generalization={"object_color": 0.2}, image_size=32).level
     assert factor.data_source.startswith("random colours") and not factor.uses_stand_in
     with pytest.warns(StandInDataWarning, match="fetch dmcgb-videos --part video_hard"):

@@ -68,7 +68,7 @@ def test_dmc_objects_color_shows_the_presets_rlvigen_draws(difficulty):
         shown.append(colors.episode_data().get("preset"))
         np.testing.assert_array_equal(model.mat_rgba[self_material, :3], palette[shown[-1]]["self_rgb"].astype(np.float32))
     assert shown == rlvigen_single_knob(seed)
-    assert not env.level.uses_stand_in and env.level.data_source == f"DMC-GB color_{difficulty} presets (shipped, 100)"
+    assert not env.level.uses_stand_in and env.level.data_source == RandomSceneColors(palette=f"color_{difficulty}").data_source
 
 
 @pytest.mark.render

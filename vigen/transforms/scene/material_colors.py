@@ -15,6 +15,7 @@ import numpy as np
 
 from vigen.assets.palettes import DMCGB_PRESETS, dmcgb_presets
 from vigen.transforms.scene.base import Defaults, SceneHandle, SceneParams, ScenePerturbation
+from vigen.transforms.scene.colors import RandomSceneColors
 from vigen.transforms.scene.dmcgb2_seed import check_source_seed, resolve_source_seed
 from vigen.transforms.scene.rlvigen_draws import RLViGenDraws, check_draws
 
@@ -154,8 +155,10 @@ class PresetMaterialColors(RandomMaterialColors):
         >>> colors = PresetMaterialColors("color_hard", include=("self",), source_seed=0, seed=0)
         >>> env = make_env("dmc/walker-walk", image_size=32).append_transform(colors)
         >>> _ = env.reset()
-        >>> colors.episode_data(), colors.data_source  # np.random.RandomState(0).randint(100) == 44
-        ({'objects_preset': 44}, 'DMC-GB color_hard presets (shipped, 100): self_rgb − (0.7, 0.5, 0.3) on the robot')
+        >>> colors.episode_data(), colors.uses_stand_in  # np.random.RandomState(0).randint(100) == 44
+        ({'objects_preset': 44}, False)
+        >>> colors.data_source.endswith(", self_rgb − (0.7, 0.5, 0.3) on the robot")
+        True
     """
 
     def __init__(
@@ -182,8 +185,8 @@ class PresetMaterialColors(RandomMaterialColors):
 
     @property
     def data_source(self) -> str:
-        """What the colours are, e.g. ``"DMC-GB color_hard presets (shipped, 100): self_rgb − (0.7, 0.5, 0.3) on the robot"``."""
-        return f"DMC-GB {self.palette_name} presets (shipped, {len(self.palette)}): self_rgb − (0.7, 0.5, 0.3) on the robot"
+        """What the colours are: the presets' label (:attr:`RandomSceneColors.data_source`), then how they are shown."""
+        return f"{RandomSceneColors(palette=self.palette_name).data_source}, self_rgb − (0.7, 0.5, 0.3) on the robot"
 
     def episode_data(self) -> dict[str, Any]:
         """The preset this episode shows (its index in the palette)."""
