@@ -390,12 +390,11 @@ def play(evaluations: list[Evaluated], levels: dict[str, list[Any]], videos: lis
     """Every policy's episodes on its env's levels (one Ray cluster for all with ``--ray``), with a progress bar of jobs.
 
     The levels are the protocol's versions of them (``evaluate(..., protocol=)``: DMC-GB2's colour cycle, video order
-    and screen under ``dmcgb2``): the ``--compare`` protocol's, else the one each run was trained under (the random
-    policy takes its env's first run's).
+    and screen under ``dmcgb2``): the ``--compare`` protocol's, else the one every run was trained under, else vigen's
+    levels as named.
     """
-    protocols: dict[str, str | None] = {}
-    for run in evaluations:
-        protocols.setdefault(run.env, compared or run.tags.get("protocol") or None)
+    trained = {run.tags["protocol"] or None for run in evaluations if "protocol" in run.tags}  # the random policy has none
+    protocol = compared or (trained.pop() if len(trained) == 1 else None)
     backend = {} if launch.ray is None else {"backend": "ray", "workers": launch.workers}
     rows = []
     with contextlib.ExitStack() as stack:
@@ -405,7 +404,6 @@ def play(evaluations: list[Evaluated], levels: dict[str, list[Any]], videos: lis
                                             unit="job", desc="(level, seed) jobs", dynamic_ncols=True))
         for run in evaluations:
             for share, level_options in in_runs(levels[run.env], lambda level: videos_for(run.env, level, videos)):
-                protocol = compared or (run.tags.get("protocol") if "protocol" in run.tags else protocols[run.env]) or None
                 rows += evaluate(run.policy, run.env, share, episodes=config.episodes, seeds=list(config.seeds),
                                  env_options={**run.env_options, "level_options": level_options or None}, tags=run.tags,
                                  device=device, progress=lambda done, total: progress.update(1), protocol=protocol, **backend)

@@ -96,23 +96,25 @@ def test_a_report_inside_a_run_folder_in_use_stops_naming_its_writer(evaluate, t
 
 
 def test_runs_play_the_levels_of_their_protocol(evaluate, monkeypatch):
-    """A run trained under a protocol, and the random policy beside it, play that protocol's version of each level
-    (evaluate(..., protocol=)); --compare's protocol wins; a run without one plays vigen's levels as named."""
+    """Runs trained under one protocol, and the random policy beside them, play that protocol's version of each level
+    (evaluate(..., protocol=)); --compare's protocol wins; runs of several protocols or none play vigen's levels as named."""
     seen = []
 
     def fake_evaluate(policy, env, levels, **kwargs):
-        seen.append((kwargs["tags"]["method"], env, kwargs["protocol"]))
+        seen.append((kwargs["tags"]["method"], kwargs["protocol"]))
         return []
 
     monkeypatch.setattr(evaluate, "evaluate", fake_evaluate)
     config, launch = evaluate.parse_args(["runs/a", "--levels", "color_hard"])
-    runs = [evaluate.Evaluated(None, "dmc/walker-walk", {}, {"method": "sada", "protocol": "dmcgb2"}),
-            evaluate.Evaluated(None, "dmc/cheetah-run", {}, {"method": "drqv2", "protocol": ""})]
-    runs += evaluate.random_evaluated(runs)
-    levels = {"dmc/walker-walk": ["color_hard"], "dmc/cheetah-run": ["color_hard"]}
-    evaluate.play(runs, levels, [], config, launch, torch.device("cpu"))
-    assert seen == [("sada", "dmc/walker-walk", "dmcgb2"), ("drqv2", "dmc/cheetah-run", None),
-                    ("random", "dmc/walker-walk", "dmcgb2"), ("random", "dmc/cheetah-run", None)]
-    seen.clear()
-    evaluate.play(runs, levels, [], config, launch, torch.device("cpu"), "dmcgb")
-    assert {protocol for _, _, protocol in seen} == {"dmcgb"}
+    levels = {"dmc/walker-walk": ["color_hard"]}
+
+    def played(protocols, compared=None):
+        runs = [evaluate.Evaluated(None, "dmc/walker-walk", {}, {"method": f"m{i}", "protocol": protocol})
+                for i, protocol in enumerate(protocols)]
+        seen.clear()
+        evaluate.play(runs + evaluate.random_evaluated(runs), levels, [], config, launch, torch.device("cpu"), compared)
+        return seen[:]
+
+    assert played(["dmcgb2", "dmcgb2"]) == [("m0", "dmcgb2"), ("m1", "dmcgb2"), ("random", "dmcgb2")]
+    assert played(["dmcgb2", ""]) == [("m0", None), ("m1", None), ("random", None)]
+    assert played(["dmcgb2"], "dmcgb") == [("m0", "dmcgb"), ("random", "dmcgb")]
