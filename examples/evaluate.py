@@ -141,7 +141,7 @@ class EvaluationConfig:
         (), "video folders per level: LEVEL=FOLDER, LEVEL a level or a shell pattern (video_easy=DIR video_hard=DIR "
             "'dcs_*'=DAVIS), or one FOLDER for every video level; levels without one show the data fetched with python -m "
             "vigen.data (docs/data.md), else procedural stand-ins", metavar="[LEVEL=]FOLDER")
-    episode_length: int | None = setting(None, "simulator steps per episode", unset="the run's")
+    episode_length: int | None = setting(None, "control steps per episode", unset="the run's")
     compare: str | None = setting(
         None, "put the runs beside the published numbers of a protocol (all its sources) or of one source",
         choices=lambda: sorted({*PROTOCOLS, *SOURCES}))
@@ -219,8 +219,9 @@ def main(argv: list[str] | None = None) -> None:
         if comparison is not None:  # the published numbers need the same protocol and data: check before any episode runs
             check_comparable(runs, levels, videos, comparison)
         evaluations = runs + (random_evaluated(runs) if config.random else [])
-        seeds = env_seeds(config.seeds, evaluation_protocol(agents, comparison))
-        rows = play(evaluations, levels, videos, config, launch, device, seeds)
+        protocol = evaluation_protocol(agents, comparison)
+        seeds = env_seeds(config.seeds, protocol)
+        rows = play(evaluations, levels, videos, config, launch, device, seeds, protocol.name if protocol else None)
         report = write_report(rows, unused_path(launch.out), sweeps, comparison, played=config.episodes * len(config.seeds))
     print_report(report, rows, comparison)
 
@@ -408,8 +409,14 @@ def check_comparable(runs: list[Evaluated], levels: dict[str, list[Any]], videos
 
 # -- the episodes --------------------------------------------------------------------------------
 def play(evaluations: list[Evaluated], levels: dict[str, list[Any]], videos: list[tuple[str, Path]],
-         config: EvaluationConfig, launch: Launch, device: torch.device, seeds: list[int]) -> list[dict]:
-    """Every policy's episodes on its env's levels at env seeds ``seeds`` (one Ray cluster for all with ``--ray``), with a progress bar."""
+         config: EvaluationConfig, launch: Launch, device: torch.device, seeds: list[int],
+         protocol: str | None = None) -> list[dict]:
+    """Every policy's episodes on its env's levels at env seeds ``seeds`` (one Ray cluster for all with ``--ray``), with a
+    progress bar of jobs.
+
+    The levels are ``protocol``'s versions of them (``evaluate(..., protocol=)``: DMC-GB2's colour cycle, video order and
+    screen under ``dmcgb2``; :func:`evaluation_protocol` picks it), else vigen's levels as named.
+    """
     backend = {} if launch.ray is None else {"backend": "ray", "workers": launch.workers}
     rows = []
     with contextlib.ExitStack() as stack:
@@ -421,7 +428,7 @@ def play(evaluations: list[Evaluated], levels: dict[str, list[Any]], videos: lis
             for share, level_options in in_runs(levels[run.env], lambda level: videos_for(run.env, level, videos)):
                 rows += evaluate(run.policy, run.env, share, episodes=config.episodes, seeds=seeds,
                                  env_options={**run.env_options, "level_options": level_options or None}, tags=run.tags,
-                                 device=device, progress=lambda done, total: progress.update(1), **backend)
+                                 device=device, progress=lambda done, total: progress.update(1), protocol=protocol, **backend)
     return rows
 
 

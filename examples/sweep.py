@@ -47,7 +47,7 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--random", action="store_true", help="with --checkpoint: also evaluate a random policy")
     parser.add_argument("--episodes", type=int, default=1, help="episodes per intensity and seed")
     parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2], help="env and level seeds")
-    parser.add_argument("--episode-length", type=int, default=500, help="simulator steps per episode (action repeat 2)")
+    parser.add_argument("--episode-length", type=int, default=500, help="control steps per episode (action repeat 2)")
     parser.add_argument("--threads", type=int, default=1,
                         help="torch threads; 1 is fastest for one env's small tensors on a busy CPU")
     parser.add_argument("--out", type=Path, default=Path("reports/sweep"))

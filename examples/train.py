@@ -490,7 +490,7 @@ class Training:
         """Evaluate the policy on the config's levels, log the returns, then write the checkpoint that ends the segment."""
         config, frames = self.config, self.steps * self.action_repeat
         rows = evaluate(self.agent.policy, config.env, list(config.eval_levels), episodes=config.eval_episodes,
-                        seeds=[config.seed + 10_000], device=self.device,
+                        seeds=[config.seed + 10_000], device=self.device, protocol=config.protocol,
                         env_options={"render_settings": RenderSettings.fast(), **config.env_options()})
         for level in config.eval_levels:
             returns = [row["return"] for row in rows if row["level"] == level]

@@ -74,7 +74,8 @@ def test_rlvigen_loco_protocol_trains_on_the_sources_path_and_evaluates_as_locoe
     actions, :113; each episode's return clipped at 0, :96)."""
     protocol = get_protocol("rlvigen_loco")
     assert protocol.suites == ("loco",) and protocol.test.levels == ("easy", "hard") and protocol.test.episodes == 100
-    assert dict(protocol.train_env_options) == {"action_mapping": "rlvigen_train", "time_limit_as": "terminated"}
+    assert dict(protocol.train_env_options) == {"action_mapping": "rlvigen_train", "time_limit_as": "terminated",
+                                                "start_clearance": "rlvigen"}
     assert protocol.test_env_options["action_mapping"] == "scaled" and protocol.clip_returns_at == 0
     assert "locoeval.py" in protocol.evaluator and "locodmc_eval.py" in protocol.evaluator
     assert protocol.frames("loco/unitree-walk") == get_protocol("rlvigen").frames("loco/unitree-walk")
@@ -93,3 +94,70 @@ def test_bad_names_say_what_exists():
         get_protocol("dmcgb").frames("robosuite/door")
     with pytest.raises(ValueError, match="not an env name"):
         get_protocol("dmcgb").frames("walker-walk")
+
+
+def test_dmcgb2_levels_are_dmcgb2s_own_under_its_protocol():
+    """dmcgb_photometric.py:53, 58, 62, 120, 176-179, 263-284: DMC-GB2 cycles its colours from RandomState(seed).randint(100),
+    plays its videos from the same start and shows them on its in-scene screen; the protocol turns those on."""
+    dmcgb2, env = get_protocol("dmcgb2"), "dmc/walker-walk"
+    for level in ("color_easy", "color_hard"):
+        assert dmcgb2.level_options_for(env, level) == {"draw": "dmcgb2"}
+    for level in ("video_easy", "video_hard"):
+        assert dmcgb2.level_options_for(env, level) == {"draw": "dmcgb2", "screen": True}
+    for level in ("color_video_easy", "color_video_hard"):
+        assert dmcgb2.level_options_for(env, level) == {"screen": True}
+    dmc = get_suite("dmc")
+    for level in dmcgb2.test.levels:  # every option reaches a transform of its level: none is dropped
+        assert set(dmcgb2.level_options_for(env, level)) <= dmc.options_taken(level, "walker-walk"), level
+    assert dmcgb2.settings(env)["level_options"]["video_hard"] == {"draw": "dmcgb2", "screen": True}
+    assert any("video_hard with {'draw': 'dmcgb2', 'screen': True}" in line for line in dmcgb2.describe(env))
+    assert get_protocol("dmcgb").level_options_for(env, "color_hard") == {}, "DMC-GB's levels are vigen's default ones"
+    (video,) = dmc.level_transforms("walker-walk", "video_hard", seed=0, **dmcgb2.level_options_for(env, "video_hard"))
+    assert video.draw == "dmcgb2" and video.video_screen is not None and video.video_screen.remove_floor
+
+
+def test_dmcgb2_note_says_what_video_hard_hides():
+    """dmcgb_photometric.py:47, 110-111: ``_remove_ground_and_rails`` only sets the ``grid`` material's alpha to 0; no rail of
+    its five domains uses ``grid`` (cartpole's rails are ``decoration``), so the floor alone disappears."""
+    note = get_protocol("dmcgb2").notes
+    assert "rails" not in note.replace("_remove_ground_and_rails", "") and "grid material transparent" in note
+    assert "line 111" in note and "the floor" in note
+
+
+@pytest.mark.render
+def test_evaluating_under_dmcgb2_plays_its_colour_cycle():
+    """dmcgb_photometric.py:53, 58, 176-179: episode k shows preset (start + k) % 100, start = RandomState(seed).randint(100)."""
+    import numpy as np
+
+    from vigen.evaluation import evaluate
+    from vigen.rendering import RenderSettings
+
+    seed = 4
+    options = {"image_size": 16, "frame_stack": 1, "render_settings": RenderSettings.fast()}
+    rows = evaluate(None, "dmc/cartpole-balance", ["train", "color_hard"], episodes=3, seeds=[seed], max_steps=2,
+                    env_options=options, protocol="dmcgb2")
+    start = np.random.RandomState(seed).randint(100)
+    shown = [row["shown"] for row in rows if row["level"] == "color_hard"]
+    assert shown == [f"preset={(start + k) % 100}" for k in range(3)]
+    assert [row["level_options"] for row in rows if row["level"] == "color_hard"] == ['{"draw": "dmcgb2"}'] * 3
+    assert all(row["level_options"] == "" for row in rows if row["level"] == "train")
+    default = evaluate(None, "dmc/cartpole-balance", ["color_hard"], episodes=3, seeds=[seed], max_steps=2, env_options=options)
+    state = np.random.RandomState(seed)
+    assert [row["shown"] for row in default] == [f"preset={state.randint(100)}" for _ in range(3)], "DMC-GB's draw otherwise"
+    with pytest.raises(ValueError, match="covers the dmc suite"):
+        evaluate(None, "loco/unitree-stand", ["train"], protocol="dmcgb2")
+
+
+def test_unit_words_name_control_steps():
+    """An env's action repeat and episode length count control steps (one dm_control ``env.step``; frames are agent steps ×
+    action repeat): the word "simulator steps" named that unit in these files."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    for path in ("vigen/envs/dmc_env.py", "vigen/envs/pixels.py", "vigen/envs/loco_env.py", "vigen/run/config.py",
+                 "vigen/protocols.py", "vigen/envs/adroit_env.py"):
+        assert "simulator step" not in (root / path).read_text().lower(), path
+    from vigen.envs.pixels import POSITIVE_ARGUMENTS
+
+    assert POSITIVE_ARGUMENTS["episode_length"].startswith("control steps per episode")
+    assert POSITIVE_ARGUMENTS["action_repeat"].startswith("control steps per agent step")

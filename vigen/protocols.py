@@ -2,7 +2,7 @@
 
 A protocol is what a paper fixes and a reader cannot see in its tables: how long agents train
 and in which unit (DMC-GB counts *agent steps*, DrQ-v2 and RL-ViGen count *frames*, i.e.
-simulator steps with the action repeat), the action repeat per task, the frame stack and image
+control steps: agent steps × action repeat), the action repeat per task, the frame stack and image
 size, how the agent is evaluated while it trains and at the end (episodes and levels), how many
 seeds, and which statistic the tables print. Two published numbers, or a run and a published
 number, are only comparable under the same protocol (``vigen.results.compare`` checks it).
@@ -68,14 +68,14 @@ class Protocol:
         budget: training length in ``budget_unit``; ``budget_by_task`` overrides it per task
             (``"cheetah-run"``) or per domain (``"cheetah"``).
         budget_unit: ``"agent_steps"`` (DMC-GB's ``train_steps``) or ``"frames"`` (agent steps × action repeat).
-        action_repeat: simulator steps per agent step; ``action_repeat_by_task`` overrides it per task, domain or
+        action_repeat: control steps per agent step; ``action_repeat_by_task`` overrides it per task, domain or
             suite (``None``: the suite has no action repeat, its control rate is fixed, e.g. robosuite's 20 Hz).
         frame_stack: frames stacked in an observation.
         image_size: pixels per side.
         train_eval: the evaluation while training (``every`` in ``budget_unit``).
         test: the final zero-shot evaluation the tables report; ``test_levels_by_suite`` replaces its
             levels on other suites than the first.
-        episode_length: simulator steps per episode, per suite (the returns' scale depends on it).
+        episode_length: control steps per episode, per suite (the returns' scale depends on it).
         level_differences: levels whose vigen version is not the paper's, and how it differs.
         seeds: seeds per method in the papers' tables.
         statistic: what the tables print, in words.
@@ -85,6 +85,9 @@ class Protocol:
         train_env_options: env options of the training envs beyond :meth:`env_options` (e.g. RL-ViGen's loco
             training path: ``action_mapping="rlvigen_train"``, ``time_limit_as="terminated"``).
         test_env_options: env options of the evaluation envs beyond :meth:`env_options`.
+        level_options: ``level_options`` per level name that make a level the protocol's version of it (DMC-GB2:
+            ``{"color_hard": {"draw": "dmcgb2"}, ...}``); :func:`vigen.evaluation.evaluate` (``protocol=``) passes
+            each level its own.
         clip_returns_at: each episode's return is raised to this floor before averaging (RL-ViGen's
             ``locoeval.py``: 0); ``None``: no clip.
         evaluator: the source's evaluation script the published numbers are assumed to come from, and why.
@@ -122,6 +125,7 @@ class Protocol:
     batch_size: int | None = None
     train_env_options: Mapping[str, Any] = field(default_factory=dict)
     test_env_options: Mapping[str, Any] = field(default_factory=dict)
+    level_options: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     clip_returns_at: float | None = None
     evaluator: str = ""
     published_as: tuple[str, ...] = ()
@@ -135,6 +139,7 @@ class Protocol:
             raise ValueError(f"clip_returns_at is a return floor (a number) or None, got {self.clip_returns_at!r}.")
         object.__setattr__(self, "train_env_options", _frozen(self.train_env_options))
         object.__setattr__(self, "test_env_options", _frozen(self.test_env_options))
+        object.__setattr__(self, "level_options", _frozen({level: _frozen(options) for level, options in self.level_options.items()}))
         object.__setattr__(self, "action_repeat_by_task", _frozen(self.action_repeat_by_task))
         object.__setattr__(self, "budget_by_task", _frozen(self.budget_by_task))
         object.__setattr__(self, "test_levels_by_suite", _frozen(self.test_levels_by_suite))
@@ -163,7 +168,7 @@ class Protocol:
         return self._lookup(self.budget_by_task, env, self.budget)
 
     def frames(self, env: str) -> int:
-        """The training length on ``env`` in frames (simulator steps), whatever unit the protocol counts in."""
+        """The training length on ``env`` in frames (control steps), whatever unit the protocol counts in."""
         budget = self.budget_for(env)
         return budget * self.action_repeat_for(env) if self.budget_unit == "agent_steps" else budget
 
@@ -184,7 +189,7 @@ class Protocol:
         return self._lookup(self.action_repeat_by_task, env, self.action_repeat)
 
     def episode_length_for(self, env: str) -> int | None:
-        """Simulator steps per episode on ``env``'s suite; ``None`` where the protocol leaves it to the suite."""
+        """Control steps per episode on ``env``'s suite; ``None`` where the protocol leaves it to the suite."""
         self._task(env)
         return self.episode_length.get(env.split("/", 1)[0])
 
@@ -192,6 +197,19 @@ class Protocol:
         """The levels of the final zero-shot evaluation on ``env``'s suite."""
         self._task(env)
         return self.test_levels_by_suite.get(env.split("/", 1)[0], self.test.levels)
+
+    def level_options_for(self, env: str, level: Any) -> dict[str, Any]:
+        """The ``level_options`` that make ``level`` (a name) on ``env`` the protocol's version of it; ``{}`` for the others.
+
+        Examples:
+            >>> from vigen.protocols import get_protocol
+            >>> get_protocol("dmcgb2").level_options_for("dmc/walker-walk", "video_hard")
+            {'draw': 'dmcgb2', 'screen': True}
+            >>> get_protocol("dmcgb").level_options_for("dmc/walker-walk", "video_hard")
+            {}
+        """
+        self._task(env)
+        return dict(self.level_options.get(level, {})) if isinstance(level, str) else {}
 
     def env_options(self, env: str) -> dict[str, int]:
         """The :func:`vigen.envs.make_env` options the protocol fixes on ``env``."""
@@ -218,6 +236,8 @@ class Protocol:
             "test_levels": list(self.test_levels(env)), "seeds": self.seeds,
             **({"train_env_options": dict(self.train_env_options)} if self.train_env_options else {}),
             **({"test_env_options": dict(self.test_env_options)} if self.test_env_options else {}),
+            **({"level_options": {level: dict(options) for level, options in self.level_options.items()}}
+               if self.level_options else {}),
             **({"clip_returns_at": self.clip_returns_at} if self.clip_returns_at is not None else {}),
             **({"eval_seed_offset": self.eval_seed_offset} if self.eval_seed_offset else {}),
         }
@@ -245,6 +265,7 @@ class Protocol:
             f"  reported: {self.statistic}, {self.seeds} seeds",
             *([f"  training envs: {dict(self.train_env_options)}"] if self.train_env_options else []),
             *([f"  test envs: {dict(self.test_env_options)}"] if self.test_env_options else []),
+            *([f"  levels: {level} with {dict(options)}" for level, options in self.level_options.items()]),
             *([f"  episode returns below {self.clip_returns_at:g} count as {self.clip_returns_at:g}"]
               if self.clip_returns_at is not None else []),
             *([f"  evaluator: {self.evaluator}"] if self.evaluator else []),
@@ -255,8 +276,15 @@ class Protocol:
 DMCGB_LEVELS = ("color_easy", "color_hard", "video_easy", "video_hard")
 DMCGB2_LEVELS = tuple(f"{mode}_{difficulty}" for mode in ("rotate", "shift", "rotate_shift", "color", "video", "color_video")
                       for difficulty in ("easy", "hard"))
-RLVIGEN_LEVELS = ("color_easy", "color_hard", "objects_color_easy", "objects_color_hard", "video_easy", "video_hard",
-                  "light_easy", "light_hard", "camera_easy", "camera_hard")
+RLVIGEN_LEVELS = ("background_color_easy", "background_color_hard", "objects_color_easy", "objects_color_hard", "video_easy",
+                  "video_hard", "light_easy", "light_hard", "camera_easy", "camera_hard")
+
+DMCGB2_LEVEL_OPTIONS = {
+    **{f"color_{difficulty}": {"draw": "dmcgb2"} for difficulty in ("easy", "hard")},
+    **{f"video_{difficulty}": {"draw": "dmcgb2", "screen": True} for difficulty in ("easy", "hard")},
+    **{f"color_video_{difficulty}": {"screen": True} for difficulty in ("easy", "hard")},
+}
+"""DMC-GB2's versions of its photometric levels: its colour cycle and video order (``draw``) and its in-scene screen."""
 
 RLVIGEN_LOCO_EVALUATOR = (
     "locoeval.py (argparse; scripts/locoeval.sh): scaled actions (:113) and each episode's return clipped at 0 (:96). "
@@ -295,13 +323,16 @@ PROTOCOLS: Mapping[str, Protocol] = _frozen({protocol.name: protocol for protoco
         train_eval=Evaluation(episodes=10, levels=("train", "color_hard", "rotate_hard"), every=20_000),
         test=Evaluation(episodes=100, levels=DMCGB2_LEVELS),
         seeds=5, statistic="mean ± std over seeds of each seed's mean episode return",
-        level_differences={level: "by default vigen keys the video into the sky (and floor) as DMC-GB does; DMC-GB2 renders "
-                                  "it on an in-simulation back cube (level_options={'screen': True}) and its video_hard "
-                                  "also drops the floor and rails" + ("; video_* take DMC-GB's video order unless "
-                                  "level_options={'draw': 'dmcgb2'}" if level.startswith("video") else "")
+        level_options=DMCGB2_LEVEL_OPTIONS,
+        level_differences={level: "vigen resizes the video frames with OpenCV's bilinear decoder; DMC-GB2 with PIL's "
+                                  "resize (dmcgb_photometric.py:150-155)"
                            for level in ("video_easy", "video_hard", "color_video_easy", "color_video_hard")},
-        notes="DMC-GB2's video levels show the video on an in-simulation back cube and video_hard also drops the floor "
-              "and rails: they are not DMC-GB's video levels.",
+        notes="its levels are DMC-GB2's own (level_options, applied when vigen.evaluation.evaluate gets protocol='dmcgb2'): "
+              "color_* cycle the presets from RandomState(seed).randint(100) (draw='dmcgb2', dmcgb_photometric.py:53, 58, "
+              "176-179), and the video levels play from the same start and show the video on DMC-GB2's in-scene screen "
+              "(screen=True, lines 62, 120, 263-284); video_hard also makes the grid material transparent, i.e. the "
+              "floor (line 111; its flag is named _remove_ground_and_rails, line 47, but no rail of its domains uses "
+              "grid). Without them the same level names are DMC-GB's.",
         batch_size=256,  # cfgs/config.yaml
     ),
     Protocol(
@@ -336,15 +367,16 @@ PROTOCOLS: Mapping[str, Protocol] = _frozen({protocol.name: protocol for protoco
         train_eval=Evaluation(episodes=10, levels=("train",), every=10_000),
         test=Evaluation(episodes=100, levels=("easy", "hard")),
         seeds=5, statistic="per seed, the mean over a category's tasks; then mean ± sample std (ddof=1) over seeds",
-        train_env_options={"action_mapping": "rlvigen_train", "time_limit_as": "terminated"},
-        test_env_options={"action_mapping": "scaled", "time_limit_as": "truncated"},
+        train_env_options={"action_mapping": "rlvigen_train", "time_limit_as": "terminated", "start_clearance": "rlvigen"},
+        test_env_options={"action_mapping": "scaled", "time_limit_as": "truncated", "start_clearance": "rlvigen"},
         clip_returns_at=0.0,
         evaluator=RLVIGEN_LOCO_EVALUATOR,
         published_as=("rlvigen",),
         notes="the published loco rows combine two paths: agents trained on raw clipped actions with discount 0 at the "
               "10 s limit (train.py through loco_wrapper.py / dmc2gym), evaluated by locoeval.py with scaled actions "
-              "and returns clipped at 0; budgets as protocol rlvigen (medium.yaml: 3.1M frames for unitree_* and "
-              "franka_reach).",
+              "and returns clipped at 0; both start RL-ViGen's robots where its files do (start_clearance='rlvigen': "
+              "the folded stand A1 2 cm into the floor, a1_stand.xml; the walk A1 at 0.43 m, a1_walk.xml:76); budgets as "
+              "protocol rlvigen (medium.yaml: 3.1M frames for unitree_* and franka_reach).",
         batch_size=256,  # cfgs/config.yaml
     ),
     Protocol(

@@ -84,7 +84,7 @@ def test_dense_reward_is_dapgs():
 
 
 def test_success_after_more_than_25_goal_steps(monkeypatch):
-    """DAPG's criterion (RL-ViGen reports it): the goal must hold on more than 25 simulator steps of the episode."""
+    """DAPG's criterion (RL-ViGen reports it): the goal must hold on more than 25 control steps of the episode."""
     env = door()
     task = env.base_env._env
     state = env.reset()
@@ -93,7 +93,7 @@ def test_success_after_more_than_25_goal_steps(monkeypatch):
     for _ in range(15):
         state = env.step(state.set("action", torch.zeros(28)))["next"]
         flags.append(bool(state["success"]))
-    assert flags.index(True) == 12 and all(flags[12:]), "2 simulator steps per agent step: 26 > 25 at the 13th"
+    assert flags.index(True) == 12 and all(flags[12:]), "2 control steps per agent step: 26 > 25 at the 13th"
     assert adroit_env.SUCCESS_STEPS == {"door": 25, "hammer": 25, "pen": 20}
 
 
@@ -106,7 +106,7 @@ def test_pen_episodes_are_100_simulator_steps():
 def test_truncated_after_episode_length_simulator_steps():
     env = door(episode_length=6)
     rollout = env.rollout(10, break_when_any_done=True)
-    assert rollout.shape == (3,), "6 simulator steps at action repeat 2"
+    assert rollout.shape == (3,), "6 control steps at action repeat 2"
     assert rollout["next", "truncated"].squeeze(-1).tolist() == [False, False, True]
     assert not rollout["next", "terminated"].any()
 

@@ -5,7 +5,7 @@ task and level (seed 3, 48×48, fast rendering), written by ``scripts/golden_fra
 levels that existed before the Suite records were recorded at commit fcde993 and re-rendered
 bit for bit after the redesign; the DMC-GB2 and DCS presets, and the loco suite's 80 task-level
 pairs, were recorded when they were added, so any later change to them is caught too. A default
-run checks a sample of levels from every suite; ``-m matrix`` checks all 201.
+run checks a sample of levels from every suite; ``-m matrix`` checks all 203.
 """
 
 from __future__ import annotations

@@ -19,12 +19,14 @@ pytest.importorskip("fast_simplification", reason="the loco extra is not install
 
 from dm_control.utils import rewards  # noqa: E402
 
+from vigen.assets.palettes import dmcgb_presets  # noqa: E402
 from vigen.envs import make_env  # noqa: E402
 from vigen.envs.loco import LOCO  # noqa: E402
 from vigen.envs.loco_scene import A1_JOINT_RANGES, LEG_JOINTS, LEGS, _floor_clearance, build_scene  # noqa: E402
 from vigen.envs.loco_tasks import normalized_action, source_command, stand_reward  # noqa: E402
 from vigen.rendering import RenderSettings  # noqa: E402
-from vigen.transforms import RandomMaterialColors, RandomSceneColors  # noqa: E402
+from vigen.protocols import get_protocol  # noqa: E402
+from vigen.transforms import PresetMaterialColors, RandomSceneColors  # noqa: E402
 
 SIZE = 16
 UP, FORWARD = np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0])
@@ -184,13 +186,16 @@ def test_panda_fingers_have_rl_vigens_damping_not_robosuites():
 
 # -- 4./5. colour levels ------------------------------------------------------------------------------------------
 def test_color_levels_leave_the_robot_alone_and_objects_color_recolours_only_the_robot():
-    """dmcvgb/wrappers.py:45–56: background colour sets grid and skybox; ``self_rgb`` (the robot) only under objects_color."""
+    """dmcvgb/wrappers.py:45–56: background colour sets grid and skybox; ``self_rgb`` (the robot) only under objects_color.
+    Both draw DMC-GB's presets of the level's difficulty (wrappers.py:105-108 loads color_easy.pt and color_hard.pt)."""
     for task in ("unitree-stand", "franka-push"):
         for difficulty in ("easy", "hard"):
-            color = LOCO.level_transforms(task, f"color_{difficulty}")
-            assert [type(t) for t in color] == [RandomSceneColors], (task, difficulty)
-            objects = LOCO.level_transforms(task, f"objects_color_{difficulty}")
-            assert [type(t) for t in objects] == [RandomMaterialColors] and objects[0].include[0].startswith("robot"), (task, difficulty)
+            (color,) = LOCO.level_transforms(task, f"color_{difficulty}")
+            assert type(color) is RandomSceneColors and "self" not in color.parts, (task, difficulty)
+            assert (color.palette_name, color.draw, color.uses_stand_in) == (f"color_{difficulty}", "dmcgb", False)
+            (objects,) = LOCO.level_transforms(task, f"objects_color_{difficulty}")
+            assert type(objects) is PresetMaterialColors and objects.include[0].startswith("robot"), (task, difficulty)
+            assert objects.palette_name == f"color_{difficulty}"
 
 
 # RL-ViGen's scene_{walk,stand}.xml:38-41, verbatim: the Unitree's floor material
@@ -264,11 +269,12 @@ def test_color_levels_change_the_floor_only_where_it_is_grid(task, floor_changes
 
 
 def rlvigen_franka_objects_color(default_rgb: np.ndarray, self_rgb: np.ndarray) -> np.ndarray:
-    """settings.py:58–61 on the Franka: ``white`` (rgba 1 1 1) becomes ``self_rgb − (0.7, 0.5, 0.3) + 1``; the Panda's own
-    materials (panda_{reach,push}.xml: off_white, black, green, light_blue) keep theirs. Rendered colours clip at 1."""
+    """settings.py:60–61 on the Franka: ``white`` (rgba 1 1 1) becomes ``self_rgb − (0.7, 0.5, 0.3) + 1``, written into the
+    XML as it is (not clipped); the Panda's own materials (panda_{reach,push}.xml: off_white, black, green, light_blue)
+    keep theirs."""
     white = np.all(default_rgb == 1.0, axis=1)
     offset = self_rgb - np.array([0.7, 0.5, 0.3])
-    return np.where(white[:, None], np.clip(1.0 + offset, 0.0, 1.0), default_rgb)
+    return np.where(white[:, None], 1.0 + offset, default_rgb)
 
 
 @pytest.mark.render
@@ -282,7 +288,8 @@ def test_franka_objects_color_shifts_the_white_material_only(task):
     after = model.mat_rgba[robot, :3].astype(np.float64)
     white = np.all(before == 1.0, axis=1)
     assert white.sum() >= 1 and (~white).sum() >= 1
-    self_rgb = after[white][0] - 1.0 + np.array([0.7, 0.5, 0.3])  # the episode's draw, read back from one white part
+    preset = np.random.RandomState(3).randint(100)  # wrappers.py:53-56: the env seed's first draw
+    self_rgb = dmcgb_presets("color_hard")[preset]["self_rgb"]
     np.testing.assert_allclose(after, rlvigen_franka_objects_color(before, self_rgb), atol=1e-6)
     assert not np.allclose(after[white], 1.0)
 
@@ -353,3 +360,20 @@ def test_rl_vigens_sunk_stand_start_is_offered():
         assert _floor_clearance(scene.model, data, scene.base_body) == pytest.approx(expected, abs=1e-6)
     with pytest.raises(ValueError, match="start_clearance places a quadruped"):
         build_scene("franka-reach", start_clearance=0.0)
+
+
+@pytest.mark.slow
+def test_rlvigen_loco_protocol_starts_the_robots_where_rlvigens_files_do():
+    """a1_stand.xml: the folded A1 2 cm into the floor; a1_walk.xml:76: the trunk at 0.43 m = leg 0.4 + foot 0.02 + 1 cm.
+    The protocol's train and test envs both start there (``start_clearance="rlvigen"``); the arm tasks take it too."""
+    protocol = get_protocol("rlvigen_loco")
+    assert protocol.train_env_options["start_clearance"] == protocol.test_env_options["start_clearance"] == "rlvigen"
+    for task, expected in (("unitree-stand", -0.02), ("unitree-walk", 0.01)):
+        scene = build_scene(task, start_clearance=protocol.train_env_options["start_clearance"])
+        data = mujoco.MjData(scene.model)
+        data.qpos[:] = scene.start_qpos
+        mujoco.mj_forward(scene.model, data)
+        assert _floor_clearance(scene.model, data, scene.base_body) == pytest.approx(expected, abs=1e-6), task
+    assert build_scene("franka-reach", start_clearance="rlvigen").model.nu == 8
+    with pytest.raises(ValueError, match="'rlvigen' \\(RL-ViGen's start of each task\\)"):
+        build_scene("unitree-stand", start_clearance="source")

@@ -114,9 +114,12 @@ def test_levels_say_what_data_they_show():
     assert (level("color_hard").data_source, level("color_hard").uses_stand_in) == ("dmcgb-colors/color_hard: 100 of 100, shipped", False)
     stand_in = level("color_hard", palette="statistics")
     assert (stand_in.data_source, stand_in.uses_stand_in) == ("statistics-matched stand-in colours (scale=0.2)", True)
-    # RL-ViGen's objects_color draws random colours by its own definition: no data, so no stand-in
+    # RL-ViGen's objects_color draws DMC-GB's presets (dmcvgb/wrappers.py:53-56); vigen's object_color factor draws random
+    # colours by its own definition: no data, so no stand-in
     objects = level("objects_color_hard")
-    assert objects.data_source.startswith("random colours") and not objects.uses_stand_in
+    assert (objects.data_source, objects.uses_stand_in) == (level("color_hard").data_source, False), "the same presets"
+    factor = make_env("dmc/walker-walk", generalization={"object_color": 0.2}, image_size=32).level
+    assert factor.data_source.startswith("random colours") and not factor.uses_stand_in
     with pytest.warns(StandInDataWarning, match="fetch dmcgb-videos --part video_hard"):
         videos = level("video_hard")  # the test session's data cache is empty (conftest)
     assert (videos.data_source, videos.uses_stand_in) == ("procedural stand-in videos (10)", True)

@@ -40,7 +40,7 @@ def test_visual_levels_keep_the_dynamics():
 def test_factory_and_full_episode_length():
     rows = evaluate(_policy(), lambda level, seed: make_env("dmc/cartpole-balance", seed=seed, episode_length=40),
                     "train", episodes=1)
-    assert rows[0]["length"] == 20, "the env's time limit (40 simulator steps / action repeat 2) ends the episode"
+    assert rows[0]["length"] == 20, "the env's time limit (40 control steps / action repeat 2) ends the episode"
 
 
 def test_bad_arguments():

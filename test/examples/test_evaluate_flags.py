@@ -93,3 +93,34 @@ def test_a_report_inside_a_run_folder_in_use_stops_naming_its_writer(evaluate, t
     RunFolderLock(run).acquire().release()
     with evaluate.hold_run_folder(tmp_path / "reports" / "eval") as held:
         assert held is None, "outside a run folder: no lock"
+
+
+def test_runs_play_the_levels_of_their_protocol(evaluate, monkeypatch):
+    """Runs trained under one protocol, and the random policy beside them, play that protocol's version of each level
+    (evaluate(..., protocol=)); --compare's protocol wins; runs of several protocols or none play vigen's levels as named."""
+    from types import SimpleNamespace
+
+    seen = []
+
+    def fake_evaluate(policy, env, levels, **kwargs):
+        seen.append((kwargs["tags"]["method"], kwargs["protocol"]))
+        return []
+
+    monkeypatch.setattr(evaluate, "evaluate", fake_evaluate)
+    config, launch = evaluate.parse_args(["runs/a", "--levels", "color_hard"])
+    levels = {"dmc/walker-walk": ["color_hard"]}
+
+    def played(protocols, compared=None):
+        agents = [SimpleNamespace(config=SimpleNamespace(protocol=protocol)) for protocol in protocols]
+        chosen = evaluate.evaluation_protocol(agents, None if compared is None else SimpleNamespace(protocol=compared))
+        runs = [evaluate.Evaluated(None, "dmc/walker-walk", {}, {"method": f"m{i}", "protocol": protocol})
+                for i, protocol in enumerate(protocols)]
+        seen.clear()
+        evaluate.play(runs + evaluate.random_evaluated(runs), levels, [], config, launch, torch.device("cpu"), [0],
+                      chosen.name if chosen else None)
+        return seen[:]
+
+    assert played(["dmcgb2", "dmcgb2"]) == [("m0", "dmcgb2"), ("m1", "dmcgb2"), ("random", "dmcgb2")]
+    assert played(["dmcgb2", ""]) == [("m0", None), ("m1", None), ("random", None)]
+    assert played(["dmcgb2", None]) == [("m0", None), ("m1", None), ("random", None)]
+    assert played(["dmcgb2"], "dmcgb") == [("m0", "dmcgb"), ("random", "dmcgb")]

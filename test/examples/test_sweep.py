@@ -45,7 +45,7 @@ def test_sweep_example_writes_table_and_curve(tmp_path):
     assert [(r["env"], r["level"], r["factor"], r["intensity"], r["seed"]) for r in rows] == [
         ("dmc/walker-walk", f"camera_rotation={x}", "camera_rotation", f"{float(x)}", s)
         for x in ("0", "0.3") for s in ("0", "1")]
-    assert all(r["method"] == "random" and r["length"] == "4" for r in rows), "8 simulator steps = 4 agent steps"
+    assert all(r["method"] == "random" and r["length"] == "4" for r in rows), "8 control steps = 4 agent steps"
     assert (out / "intensity_camera_rotation.png").read_bytes()[:8] == PNG
     assert "![intensity_camera_rotation.png](intensity_camera_rotation.png)" in (out / "report.md").read_text()
     run("sweep.py", "--intensities", "0.1", "--seeds", "0", "--episode-length", "4", "--out", out)

@@ -90,7 +90,7 @@ def test_evaluate_writes_the_report(trained, tmp_path):
     rows = list(csv.DictReader((out / "episodes.csv").open()))
     assert [(r["method"], r["level"]) for r in rows] == [
         ("drqv2", "train"), ("drqv2", "color_hard"), ("random", "train"), ("random", "color_hard")]
-    assert all(int(r["length"]) == 50 for r in rows), "--episode-length 100 simulator steps = 50 agent steps"
+    assert all(int(r["length"]) == 50 for r in rows), "--episode-length 100 control steps = 50 agent steps"
     run("evaluate.py", trained, "--levels", "train", "--episodes", "1", "--out", out)
     assert (tmp_path / "report-1" / "report.md").exists() and len((out / "episodes.csv").read_text().splitlines()) == 5
 

@@ -75,10 +75,14 @@ def test_another_protocols_run_or_source_is_refused():
 
 
 def test_a_level_vigen_only_approximates_is_noted():
-    """DMC-GB2 shows its videos on an in-simulation cube; vigen's video_hard keys them in as DMC-GB does."""
+    """DMC-GB2 shows its videos on an in-simulation cube, in its own order; vigen's video_hard does so only with the
+    protocol's level_options (evaluate(..., protocol="dmcgb2")), which the rows' level_options column records."""
     run = rows(method="sada", env="dmc/walker-walk", frames=1_000_000, action_repeat=2)
     line = compare(run, source="dmcgb2", protocol="dmcgb2")[0]
-    assert line["published"] == 270.0 and line["notes"].startswith("video_hard differs: by default vigen keys the video")
+    assert line["published"] == 270.0 and line["notes"].startswith("video_hard differs: vigen resizes the video frames")
+    assert "played without dmcgb2's level_options {'draw': 'dmcgb2', 'screen': True}" in line["notes"]
+    played = [dict(row, level_options='{"draw": "dmcgb2", "screen": true}') for row in run]
+    assert "played without" not in compare(played, source="dmcgb2", protocol="dmcgb2")[0]["notes"]
     rotated = compare([dict(row, level="rotate_hard") for row in run], source="dmcgb2", protocol="dmcgb2")[0]
     assert rotated["notes"] == ""
 

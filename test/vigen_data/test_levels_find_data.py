@@ -72,3 +72,42 @@ def test_a_folder_in_level_options_replaces_the_cache_lookup(tmp_path, isolated_
         env = make_env("dmc/walker-walk", generalization="video_hard", image_size=32, frame_stack=1,
                        level_options={"videos": str(folder)})
     assert env.level.data_source == "user folder: 1 video"
+
+
+@pytest.fixture
+def fetched_easy_videos(server, make_toy, tmp_path, monkeypatch, capsys) -> Path:
+    """Four test-made videos standing in for DMC-GB's ``video_easy``, fetched by the CLI."""
+    made = tmp_path / "made_easy"
+    made.mkdir()
+    files = {f"video_easy/video{i}.mp4": clip_bytes(made, f"video{i}.mp4", 30 + 50 * i) for i in range(4)}
+    record = make_toy(server.folder, files, name="dmcgb-videos")
+    monkeypatch.setitem(vigen.data.DATASETS, "dmcgb-videos", record)
+    assert main(["fetch", "dmcgb-videos", "--part", "video_easy", "--mirror", server.url]) == 0
+    return Path(capsys.readouterr().out.strip())
+
+
+@pytest.mark.parametrize("task", ["unitree-stand", "franka-push"])
+def test_loco_video_levels_play_the_fetched_dmcgb_videos_in_rlvigens_order(fetched_easy_videos, task):
+    """RL-ViGen's VideoWrapper (envs/DMCVGB/dmcvgb/wrappers.py:282, 291-297, 318-321) plays DMC-GB's video_{easy,hard}
+    files; ``_index`` starts at 0 and moves on before each episode's video is loaded: episode k plays (k + 1) mod n."""
+    from vigen.envs.loco import LOCO
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", StandInDataWarning)
+        (video,) = LOCO.level_transforms(task, "video_easy", seed=3)
+    assert not video.uses_stand_in and [path.name for path in video.videos.paths] == [f"video{i}.mp4" for i in range(4)]
+    assert video.videos.paths[0].parent == fetched_easy_videos
+    shown = []
+    for _ in range(6):
+        video.params = video.sample(video.generator())
+        shown.append(video.videos.paths[video.params["video"]].name)
+    assert shown == [f"video{(k + 1) % 4}.mp4" for k in range(6)]
+
+
+def test_loco_video_levels_without_the_data_warn_and_say_they_show_stand_ins(isolated_cache):
+    from vigen.envs.loco import LOCO
+
+    for level, part in (("video_easy", "video_easy"), ("video_hard", "video_hard")):
+        with pytest.warns(StandInDataWarning, match=rf"loco/unitree-walk shows stand-ins: .*fetch dmcgb-videos --part {part}"):
+            (video,) = LOCO.level_transforms("unitree-walk", level, seed=0)
+        assert video.uses_stand_in and "stand-in" in video.data_source

@@ -23,10 +23,10 @@ TASKS = {"door": "AdroitHandDoorEnv", "hammer": "AdroitHandHammerEnv", "pen": "A
 """vigen name -> gymnasium-robotics env class (module ``adroit_<name>``)."""
 
 EPISODE_LENGTHS = {"door": 200, "hammer": 200, "pen": 100}
-"""Simulator steps per episode (DAPG / mj_envs ``max_episode_steps``, as in RL-ViGen)."""
+"""Control steps per episode (DAPG / mj_envs ``max_episode_steps``, as in RL-ViGen)."""
 
 SUCCESS_STEPS = {"door": 25, "hammer": 25, "pen": 20}
-"""An episode succeeds once the goal holds on more than this many simulator steps (DAPG's ``evaluate_success``)."""
+"""An episode succeeds once the goal holds on more than this many control steps (DAPG's ``evaluate_success``)."""
 
 
 class AdroitScene:
@@ -65,9 +65,9 @@ class AdroitPixelEnv(_EnvWrapper):
     The TorchRL base env of the ``adroit/`` suite (:func:`vigen.envs.make_env` adds the levels and the
     frame stack). The action is the hand's (and arm's) joint
     targets in [-1, 1]; rewards (DAPG's dense reward) are summed over repeated steps; an episode
-    ends at ``episode_length`` simulator steps as a truncation (the tasks do not terminate).
+    ends at ``episode_length`` control steps as a truncation (the tasks do not terminate).
     ``"success"`` follows DAPG's criterion, which RL-ViGen reports: it turns true once the goal
-    has held on more than :data:`SUCCESS_STEPS` simulator steps of the episode (25; 20 for pen),
+    has held on more than :data:`SUCCESS_STEPS` control steps of the episode (25; 20 for pen),
     so an episode succeeded if its last step says so.
 
     gymnasium-robotics 1.2.1–1.4.2 flipped the sign of the reach term of the door and hammer
@@ -76,10 +76,10 @@ class AdroitPixelEnv(_EnvWrapper):
 
     Args:
         task: ``"door"``, ``"hammer"`` or ``"pen"``.
-        action_repeat: simulator steps per agent step; only the last is rendered.
+        action_repeat: control steps per agent step; only the last is rendered.
         image_size: height and width of the rendered frame.
         camera: camera name (``"vil_camera"``, or ``"fixed"`` for a closer view).
-        episode_length: simulator steps per episode; ``None``: :data:`EPISODE_LENGTHS` (200, pen 100).
+        episode_length: control steps per episode; ``None``: :data:`EPISODE_LENGTHS` (200, pen 100).
         render_settings: MuJoCo render quality; ``None`` keeps the model's.
         seed: seeds the first reset (initial door, hammer or pen target); ``None`` draws one.
         device: device of the returned tensors.

@@ -166,35 +166,53 @@ def dmcgb_color_level(difficulty: str, scale: float) -> Level:
     )
 
 
+def rlvigen_background_level(difficulty: str) -> Level:
+    """RL-ViGen's DMC ``background`` colour: floor and sky from one of DMC-GB's ``color_{difficulty}`` presets, the agent left alone."""
+    return Level(
+        f"floor and sky colours (not the agent's): one of DMC-GB's 100 color_{difficulty} presets per episode, drawn as "
+        "RL-ViGen draws it for the env seed (RandomState(seed).randint(100) per reset)",
+        f"RL-ViGen background color {difficulty} (envs/DMCVGB/dmcvgb/wrappers.py:45-52: grid_rgb1, grid_rgb2 and skybox_rgb "
+        f"of DMC-GB's color_{difficulty} presets, shipped; DMC-GB's color_{difficulty} also recolours the agent)",
+        (Step(RandomSceneColors, {"palette": f"color_{difficulty}", "parts": ("grid", "skybox"), "rebuild_textures": True}),),
+    )
+
+
+def rlvigen_objects_level(difficulty: str) -> Level:
+    """RL-ViGen's DMC ``objects_color``: the agent's ``self`` colour from one of DMC-GB's ``color_{difficulty}`` presets."""
+    return Level(
+        f"agent colour only: the self_rgb of one of DMC-GB's 100 color_{difficulty} presets per episode, drawn as RL-ViGen "
+        "draws it for the env seed (RandomState(seed).randint(100) per reset)",
+        f"RL-ViGen objects_color {difficulty} (envs/DMCVGB/dmcvgb/wrappers.py:53-56; DMC-GB's color_{difficulty} presets, shipped)",
+        (Step(RandomSceneColors, {"palette": f"color_{difficulty}", "parts": ("self",)}),),
+    )
+
+
+def rlvigen_light_level(difficulty: str) -> Level:
+    """RL-ViGen's ``light_position`` + ``light_color`` + ``moving_light`` at one difficulty; its drift by level option."""
+    params = RandomLighting.LEVELS[difficulty]
+    low, high = params["position_offset"]
+    step, span = params["moving_step"], params["moving_range"]
+    return Level(
+        f"light position +{{{low}, {high}}}, diffuse ± {params['diffuse_offset']:g}, light moving {step}/step, bouncing within "
+        f"± {span:g} (the height within start … start + {span:g}); RL-ViGen's drift, +{step}/step on every axis without "
+        f"turning (+{500 * step:g} by step 500), with level_options={{'moving_path': 'drift'}}",
+        f"RL-ViGen light_position + light_color + moving_light, {difficulty} (envs/DMCVGB/dmcvgb/wrappers.py:35-40, 80-98)",
+        (Step(RandomLighting, dict(params)),),
+    )
+
+
 LEVELS: dict[str, Level] = {
     "train": Level("the clean training scene", "all"),
     **{f"color_{difficulty}": dmcgb_color_level(difficulty, scale) for difficulty, scale in (("easy", 0.1), ("hard", 0.2))},
-    "objects_color_easy": Level(
-        "agent colour only: default + N(0, 0.1²)",
-        "RL-ViGen objects_color easy",
-        (Step(RandomSceneColors, {"scale": 0.1, "parts": ("self",)}),),
-    ),
-    "objects_color_hard": Level(
-        "agent colour only: default + N(0, 0.2²)",
-        "RL-ViGen objects_color hard",
-        (Step(RandomSceneColors, {"scale": 0.2, "parts": ("self",)}),),
-    ),
+    **{f"background_color_{difficulty}": rlvigen_background_level(difficulty) for difficulty in ("easy", "hard")},
+    **{f"objects_color_{difficulty}": rlvigen_objects_level(difficulty) for difficulty in ("easy", "hard")},
     "floor_texture": Level(
         "floor grid replaced by a texture image",
         "RL-ViGen table_texture (generated stand-in textures)",
         (Step(RandomTextures),),
     ),
     **{f"video_{difficulty}": dmcgb_video_level(difficulty, floor) for difficulty, floor in (("easy", False), ("hard", True))},
-    "light_easy": Level(
-        "light position +{3, 4}, diffuse ± 0.2, light moving 0.01/step within ± 5",
-        "RL-ViGen light_position + light_color + moving_light, easy",
-        (Step(RandomLighting, dict(RandomLighting.LEVELS["easy"])),),
-    ),
-    "light_hard": Level(
-        "light position +{9, 10}, diffuse ± 10, light moving 0.05/step within ± 10",
-        "RL-ViGen light_position + light_color + moving_light, hard",
-        (Step(RandomLighting, dict(RandomLighting.LEVELS["hard"])),),
-    ),
+    **{f"light_{difficulty}": rlvigen_light_level(difficulty) for difficulty in ("easy", "hard")},
     "camera_easy": Level(
         "camera moved ± 0.08, turned ± 9°, field of view −4° … +5°",
         "RL-ViGen cam_pos easy; DCS camera scale 0.1; RL-ViGen Adroit FOV easy",
@@ -238,7 +256,7 @@ LEVELS: dict[str, Level] = {
 GROUPS: dict[str, list[str]] = {
     "dmcgb": ["color_easy", "color_hard", "video_easy", "video_hard"],
     "rlvigen": [
-        "color_easy", "color_hard", "objects_color_easy", "objects_color_hard", "floor_texture",
+        "background_color_easy", "background_color_hard", "objects_color_easy", "objects_color_hard", "floor_texture",
         "video_easy", "video_hard", "light_easy", "light_hard", "camera_easy", "camera_hard",
     ],
     "dmcgb2": ["color_easy", "color_hard", "video_easy", "video_hard", "color_video_easy", "color_video_hard",
@@ -254,10 +272,7 @@ NO_LIGHT_SHIFT = {"position_offset": None, "diffuse_offset": None}
 
 FACTORS: dict[str, Factor] = {
     "background_color": Factor((Step(RandomSceneColors, {"scale": Scaled(1.0), "parts": ("grid", "skybox")}),)),
-    "object_color": Factor(
-        (Step(RandomSceneColors, {"scale": Scaled(1.0), "parts": ("self",)}),),
-        points={"objects_color_easy": 0.1, "objects_color_hard": 0.2},
-    ),
+    "object_color": Factor((Step(RandomSceneColors, {"scale": Scaled(1.0), "parts": ("self",)}),)),
     "floor_texture": Factor((Step(RandomTextures, {"blend": Scaled(1.0)}),), points={"floor_texture": 1.0}),
     "video_background": Factor((Step(VideoBackground, {"alpha": Scaled(1.0)}),)),
     "light_position": Factor((Step(RandomLighting, {**NO_LIGHT_SHIFT, "position_jitter": Scaled((10.0, 10.0, 10.0))}),)),
@@ -270,7 +285,10 @@ FACTORS: dict[str, Factor] = {
     "dynamic_color": DYNAMIC_COLOR,
     **pixel_corruption_factors(named_levels=True),
 }
-"""Factor name -> its transforms at intensity ``x``."""
+"""Factor name -> its transforms at intensity ``x``.
+
+``object_color`` draws default + N(0, x²) per channel of the agent's colour; the ``objects_color_*`` levels show
+DMC-GB's presets instead (RL-ViGen's definition), so they are not points on it."""
 
 
 def dmc_tasks() -> list[str]:

@@ -62,14 +62,14 @@ class ActionRepeat(dm_env.Environment):
 
     Args:
         env: a dm_control ``control.Environment``.
-        repeat: simulator steps per agent step.
-        episode_length: simulator steps per episode.
+        repeat: control steps per agent step.
+        episode_length: control steps per episode.
 
     Examples:
         >>> from dm_control import suite
         >>> env = ActionRepeat(suite.load("cartpole", "balance", task_kwargs={"time_limit": float("inf")}), 2, 10)
         >>> first = env.reset()
-        >>> steps = [env.step([0.0]) for _ in range(5)]  # 5 agent steps = 10 simulator steps
+        >>> steps = [env.step([0.0]) for _ in range(5)]  # 5 agent steps = 10 control steps
         >>> [step.last() for step in steps], steps[-1].discount
         ([False, False, False, False, True], 1.0)
     """
@@ -78,7 +78,7 @@ class ActionRepeat(dm_env.Environment):
         if repeat < 1:
             raise ValueError(f"action_repeat must be at least 1, got {repeat}.")
         if episode_length < 1:
-            raise ValueError(f"episode_length must be at least 1 simulator step, got {episode_length}.")
+            raise ValueError(f"episode_length must be at least 1 control step, got {episode_length}.")
         self._env = env
         self._repeat = repeat
         self._episode_length = episode_length
@@ -183,10 +183,10 @@ class DMCPixelEnv(DMControlWrapper):
     Args:
         domain: suite domain, e.g. ``"walker"`` (``"cup"`` is accepted for ``"ball_in_cup"``).
         task: suite task, e.g. ``"walk"``.
-        action_repeat: simulator steps per agent step; only the last one is rendered.
+        action_repeat: control steps per agent step; only the last one is rendered.
         image_size: height and width of the rendered frame.
         camera_id: camera to render; ``None`` uses 2 for quadruped and 0 elsewhere (DrQ-v2).
-        episode_length: simulator steps per episode.
+        episode_length: control steps per episode.
         render_settings: MuJoCo render quality; ``None`` keeps dm_control's defaults.
         seed: seed of the task's random state (initial poses and targets); ``None`` draws one.
         device: device of the returned tensors.

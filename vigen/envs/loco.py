@@ -6,20 +6,27 @@ the A1, see :mod:`vigen.envs.robot_models`; ``model_dir=`` loads Menagerie's), w
 frames (84×84, a stack of 3, action repeat 2, 10 s episodes) and its generalization knobs as
 levels:
 
-* ``color_*``: the background colours (DMC-GB's colour noise), as RL-ViGen's ``background`` colour,
-  which rewrites dm_control's ``grid`` and skybox and leaves the robot alone (``dmcvgb/wrappers.py:45–56``).
+* ``color_*``: the background colours of one of DMC-GB's 100 presets per episode, as RL-ViGen's
+  ``background`` colour draws them (``randint(100)`` from ``RandomState(seed)`` per reset) and writes
+  them into dm_control's ``grid`` and skybox, leaving the robot alone (``dmcvgb/wrappers.py:45–52``).
   The Unitree stands on RL-ViGen's own ``groundplane`` (``scene_{walk,stand}.xml:38-41``), not on ``grid``,
   so there only the sky changes; the Franka's floor is ``grid`` and changes with the sky;
-* ``objects_color_*``: the robot shifted by one colour offset, as RL-ViGen's ``self_rgb`` edits of its
-  shared materials (``suite/common/settings.py:50-70``): the Unitree's every material, the Franka's
-  shared ``white`` only (:data:`~vigen.envs.loco_scene.WHITE_MATERIAL`; at 1 already, it can only get
-  darker). On ``franka-push`` RL-ViGen also recolours the box's material, which the box's own ``rgba``
-  overrides (``scene_push.xml``): its box never changes colour, and vigen's does not either (the
+* ``objects_color_*``: the robot shifted by one preset's ``self_rgb − (0.7, 0.5, 0.3)``, drawn the same
+  way (``wrappers.py:53-56``), as RL-ViGen's ``self_rgb`` edits of its shared materials
+  (``suite/common/settings.py:51-70``): the Unitree's every material, the Franka's shared ``white`` only
+  (:data:`~vigen.envs.loco_scene.WHITE_MATERIAL`), unclipped as RL-ViGen writes them. On
+  ``franka-push`` RL-ViGen also recolours the box's material, which the box's own ``rgba`` overrides
+  (``scene_push.xml``): its box never changes colour, and vigen's does not either (the
   ``object_color`` factor recolours it);
 * ``video_*``: the sky replaced by a video; ``video_hard`` also the floor on the Franka. RL-ViGen's
   ``video_hard`` keys its video on black and blacks out ``grid``, which the Unitree does not stand
-  on: there both levels replace the sky only;
-* ``light_position_*``, ``light_color_*``, ``moving_light_*``: RL-ViGen's light offsets and motion;
+  on: there both levels replace the sky only. The videos are DMC-GB's ``video_easy`` (10) /
+  ``video_hard`` (100), which RL-ViGen plays (``dmcvgb/wrappers.py:291-297``), once fetched
+  (``python -m vigen.data fetch dmcgb-videos``), in RL-ViGen's order: episode ``k`` plays video
+  ``(k + 1) mod n`` (lines 282, 318-321); procedural stand-ins, labelled as such, until then;
+* ``light_position_*``, ``light_color_*``, ``moving_light_*``: RL-ViGen's light offsets and motion
+  (vigen's bounce by default; RL-ViGen's drift, which never turns, with
+  ``level_options={"moving_path": "drift"}``);
 * ``camera_*``: RL-ViGen's ``cam_pos``: every camera's world position pinned at its start plus one
   U(±0.08) or U(±0.15) offset per axis, drawn once per seed; a camera on the trunk then stays where
   the robot started while turning with it (the env option ``camera_offset``);
@@ -28,7 +35,11 @@ levels:
 * ``easy`` / ``hard``: all of the appearance and lighting knobs at once (colours of the background
   and the robot, texture, lights). RL-ViGen's results sheet
   reports Unitree scores at "Easy" and "Hard" without defining them in code; these are vigen's
-  reading, not RL-ViGen's definition;
+  reading, not RL-ViGen's definition. Their presets are those RL-ViGen's ``ColorWrapper`` shows
+  with all these knobs set: its draws for the background, the robot, the texture and the lights
+  share one ``RandomState(seed)``, replayed in its order
+  (:class:`~vigen.transforms.scene.rlvigen_draws.RLViGenDraws`); vigen's texture images and light
+  offsets come from its own generators;
 * ``robot_go2`` / ``robot_aliengo``: cross-embodiment, a policy trained on the Go1 run on another
   Unitree quadruped with the same 12 joints in the same order.
 
@@ -48,11 +59,12 @@ from typing import Any
 from torchrl.envs import DoubleToFloat, EnvBase
 
 from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
-from vigen.envs.level_types import ByTask, Choice, Derived, Factor, Level, LevelContext, Scaled, StandInImages, Step
+from vigen.envs.level_types import ByTask, Choice, Derived, Factor, FetchedData, Level, LevelContext, Scaled, StandInImages, Step
 from vigen.envs.loco_scene import FLOOR_MATERIAL, MAX_MESH_FACES, WHITE_MATERIAL
 from vigen.envs.suite import Suite
 from vigen.transforms import (
     DistractingCamera,
+    PresetMaterialColors,
     RandomCamera,
     RandomLighting,
     RandomMaterialColors,
@@ -60,6 +72,7 @@ from vigen.transforms import (
     RandomTextures,
     VideoBackground,
 )
+from vigen.transforms.scene.rlvigen_draws import RLViGenDraws
 
 TASKS = ("unitree-stand", "unitree-walk", "franka-reach", "franka-push")
 """RL-ViGen's ``unitree_stand``, ``unitree_walk``, ``franka_reach`` and ``franka_push``."""
@@ -80,8 +93,8 @@ OBJECT_PARTS = {task: ("robot", "object") if task == "franka-push" else ("robot"
 CROSS_EMBODIMENT = ("go2", "aliengo")
 """Unitree quadrupeds a Go1 policy can drive: the same 12 leg joints, in the same order (lightest first)."""
 
-COLOR_SCALE = {"easy": 0.1, "hard": 0.2}
-"""DMC-GB's colour noise, which RL-ViGen's ``background`` and ``objects_color`` presets reuse."""
+VIDEO_COUNT = {"easy": 10, "hard": 100}
+"""DMC-GB's videos per level, which RL-ViGen plays (``dmcvgb/wrappers.py:291-297``)."""
 
 CAMERA_POSITION = {"easy": 0.08, "hard": 0.15}
 """RL-ViGen's ``cam_pos``: U(±0.08) or U(±0.15) per coordinate of the world position (``dmc2gym/wrappers.py:98–106``)."""
@@ -147,10 +160,31 @@ class MainCamera(Derived):
         return "unitree: 'back_above', franka: 'side_table'"
 
 
-def robot_colors(difficulty: str, parts: Any = ByTask(RECOLOURED_PARTS)) -> Step:
-    """RL-ViGen's Menagerie recolouring: the recoloured materials (:data:`RECOLOURED_PARTS`) shifted by one offset
-    N(0, σ²) per channel, clipped to [0, 1]."""
-    return Step(RandomMaterialColors, {"mix": 0.0, "shift": COLOR_SCALE[difficulty], "shared": True, "include": parts})
+def background_colors(difficulty: str, draws: RLViGenDraws | None = None) -> Step:
+    """RL-ViGen's ``background`` colour: what it changes on screen (:data:`BACKGROUND_PARTS`) from one of DMC-GB's presets."""
+    return Step(RandomSceneColors, {"palette": f"color_{difficulty}", "parts": BACKGROUND_PARTS, "rebuild_textures": True,
+                                    **({} if draws is None else {"rlvigen_draws": draws})})
+
+
+def robot_colors(difficulty: str, draws: RLViGenDraws | None = None) -> Step:
+    """RL-ViGen's Menagerie recolouring: the recoloured materials (:data:`RECOLOURED_PARTS`) shifted by one DMC-GB preset's
+    ``self_rgb − (0.7, 0.5, 0.3)``."""
+    return Step(PresetMaterialColors, {"palette": f"color_{difficulty}", "include": ByTask(RECOLOURED_PARTS),
+                                       **({} if draws is None else {"rlvigen_draws": draws})})
+
+
+def video(difficulty: str) -> Level:
+    """RL-ViGen's loco ``video_{difficulty}``: DMC-GB's videos once fetched, episode ``k`` on video ``(k + 1) mod n``."""
+    where = "sky" if difficulty == "easy" else "sky (Unitree) or sky and floor (Franka)"
+    return Level(
+        f"{where} replaced by a video, new frame every step; episode k plays video (k + 1) mod n, as RL-ViGen does",
+        f"RL-ViGen video {difficulty} (dmcvgb/wrappers.py:282, 291-297, 318-321: DMC-GB's {VIDEO_COUNT[difficulty]} "
+        f"video_{difficulty} videos once fetched: python -m vigen.data fetch dmcgb-videos; procedural stand-ins until then, "
+        "or a folder given as level_options={'videos': ...}"
+        + ("; it blacks out grid, the Franka's floor only)" if difficulty == "hard" else ")"),
+        (Step(VideoBackground, {"floor": False if difficulty == "easy" else VIDEO_FLOOR, "first_video": 1,
+                                "videos": FetchedData("dmcgb-videos", f"video_{difficulty}", suite="loco")}),),
+    )
 
 
 def textures(difficulty: str) -> Step:
@@ -171,32 +205,42 @@ def lighting(difficulty: str) -> Step:
 
 
 def combined(difficulty: str) -> tuple[Step, ...]:
-    """``easy`` / ``hard``: background colours (``color``), robot colours (``objects_color``), texture and lights, at one difficulty."""
-    return (Step(RandomSceneColors, {"scale": COLOR_SCALE[difficulty], "parts": BACKGROUND_PARTS}), robot_colors(difficulty),
-            textures(difficulty), lighting(difficulty))
+    """``easy`` / ``hard``: background colours (``color``), robot colours (``objects_color``), texture and lights, at one difficulty.
+
+    The two colour steps replay the draws RL-ViGen's ``ColorWrapper`` makes with all these knobs set (:data:`COMBINED_DRAWS`).
+    """
+    draws = COMBINED_DRAWS[difficulty]
+    return background_colors(difficulty, draws), robot_colors(difficulty, draws), textures(difficulty), lighting(difficulty)
+
+
+COMBINED_DRAWS = {
+    difficulty: RLViGenDraws(background=True, objects=True, texture=True,
+                             light_position=RandomLighting.LEVELS[difficulty]["position_offset"],
+                             light_color=RandomLighting.LEVELS[difficulty]["diffuse_offset"])
+    for difficulty in ("easy", "hard")
+}
+"""The knobs of RL-ViGen's config the ``easy`` / ``hard`` levels set: every draw its ``ColorWrapper.reset`` makes per episode."""
 
 
 LEVELS: dict[str, Level] = {
     "train": Level("the clean training scene", "all"),
     **{
-        f"color_{d}": Level(f"sky (Unitree) or floor and sky (Franka) colours default + N(0, {s}²) per channel (the robot keeps "
-                            "its colours)",
-                            f"RL-ViGen background color {d} (DMC-GB's colour statistics; dmcvgb/wrappers.py:45-56; the "
-                            "Unitree's floor is its own groundplane, scene_{walk,stand}.xml:38-41)",
-                            (Step(RandomSceneColors, {"scale": s, "parts": BACKGROUND_PARTS}),))
-        for d, s in COLOR_SCALE.items()
+        f"color_{d}": Level(f"sky (Unitree) or floor and sky (Franka) colours from one of DMC-GB's 100 color_{d} presets per "
+                            "episode, drawn as RL-ViGen draws it for the env seed (the robot keeps its colours)",
+                            f"RL-ViGen background color {d} (dmcvgb/wrappers.py:45-52: DMC-GB's color_{d} presets, shipped; "
+                            "the Unitree's floor is its own groundplane, scene_{walk,stand}.xml:38-41)",
+                            (background_colors(d),))
+        for d in ("easy", "hard")
     },
     **{
-        f"objects_color_{d}": Level(f"robot shifted by one N(0, {s}²) colour offset: the Unitree's materials, the Franka's "
-                                    "white ones (the push box stays red, as in RL-ViGen)",
-                                    f"RL-ViGen objects_color {d} (suite/common/settings.py:50-70)", (robot_colors(d),))
-        for d, s in COLOR_SCALE.items()
+        f"objects_color_{d}": Level(f"robot shifted by one of DMC-GB's 100 color_{d} presets per episode, self_rgb − (0.7, 0.5, "
+                                    "0.3), drawn as RL-ViGen draws it: the Unitree's materials, the Franka's white ones (the "
+                                    "push box stays red, as in RL-ViGen)",
+                                    f"RL-ViGen objects_color {d} (dmcvgb/wrappers.py:53-56, suite/common/settings.py:51-70; "
+                                    f"DMC-GB's color_{d} presets, shipped)", (robot_colors(d),))
+        for d in ("easy", "hard")
     },
-    "video_easy": Level("sky replaced by a video, new frame every step", "RL-ViGen video easy (procedural videos unless a folder is given)",
-                        (Step(VideoBackground, {"floor": False}),)),
-    "video_hard": Level("sky (Unitree) or sky and floor (Franka) replaced by a video, new frame every step",
-                        "RL-ViGen video hard (procedural videos unless a folder is given; it blacks out grid, the Franka's floor only)",
-                        (Step(VideoBackground, {"floor": VIDEO_FLOOR}),)),
+    **{f"video_{d}": video(d) for d in ("easy", "hard")},
     **{
         f"texture_{d}": Level(f"ground (Unitree) or table (Franka) texture: one of 10 {kind}",
                               f"RL-ViGen table_texture {d} (vigen's images; RL-ViGen's are its own files)", (textures(d),))
@@ -213,7 +257,11 @@ LEVELS: dict[str, Level] = {
         for d, w in (("easy", 0.2), ("hard", 10.0))
     },
     **{
-        f"moving_light_{d}": Level(f"lights moving {step}/step within ± {span}", f"RL-ViGen moving_light {d}",
+        f"moving_light_{d}": Level(f"lights moving {step}/step, bouncing within ± {span} (the height within start … start + "
+                                   f"{span:g}, never below the floor); RL-ViGen's drift, +{step}/step on every axis without "
+                                   f"turning (+{500 * step:g} by step 500), with level_options={{'moving_path': 'drift'}}",
+                                   f"RL-ViGen moving_light {d} (dmcvgb/wrappers.py:35-40, 92-98; its turn check never fires, "
+                                   "so its lights drift)",
                                    (Step(RandomLighting, {**NO_LIGHT_SHIFT, "moving_step": step, "moving_range": span}),))
         for d, step, span in (("easy", 0.01, 5.0), ("hard", 0.05, 10.0))
     },
@@ -223,9 +271,11 @@ LEVELS: dict[str, Level] = {
                              f"RL-ViGen cam_pos {d} (dmc2gym/wrappers.py:98-106, 203-204)", env_options={"camera_offset": p})
         for d, p in CAMERA_POSITION.items()
     },
-    "easy": Level("color_easy + objects_color_easy + texture_easy + RL-ViGen's easy lights (position {3, 4}, diffuse ± 0.2, moving 0.01/step)",
+    "easy": Level("color_easy + objects_color_easy + texture_easy + RL-ViGen's easy lights (position {3, 4}, diffuse ± 0.2, moving 0.01/step); the two presets "
+                  "per episode are those RL-ViGen's ColorWrapper draws with all these knobs set (one RandomState(seed), its order)",
                   "vigen's reading of RL-ViGen's locomotion Easy (its knobs at easy; the sheet does not define it)", combined("easy")),
-    "hard": Level("color_hard + objects_color_hard + texture_hard + RL-ViGen's hard lights (position {9, 10}, diffuse ± 10, moving 0.05/step)",
+    "hard": Level("color_hard + objects_color_hard + texture_hard + RL-ViGen's hard lights (position {9, 10}, diffuse ± 10, moving 0.05/step); the two presets "
+                  "per episode are those RL-ViGen's ColorWrapper draws with all these knobs set (one RandomState(seed), its order)",
                   "vigen's reading of RL-ViGen's locomotion Hard (its knobs at hard; the sheet does not define it)", combined("hard")),
     **{
         f"robot_{robot}": Level(f"the Unitree {robot.capitalize()} instead of the Go1, same joints and servos",

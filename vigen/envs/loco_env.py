@@ -8,8 +8,8 @@ and :class:`~vigen.envs.dmc_env.DMCScene` handle for the scene perturbations.
 
 Where RL-ViGen's training differs from that, an option reproduces it: ``action_mapping="rlvigen_train"``
 (raw actions, clipped by the simulator), ``time_limit_as="terminated"`` (its ``Gym2DMC`` gives discount 0
-at the time limit, ``loco_wrapper.py:37–39``) and ``start_clearance=-0.02`` (its ``stand`` start, sunk into
-the floor).
+at the time limit, ``loco_wrapper.py:37–39``) and ``start_clearance="rlvigen"`` (its starts: the ``stand``
+robot sunk 2 cm into the floor, ``-0.02``; the ``walk`` robot 1 cm above it, vigen's rule too).
 """
 
 from __future__ import annotations
@@ -65,7 +65,7 @@ class LocoPixelEnv(DMCPixelEnv):
             for the Unitree tasks, RL-ViGen's robot).
         max_mesh_faces: meshes with more faces are simplified to this many (the source Go1 draws 700k
             triangles per frame, 30× slower than the walker); ``None`` renders the source meshes.
-        action_repeat: simulator steps per agent step; only the last one is rendered.
+        action_repeat: control steps (0.01 s) per agent step; only the last one is rendered.
         image_size: height and width of the rendered frame.
         camera_id: 0 (RL-ViGen's default: the Unitree's ``back_above``, the Franka's ``side_table``), or
             another camera of the scene (Unitree: 1 ``side``, 2 ``side_low``; Franka: 1 ``above_table``).
@@ -80,7 +80,8 @@ class LocoPixelEnv(DMCPixelEnv):
             position pinned at its start plus U(±offset) per axis, drawn once per seed
             (:func:`~vigen.envs.loco_tasks.pinned_camera_positions`).
         start_clearance: quadrupeds: metres from the lowest collision geom to the floor at the start;
-            ``None``: 5 mm (stand) or 1 cm (walk); ``-0.02`` is RL-ViGen's sunk ``stand`` start.
+            ``None``: 5 mm (stand) or 1 cm (walk); ``-0.02`` is RL-ViGen's sunk ``stand`` start; ``"rlvigen"`` is
+            RL-ViGen's start of each task (stand −2 cm, walk 1 cm; the Franka tasks ignore it).
         seed: seed of the task's random state (targets and object placement).
         device: device of the returned tensors.
 
@@ -107,7 +108,7 @@ class LocoPixelEnv(DMCPixelEnv):
         action_mapping: str = "scaled",
         time_limit_as: str = "truncated",
         camera_offset: float = 0.0,
-        start_clearance: float | None = None,
+        start_clearance: float | str | None = None,
         seed: int | None = None,
         device: torch.device | str = "cpu",
     ) -> None:

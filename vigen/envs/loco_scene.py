@@ -76,6 +76,13 @@ steps do not pop the robot out of the floor. ``build_scene(start_clearance=...)`
 RLVIGEN_STAND_CLEARANCE = -0.02
 """RL-ViGen's ``unitree_stand`` start: the folded A1's lowest collision geom 2 cm below the floor (trunk at 0.096 m)."""
 
+RLVIGEN_START = "rlvigen"
+"""``start_clearance="rlvigen"``: RL-ViGen's start of each task, :data:`RLVIGEN_START_CLEARANCE` (nothing to place on an arm)."""
+
+RLVIGEN_START_CLEARANCE = {"unitree-stand": RLVIGEN_STAND_CLEARANCE, "unitree-walk": 0.01}
+"""RL-ViGen's starts: ``a1_stand.xml``'s sunk folded A1 (−2 cm) and ``a1_walk.xml:76``'s trunk at 0.43 m (leg 0.4 + foot
+0.02 + 1 cm, vigen's own rule for the walk)."""
+
 ARM_JOINTS = tuple(f"joint{i}" for i in range(1, 8))
 ARM_SERVOS = {"kp": (4500, 4500, 3500, 3500, 2000, 2000, 2000), "force": (87, 87, 87, 87, 12, 12, 12)}
 """Menagerie Panda's joint servos (``panda.xml``): gains and torque limits per joint; damping is kp / 10."""
@@ -171,12 +178,13 @@ class LocoScene:
 
 
 def build_scene(task: str, robot: str | None = None, model_dir: str | os.PathLike | None = None,
-                max_mesh_faces: int | None = MAX_MESH_FACES, start_clearance: float | None = None) -> LocoScene:
+                max_mesh_faces: int | None = MAX_MESH_FACES, start_clearance: float | str | None = None) -> LocoScene:
     """Build and compile the scene of ``task`` around ``robot`` (default: ``a1`` with ``model_dir``, else ``go1``; ``panda``).
 
     ``max_mesh_faces`` simplifies larger meshes to that many faces (:func:`simplify_meshes`); ``None`` keeps them.
     ``start_clearance`` (quadrupeds): metres between the lowest collision geom and the floor at the start;
-    ``None`` is :data:`START_CLEARANCE`, :data:`RLVIGEN_STAND_CLEARANCE` is RL-ViGen's sunk ``stand`` start.
+    ``None`` is :data:`START_CLEARANCE`, :data:`RLVIGEN_STAND_CLEARANCE` is RL-ViGen's sunk ``stand`` start, and
+    ``"rlvigen"`` is RL-ViGen's start of every task (:data:`RLVIGEN_START_CLEARANCE`; the arm tasks ignore it).
 
     Errors (unknown task, a robot of the wrong kind, a missing package or file) are raised before
     anything is compiled.
@@ -184,10 +192,12 @@ def build_scene(task: str, robot: str | None = None, model_dir: str | os.PathLik
     if task not in TASK_ROBOT_KIND:
         raise ValueError(f"Unknown loco task {task!r}. Tasks: {', '.join(TASK_ROBOT_KIND)}.")
     kind = TASK_ROBOT_KIND[task]
+    if start_clearance == RLVIGEN_START:
+        start_clearance = RLVIGEN_START_CLEARANCE.get(task)
     if start_clearance is not None and (isinstance(start_clearance, bool) or not isinstance(start_clearance, (int, float))
                                         or not -0.1 <= start_clearance <= 0.1):
-        raise ValueError(f"start_clearance must be metres in [-0.1, 0.1] (RL-ViGen's stand: {RLVIGEN_STAND_CLEARANCE}) "
-                         f"or None, got {start_clearance!r}.")
+        raise ValueError(f"start_clearance must be metres in [-0.1, 0.1] (RL-ViGen's stand: {RLVIGEN_STAND_CLEARANCE}), "
+                         f"'rlvigen' (RL-ViGen's start of each task) or None, got {start_clearance!r}.")
     if start_clearance is not None and kind != "quadruped":
         raise ValueError(f"start_clearance places a quadruped above the floor; loco/{task} has an arm fixed to the world.")
     robot = robot if robot is not None else default_robot(task, model_dir)

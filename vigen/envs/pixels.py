@@ -21,8 +21,8 @@ from vigen.transforms.scene import SceneTransform
 POSITIVE_ARGUMENTS = {
     "image_size": "pixels per side of the rendered frame, e.g. image_size=84",
     "frame_stack": "frames stacked along channels, e.g. frame_stack=3 (1: no stacking)",
-    "action_repeat": "simulator steps per agent step, e.g. action_repeat=2 (1: no repeat)",
-    "episode_length": "simulator steps per episode, e.g. episode_length=1000",
+    "action_repeat": "control steps per agent step, e.g. action_repeat=2 (1: no repeat)",
+    "episode_length": "control steps per episode, e.g. episode_length=1000",
     "control_freq": "control steps per simulated second, e.g. control_freq=20",
     "max_mesh_faces": "faces per mesh after simplification, e.g. max_mesh_faces=3000 (None: the source meshes)",
 }

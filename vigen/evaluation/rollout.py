@@ -21,6 +21,7 @@ from vigen.envs.levels import resolve_levels
 from vigen.evaluation.jobs import EvaluationError, Job, JobError, Level
 from vigen.evaluation.sweep import check_factor_intensity, level_columns
 from vigen.io import atomic_write
+from vigen.protocols import Protocol, get_protocol
 
 EnvFactory = Callable[[Level, int], EnvBase]
 """``(level, seed) -> env``: how :func:`evaluate` builds an env when a name is not enough."""
@@ -45,6 +46,7 @@ def evaluate(
     backend: str = "serial",
     workers: int | None = None,
     progress: Callable[[int, int], None] | None = None,
+    protocol: str | Protocol | None = None,
 ) -> list[dict[str, Any]]:
     """Run ``policy`` zero-shot on each level and return one row per episode.
 
@@ -79,6 +81,10 @@ def evaluate(
             order, which can move returns by float rounding.)
         workers: with ``backend="ray"``, how many jobs run at once (default: the cluster's CPUs).
         progress: called as ``progress(finished_jobs, total_jobs)`` after each job ends.
+        protocol: a protocol name (:mod:`vigen.protocols`) whose version of each level to play: a level gets the
+            protocol's ``level_options`` for it (:meth:`~vigen.protocols.Protocol.level_options_for`; e.g. under
+            ``"dmcgb2"``, ``color_hard`` cycles DMC-GB2's way and ``video_hard`` plays on its in-scene screen), under
+            the ``level_options`` of ``env_options``, which win. ``None``: vigen's levels as named. Needs an env name.
 
     Returns:
         Rows with ``env``, ``level`` (the level's label, :func:`vigen.envs.level_label`), ``seed``,
@@ -140,13 +146,19 @@ def evaluate(
     if backend == "ray" and device is not None and torch.device(device).type != "cpu":
         raise ValueError(f"device={device!r} with backend='ray': Ray tasks here reserve one CPU and no accelerator; "
                          "evaluate on the CPU with Ray, or on the device with backend='serial'.")
+    if protocol is not None and not isinstance(env, str):
+        raise ValueError("protocol= gives vigen's named levels the protocol's level_options; with an env factory, build "
+                         "the protocol's levels in the factory and pass protocol=None.")
     name = env if isinstance(env, str) else getattr(env, "__name__", "env")
     checked = _check_levels(levels, env)
     if isinstance(env, str):  # options no level takes would do nothing: say so before any episode
         check_level_options_used(env, list(checked.values()), (env_options or {}).get("level_options"))
+    by_protocol = {} if protocol is None else {
+        label: options for label, level in checked.items() if (options := get_protocol(protocol).level_options_for(env, level))}
     jobs = [Job(label, level, seed) for label, level in checked.items() for seed in seeds]
     run = functools.partial(run_job, policy=policy, env=env, name=name, episodes=episodes, max_steps=max_steps,
-                            env_options=dict(env_options or {}), tags=dict(tags or {}), device=device)
+                            env_options=dict(env_options or {}), tags=dict(tags or {}), device=device,
+                            protocol_options=by_protocol)
     log = None if rows_path is None else _RowLog(Path(rows_path))
     if backend == "ray":
         from vigen.evaluation.ray_backend import run_jobs_on_ray
@@ -167,11 +179,13 @@ def evaluate(
 
 def run_job(job: Job, *, policy: Policy | None, env: str | EnvFactory, name: str, episodes: int, max_steps: int,
             env_options: dict[str, Any], tags: dict[str, Any], device: torch.device | str | None,
-            on_row: Callable[[dict[str, Any]], None] | None = None) -> list[dict[str, Any]]:
+            on_row: Callable[[dict[str, Any]], None] | None = None,
+            protocol_options: Mapping[str, Mapping[str, Any]] | None = None) -> list[dict[str, Any]]:
     """Play one job's episodes and return their rows; raises :class:`JobError` with the finished ones.
 
     ``policy=None`` plays uniform random actions drawn from ``job.seed``; ``tags`` are added to every
-    row; ``on_row`` is called with each row as its episode ends.
+    row; ``on_row`` is called with each row as its episode ends; ``protocol_options`` (level label ->
+    ``level_options``) go under the ``level_options`` of ``env_options``.
 
     Examples:
         >>> from vigen.evaluation.rollout import Job, run_job
@@ -185,6 +199,9 @@ def run_job(job: Job, *, policy: Policy | None, env: str | EnvFactory, name: str
     try:
         if isinstance(env, str):
             options = env_options if device is None else {**env_options, "device": device}
+            own = (protocol_options or {}).get(job.label)
+            if own:
+                options = {**options, "level_options": {**own, **(options.get("level_options") or {})}}
             if options.get("level_options"):  # each level gets the options its transforms take
                 options = {**options, "level_options": level_options_for(env, job.level, options["level_options"])}
             instance = make_env(env, generalization=job.level, seed=job.seed, **options)

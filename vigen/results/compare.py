@@ -11,6 +11,7 @@ source does not state.
 
 from __future__ import annotations
 
+import json
 from collections import defaultdict
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -107,6 +108,12 @@ def partial_data(label: Any) -> list[str]:
         ['dmcgb-videos/video_easy: 6 of 10, verified']
     """
     return not_in_full(label)
+
+
+def _options_not_played(rows: Sequence[Mapping[str, Any]], wanted: Mapping[str, Any]) -> dict[str, Any]:
+    """The protocol's ``level_options`` some of ``rows`` were not played with (their ``level_options`` column, JSON)."""
+    played = [json.loads(str(row.get("level_options") or "{}")) for row in rows]
+    return {key: value for key, value in wanted.items() if any(options.get(key) != value for options in played)}
 
 
 def _is_true(value: Any) -> bool:
@@ -375,6 +382,10 @@ def compare(
                 notes.append(f"{source_name}'s rows are unverified: {SOURCES[source_name].unverified}")
             if level in protocol.level_differences:
                 notes.append(f"{level} differs: {protocol.level_differences[level]}")
+            unplayed = _options_not_played(members, protocol.level_options.get(level, {}))
+            if unplayed:
+                notes.append(f"played without {protocol.name}'s level_options {unplayed} (evaluate(..., protocol="
+                             f"{protocol.name!r}) sets them): vigen's default {level}, not {protocol.name}'s")
             shown = {str(row.get("data", "")) for row in members if _is_true(row.get("stand_in"))}
             if shown:
                 notes.append(f"vigen showed stand-ins ({'; '.join(sorted(shown))}) where the source showed its own data: "

@@ -77,12 +77,12 @@ class TrainConfig:
     eval_levels: tuple[str, ...] = setting(("train",), "levels evaluated at every checkpoint")
     logger: Literal["csv", "wandb"] = setting("csv", "csv, or wandb offline")
     episode_length: int | None = setting(
-        None, "simulator steps per episode", unset="the suite's, dm_control 1000, robosuite 500, Adroit 200, pen 100")
+        None, "control steps per episode", unset="the suite's, dm_control 1000, robosuite 500, Adroit 200, pen 100")
     encoder_weights: str | None = setting(
         None, "pretrained encoder weights: PIE-G's ImageNet ResNet-18 (a torchvision state dict), VRL3's stage-1 checkpoint")
     protocol: str | None = setting(
         None, "train as a paper did: its budget, action repeat, frame stack, image size and evaluation", choices=lambda: PROTOCOLS)
-    action_repeat: int | None = setting(None, "simulator steps per agent step", unset="the suite's")
+    action_repeat: int | None = setting(None, "control steps per agent step", unset="the suite's")
     frame_stack: int | None = setting(None, "frames per observation", unset="3")
     image_size: int | None = setting(None, "pixels per side", unset="84")
     compile: bool = setting(False, "compile the whole update (torch.compile; on CUDA also a CUDA graph). The augmentations "

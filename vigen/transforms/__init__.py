@@ -51,6 +51,8 @@ from vigen.transforms.corruptions import PixelCorruption
 from vigen.transforms.scene import DistractingCamera, DistractingColors, DMCGB2Camera
 from vigen.transforms.scene import DMCGB2VideoBackground
 from vigen.transforms.scene import (
+    PresetMaterialColors,
+    RLViGenDraws,
     RandomCamera,
     RandomLighting,
     RandomMaterialColors,
@@ -65,6 +67,8 @@ from vigen.transforms.scene import (
 __all__ = [
     "DMCGB2Camera", "DistractingCamera", "DistractingColors",
     "DMCGB2VideoBackground",
+    "PresetMaterialColors",
+    "RLViGenDraws",
     "AugmentationChain",
     "CenterCrop",
     "DMCGB2_AUGMENTATIONS",

@@ -24,6 +24,7 @@ from vigen.transforms.scene.builtin_textures import (
 )
 from vigen.transforms.scene.dmcgb2_seed import check_source_seed, photometric_start, resolve_source_seed
 from vigen.transforms.scene.mujoco import named_id, texture_pixels
+from vigen.transforms.scene.rlvigen_draws import RLViGenDraws, check_draws
 
 PARTS = ("grid", "skybox", "self")
 
@@ -65,7 +66,11 @@ class RandomSceneColors(ScenePerturbation):
     shows preset ``(start + k) % len(presets)`` with ``start = np.random.RandomState(s).randint(100)``.
     Either way ``s`` is the seed of the vigen env the transform sits in (or ``source_seed``; see
     :mod:`~vigen.transforms.scene.dmcgb2_seed`), so a vigen env and a DMC-GB (DMC-GB2) env seeded
-    alike show the same presets in the same episodes. ``dmcgb2_colors`` (a user's DMC-GB2 file,
+    alike show the same presets in the same episodes. RL-ViGen's ``background`` colour and
+    ``objects_color`` draw as DMC-GB does (``envs/DMCVGB/dmcvgb/wrappers.py:45-56``), from the one
+    ``RandomState(s)`` its ``ColorWrapper`` also draws textures and lights from: with several of
+    its knobs on, ``rlvigen_draws`` (:class:`~vigen.transforms.scene.rlvigen_draws.RLViGenDraws`)
+    names them, and each reset replays all their draws in RL-ViGen's order and shows its own. ``dmcgb2_colors`` (a user's DMC-GB2 file,
     folder or entries) takes the place of a named palette and implies ``draw="dmcgb2"``. The
     statistics draw has no presets: it ignores ``draw``.
 
@@ -81,8 +86,8 @@ class RandomSceneColors(ScenePerturbation):
     :attr:`data_source` names what the transform shows (for evaluation rows) and
     :attr:`uses_stand_in` is True when ``palette="statistics"`` is asked for by name, i.e. where
     the statistics-matched draw stands in for DMC-GB's presets. Without a palette (the default:
-    RL-ViGen's ``objects_color`` levels and vigen's colour factors) random colours are the level's
-    own definition, not a stand-in. :meth:`episode_data` names the preset an episode shows.
+    vigen's colour factors) random colours are the factor's own definition, not a stand-in.
+    :meth:`episode_data` names the preset an episode shows.
 
     Paper: DMC-GB / SODA, https://arxiv.org/abs/2011.13389.
 
@@ -101,6 +106,9 @@ class RandomSceneColors(ScenePerturbation):
             the vigen env's seed.
         draw: ``"dmcgb"`` (DMC-GB's draw per reset) or ``"dmcgb2"`` (DMC-GB2's cycle); ``None``:
             ``"dmcgb2"`` with ``dmcgb2_colors``, else ``"dmcgb"``.
+        rlvigen_draws: the knobs of RL-ViGen's config that draw from the same ``RandomState`` at each
+            reset (``draw="dmcgb"`` with a palette): its ``background`` (this transform, unless
+            ``parts=("self",)``) or ``objects`` colour, and the others, replayed in RL-ViGen's order.
         seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
 
     Examples:
@@ -130,6 +138,7 @@ class RandomSceneColors(ScenePerturbation):
         dmcgb2_file: str | None = None,
         source_seed: int | None = None,
         draw: str | None = None,
+        rlvigen_draws: RLViGenDraws | None = None,
         seed: int | None = None,
     ) -> None:
         unknown = set(parts) - set(PARTS)
@@ -177,6 +186,11 @@ class RandomSceneColors(ScenePerturbation):
         self.cycle = self.draw == "dmcgb2"
         self.rebuild_textures = rebuild_textures or self.cycle
         self.parts = tuple(parts)
+        self.knob = "objects" if self.parts == ("self",) else "background"
+        self.rlvigen_draws = check_draws(rlvigen_draws, self.knob, "RandomSceneColors")
+        if self.rlvigen_draws is not None and self.draw != "dmcgb":
+            raise ValueError("RandomSceneColors: rlvigen_draws replays RL-ViGen's draws of the presets (DMC-GB's draw per reset); "
+                             "it needs a palette and draw='dmcgb'.")
         self._source_rng: np.random.RandomState | None = None
 
     @property
@@ -223,7 +237,7 @@ class RandomSceneColors(ScenePerturbation):
 
     def read_defaults(self, scene: SceneHandle) -> Defaults:
         model = scene.model
-        defaults: Defaults = {}
+        defaults: Defaults = {"nlight": np.array(model.nlight)}
         if "self" in self.parts:
             material = named_id(model, mujoco.mjtObj.mjOBJ_MATERIAL, "self")
             defaults["self_material"] = np.array(material)
@@ -262,6 +276,8 @@ class RandomSceneColors(ScenePerturbation):
         if self.palette is not None:
             if self._source_rng is None:
                 self._source_rng = np.random.RandomState(resolve_source_seed(self.source_seed, self.seed, rng))
+            if self.rlvigen_draws is not None:
+                return self._preset(self.rlvigen_draws.episode(self._source_rng, int(defaults["nlight"]))[self.knob])
             return self._preset(int(self._source_rng.randint(len(self.palette))))
         params = {key: np.clip(defaults[key] + rng.normal(0, self.scale, 3), 0, 1) for key in PALETTE_KEYS
                   if key in defaults and key != "grid_rgb2"}
@@ -298,7 +314,8 @@ class RandomSceneColors(ScenePerturbation):
             source = f"palette={name}" + (", draw='dmcgb2'" if self.cycle else "")
         rebuild = ", rebuild_textures=True" if self.rebuild_textures and not self.cycle else ""
         seed = "" if self.source_seed is None else f", source_seed={self.source_seed}"
-        return f"{source}, parts={self.parts}{rebuild}{seed}"
+        draws = "" if self.rlvigen_draws is None else f", rlvigen_draws={self.rlvigen_draws!r}"
+        return f"{source}, parts={self.parts}{rebuild}{seed}{draws}"
 
 
 def _looks_like_a_path(text: str) -> bool:

@@ -4,11 +4,17 @@ from __future__ import annotations
 
 import mujoco
 import numpy as np
+from tensordict import TensorDictBase
 
 from vigen.transforms.scene.base import Defaults, SceneHandle, SceneParams, ScenePerturbation
 
 # MuJoCo reads a light's position from a different field per mode (fixed, track, trackcom...).
 POSITION_FIELDS = ("light_pos", "light_pos0", "light_poscom0")
+
+MOVING_PATHS = ("bounce", "drift")
+"""How a moving light travels: vigen's bounce within a range, or RL-ViGen's drift that never turns."""
+
+HEIGHT_AXIS = 2
 
 
 class RandomLighting(ScenePerturbation):
@@ -24,10 +30,27 @@ class RandomLighting(ScenePerturbation):
     ========  ======================  ====================  =============================
 
     Offsets are drawn per light and per coordinate (RL-ViGen adds ``randint(3, 5)``, which is
-    always positive). A moving light adds ``step`` to every coordinate after each env step and
-    reverses when it leaves its episode start ± ``moving_range`` (RL-ViGen's check compares the
-    wrong booleans; this is the intended bounce). Diffuse colours are not clipped, as in RL-ViGen:
-    values above 1 over-expose, negative ones darken.
+    always positive). Diffuse colours are not clipped, as in RL-ViGen: values above 1 over-expose,
+    negative ones darken.
+
+    A moving light takes one of two paths (``moving_path``):
+
+    * ``"bounce"`` (vigen's default): ``moving_step`` is added to every coordinate of
+      ``moving_axes`` after each env step, and a coordinate turns back when it leaves its episode
+      start ± ``moving_range``; the height turns back at its episode start instead of going below
+      it (its range is start … start + ``moving_range``), so a light that starts above the floor
+      stays above it. RL-ViGen sets such a range (``wrappers.py:35-40``) but its check never fires
+      (below); the bounce is vigen's reading of what the range was for, not RL-ViGen's behaviour.
+    * ``"drift"`` (RL-ViGen's, exactly): ``moving_step`` is added to every coordinate of
+      ``moving_axes`` before each env step renders, and the light never turns. RL-ViGen's
+      ``ColorWrapper.step`` (``envs/DMCVGB/dmcvgb/wrappers.py:92-98``) adds ``step_pos`` (0.01 easy,
+      0.05 hard, lines 35-40) to every coordinate of every light before ``env.step``, then compares
+      booleans (``light_pos[:, 0].all() > range[1].all()`` or ``... < range[0].all()``, line 96),
+      which are all True while no light's x is exactly 0 (its Unitree and Franka lights start at
+      x = -1 and 0 and step off 0 at once), so ``step_pos`` never changes sign: at hard
+      (0.05 per agent step) its lights have drifted +25 on every axis by step 500, the end of a
+      1000-step episode at action repeat 2. The drift restarts from the episode's start at reset,
+      as RL-ViGen's reloaded model does.
 
     Paper: RL-ViGen, https://arxiv.org/abs/2307.10224.
 
@@ -35,7 +58,9 @@ class RandomLighting(ScenePerturbation):
         position_offset: inclusive integer range of the position offset, or ``None``.
         diffuse_offset: half-width of the uniform diffuse offset, or ``None``.
         moving_step: per-step displacement of a moving light, or ``None`` for static lights.
-        moving_range: how far a moving light travels from its episode start before turning.
+        moving_range: how far a bouncing light travels from its episode start before turning.
+        moving_path: ``"bounce"`` (vigen's, within ``moving_range``, never below the start height) or
+            ``"drift"`` (RL-ViGen's: ``moving_step`` more on every moving axis at every step, never turning).
         position_jitter: per-axis half-widths ``(x, y, z)`` of a uniform position offset, added to
             ``position_offset`` (RL-ViGen's Adroit ``light_*``: (0.5, 0.5, 0.2) easy, (1, 1, 0.5) hard).
         moving_axes: the axes a moving light moves along (RL-ViGen's Adroit moves it along y only).
@@ -53,6 +78,15 @@ class RandomLighting(ScenePerturbation):
         >>> env = make_env("dmc/walker-walk").append_transform(RandomLighting.rlvigen("easy", seed=0))
         >>> env.rollout(3)["pixels"].shape
         torch.Size([3, 9, 84, 84])
+
+    RL-ViGen's drift at hard: +0.05 per agent step on every axis (+25 by step 500), the step's frame included:
+
+        >>> drift = RandomLighting(None, None, moving_step=0.05, moving_path="drift", seed=0)
+        >>> env = make_env("dmc/walker-walk", image_size=16, frame_stack=1).append_transform(drift)
+        >>> start = env.base_env.scene.model.light_poscom0.copy()
+        >>> _ = env.rollout(4)
+        >>> (env.base_env.scene.model.light_poscom0 - start).round(6).tolist()
+        [[0.2, 0.2, 0.2]]
     """
 
     LEVELS = {
@@ -66,6 +100,7 @@ class RandomLighting(ScenePerturbation):
         diffuse_offset: float | None = 0.2,
         moving_step: float | None = None,
         moving_range: float = 5.0,
+        moving_path: str = "bounce",
         position_jitter: tuple[float, float, float] | None = None,
         moving_axes: tuple[int, ...] = (0, 1, 2),
         height: float | None = None,
@@ -73,7 +108,11 @@ class RandomLighting(ScenePerturbation):
         cast_shadow: bool | None = None,
         seed: int | None = None,
     ) -> None:
+        if moving_path not in MOVING_PATHS:
+            raise ValueError(f"RandomLighting: moving_path must be 'bounce' (vigen's, within moving_range, never below the "
+                             f"start height) or 'drift' (RL-ViGen's: never turning), got {moving_path!r}.")
         super().__init__(seed=seed)
+        self.moving_path = moving_path
         self.position_offset = tuple(position_offset) if position_offset is not None else None
         self.diffuse_offset = diffuse_offset
         self.moving_step = moving_step
@@ -132,15 +171,29 @@ class RandomLighting(ScenePerturbation):
             model.light_castshadow[:] = self.cast_shadow
 
     def advance(self, scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
-        if self.moving_step is None:
+        """The bounce's move after an env step: turn at start ± ``moving_range`` (the height: at start and start + range)."""
+        if self.moving_step is None or self.moving_path != "bounce":
             return
+        low, high = np.full(3, -float(self.moving_range)), np.full(3, float(self.moving_range))
+        low[HEIGHT_AXIS] = 0.0
+        motion = params["motion"] + params["direction"] * self.moving_step * self._axes()
+        outside = (motion > high) | (motion < low)
+        params["direction"] = np.where(outside, -params["direction"], params["direction"])
+        params["motion"] = np.clip(motion, low, high)
+        self._place(scene, defaults, params)
+
+    def _inv_call(self, tensordict: TensorDictBase) -> TensorDictBase:
+        # the drift's move runs before the base env steps and renders, as RL-ViGen moves its lights before env.step
+        if self.moving_step is not None and self.moving_path == "drift" and self.params is not None:
+            scene = self.scene
+            self.params["motion"] = self.params["motion"] + self.moving_step * self._axes()
+            self._place(scene, self.defaults(scene), self.params)
+        return tensordict
+
+    def _axes(self) -> np.ndarray:
         axes = np.zeros(3)
         axes[list(self.moving_axes)] = 1.0
-        motion = params["motion"] + params["direction"] * self.moving_step * axes
-        outside = np.abs(motion) > self.moving_range
-        params["direction"] = np.where(outside, -params["direction"], params["direction"])
-        params["motion"] = np.clip(motion, -self.moving_range, self.moving_range)
-        self._place(scene, defaults, params)
+        return axes
 
     def _place(self, scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
         """Write default position (at ``height`` when restyled) + episode offset + motion into every position field."""
@@ -155,6 +208,7 @@ class RandomLighting(ScenePerturbation):
         return (
             f"position_offset={self.position_offset}, diffuse_offset={self.diffuse_offset}, "
             f"moving_step={self.moving_step}, moving_range={self.moving_range}"
+            + ("" if self.moving_path == "bounce" else f", moving_path={self.moving_path!r}")
             + ("" if self.position_jitter is None else f", position_jitter={self.position_jitter}")
             + ("" if self.moving_axes == (0, 1, 2) else f", moving_axes={self.moving_axes}")
             + ("" if self.height is None else f", height={self.height}")

@@ -1,13 +1,28 @@
-"""Colour randomization of named materials and geoms: robosuite's local colour shifts and robot recolouring (RL-ViGen)."""
+"""Colour randomization of named materials and geoms: robosuite's local colour shifts and robot recolouring (RL-ViGen).
+
+:class:`RandomMaterialColors` draws random colours; :class:`PresetMaterialColors` shifts the robot by the
+``self_rgb`` of one of DMC-GB's presets, as RL-ViGen's ``objects_color`` does on its Menagerie robots.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
+from typing import Any
+
 import mujoco
 import numpy as np
 
+from vigen.assets.palettes import DMCGB_PRESETS, dmcgb_presets
 from vigen.transforms.scene.base import Defaults, SceneHandle, SceneParams, ScenePerturbation
+from vigen.transforms.scene.colors import RandomSceneColors
+from vigen.transforms.scene.dmcgb2_seed import check_source_seed, resolve_source_seed
+from vigen.transforms.scene.rlvigen_draws import RLViGenDraws, check_draws
+
+RLVIGEN_SELF_ORIGIN = (0.7, 0.5, 0.3)
+"""dm_control's ``self`` colour, which RL-ViGen subtracts from a preset's ``self_rgb`` to shift its robots' materials
+(``envs/DMCVGB/dm_control/dm_control/suite/common/settings.py:60-65``: ``white`` = ``self_rgb − (0.7, 0.5, 0.3) + 1``,
+``dark`` ``+ 0.2``, ``carbonfibre`` ``+ 0.25``, i.e. each material's own colour plus the one offset)."""
 
 
 class RandomMaterialColors(ScenePerturbation):
@@ -104,3 +119,104 @@ class RandomMaterialColors(ScenePerturbation):
     def extra_repr(self) -> str:
         shift = f", shift={self.shift}" if self.shift else ""
         return f"mix={self.mix}, include={self.include}, exclude={self.exclude}, shared={self.shared}{shift}"
+
+
+class PresetMaterialColors(RandomMaterialColors):
+    """Shift named materials by one DMC-GB preset's ``self`` colour offset per episode (RL-ViGen's ``objects_color`` on its robots).
+
+    RL-ViGen draws a preset of DMC-GB's ``color_easy`` / ``color_hard`` per reset
+    (``envs/DMCVGB/dmcvgb/wrappers.py:53-56``: ``randint(100)`` from its ``RandomState(seed)``) and writes
+    its ``self_rgb`` into the shared materials its Menagerie robots use
+    (``suite/common/settings.py:51-65``): ``self`` becomes ``self_rgb``, and ``white``, ``dark`` and
+    ``carbonfibre`` become their own colour plus ``self_rgb − (0.7, 0.5, 0.3)``
+    (:data:`RLVIGEN_SELF_ORIGIN`, dm_control's ``self``). vigen's robots are other models, so every
+    selected part (``include`` / ``exclude``, as :class:`RandomMaterialColors`) gets that one offset:
+    ``rgb = default + self_rgb − (0.7, 0.5, 0.3)``, not clipped, as RL-ViGen writes it into the XML
+    (MuJoCo lights a colour above 1 brighter than 1, and one below 0 darker than 0).
+
+    The draw is DMC-GB's (:class:`~vigen.transforms.RandomSceneColors`' default): one
+    ``np.random.RandomState(s)`` per env, seeded with the env seed ``s`` (or ``source_seed``), and
+    ``randint(100)`` at every reset; ``rlvigen_draws`` replays the other knobs' draws of RL-ViGen's
+    config in between (:mod:`~vigen.transforms.scene.rlvigen_draws`). :meth:`episode_data` names the
+    preset (``objects_preset``).
+
+    Paper: RL-ViGen, https://arxiv.org/abs/2307.10224 (presets from DMC-GB, https://arxiv.org/abs/2011.13389).
+
+    Args:
+        palette: ``"color_easy"`` or ``"color_hard"`` (DMC-GB's presets, shipped with vigen).
+        include: name prefixes of the materials and geoms to shift.
+        exclude: name prefixes never shifted.
+        source_seed: RL-ViGen's env seed for the draw; ``None``: the seed of the vigen env this transform sits in.
+        rlvigen_draws: the knobs of RL-ViGen's config drawing from the same ``RandomState`` (with ``objects`` on).
+        seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
+
+    Examples:
+        >>> from vigen.envs import make_env
+        >>> colors = PresetMaterialColors("color_hard", include=("self",), source_seed=0, seed=0)
+        >>> env = make_env("dmc/walker-walk", image_size=32).append_transform(colors)
+        >>> _ = env.reset()
+        >>> colors.episode_data(), colors.uses_stand_in  # np.random.RandomState(0).randint(100) == 44
+        ({'objects_preset': 44}, False)
+        >>> colors.data_source.endswith(", self_rgb − (0.7, 0.5, 0.3) on the robot")
+        True
+    """
+
+    def __init__(
+        self,
+        palette: str = "color_easy",
+        include: Sequence[str] | None = None,
+        exclude: Sequence[str] = (),
+        source_seed: int | None = None,
+        rlvigen_draws: RLViGenDraws | None = None,
+        seed: int | None = None,
+    ) -> None:
+        if palette not in DMCGB_PRESETS:
+            raise ValueError(f"PresetMaterialColors: palette is one of DMC-GB's shipped preset lists {DMCGB_PRESETS}, "
+                             f"got {palette!r}.")
+        super().__init__(mix=0.0, include=include, exclude=exclude, shared=True, seed=seed)
+        self.palette_name = palette
+        self.palette = dmcgb_presets(palette)
+        self.source_seed = check_source_seed(source_seed, "PresetMaterialColors")
+        self.rlvigen_draws = check_draws(rlvigen_draws, "objects", "PresetMaterialColors")
+        self._source_rng: np.random.RandomState | None = None
+
+    uses_stand_in = False
+    """DMC-GB's own presets: never a stand-in."""
+
+    @property
+    def data_source(self) -> str:
+        """What the colours are: the presets' label (:attr:`RandomSceneColors.data_source`), then how they are shown."""
+        return f"{RandomSceneColors(palette=self.palette_name).data_source}, self_rgb − (0.7, 0.5, 0.3) on the robot"
+
+    def episode_data(self) -> dict[str, Any]:
+        """The preset this episode shows (its index in the palette)."""
+        return {"objects_preset": int(self.params["preset"])} if self.params is not None and "preset" in self.params else {}
+
+    def set_seed(self, seed: int | None) -> None:
+        super().set_seed(seed)
+        self._source_rng = None  # the draws restart, as in a new RL-ViGen env built with the seed
+
+    def read_defaults(self, scene: SceneHandle) -> Defaults:
+        return {**super().read_defaults(scene), "nlight": np.array(scene.model.nlight)}
+
+    def sample(self, rng: np.random.Generator, defaults: Defaults) -> SceneParams:
+        if self._source_rng is None:
+            self._source_rng = np.random.RandomState(resolve_source_seed(self.source_seed, self.seed, rng))
+        if self.rlvigen_draws is not None:
+            preset = self.rlvigen_draws.episode(self._source_rng, int(defaults["nlight"]))["objects"]
+        else:
+            preset = int(self._source_rng.randint(len(self.palette)))
+        offset = np.asarray(self.palette[preset]["self_rgb"], dtype=np.float64) - np.asarray(RLVIGEN_SELF_ORIGIN)
+        return {"preset": preset, "offset": offset}
+
+    def identity_params(self, defaults: Defaults) -> SceneParams:
+        return {"offset": np.zeros(3)}
+
+    def apply(self, scene: SceneHandle, defaults: Defaults, params: SceneParams) -> None:
+        scene.model.mat_rgba[defaults["materials"], :3] = defaults["material_rgb"] + params["offset"]
+        scene.model.geom_rgba[defaults["geoms"], :3] = defaults["geom_rgb"] + params["offset"]
+
+    def extra_repr(self) -> str:
+        seed = "" if self.source_seed is None else f", source_seed={self.source_seed}"
+        draws = "" if self.rlvigen_draws is None else f", rlvigen_draws={self.rlvigen_draws!r}"
+        return f"palette={self.palette_name!r}, include={self.include}, exclude={self.exclude}{seed}{draws}"
