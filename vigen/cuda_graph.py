@@ -75,12 +75,12 @@ class CudaGraphCall:
         if not isinstance(warmup, int) or warmup < 1:
             raise ValueError(f"CudaGraphCall: warmup must be an integer >= 1 (eager calls before the capture), got {warmup!r}.")
         if device is None:
-            device = torch.device("cuda", torch.cuda.current_device()) if torch.cuda.is_available() else torch.device("cpu")
-        self.device = torch.device(device)
+            device = "cuda" if torch.cuda.is_available() else "cpu"
+        self.device = indexed(device)
         self.fn, self.warmup, self.generators = fn, warmup, tuple(generators)
         self.use_graph = enabled and self.device.type == "cuda"
         if self.use_graph:
-            wrong = [generator.device for generator in self.generators if generator.device != self.device]
+            wrong = [generator.device for generator in self.generators if indexed(generator.device) != self.device]
             if wrong:
                 raise ValueError(f"CudaGraphCall: generators on {wrong} cannot be replayed by a graph on {self.device}; "
                                  "give the graph's device's generators only.")
@@ -135,7 +135,7 @@ class CudaGraphCall:
         graph = torch.cuda.CUDAGraph()
         for generator in self.generators:
             graph.register_generator_state(generator)
-        with torch.cuda.graph(graph):  # synchronizes once, then records fn on a side stream
+        with torch.cuda.device(self.device), torch.cuda.graph(graph):  # synchronizes once, then records fn on a side stream
             self._outputs = self.fn(*self._fresh_inputs())
         self.graph = graph
 
@@ -165,6 +165,19 @@ class CudaGraphCall:
                                  "and dtypes (a new shape needs a new CudaGraphCall).")
         if sources:
             torch._foreach_copy_(self._static, sources, non_blocking=True)
+
+
+def indexed(device: torch.device | str) -> torch.device:
+    """``device`` with its index: ``cuda`` is the current CUDA device, ``cuda:0`` on most machines (equal devices compare equal).
+
+    Examples:
+        >>> indexed("cpu")
+        device(type='cpu')
+    """
+    device = torch.device(device)
+    if device.type == "cuda" and device.index is None:
+        return torch.device("cuda", torch.cuda.current_device())
+    return device
 
 
 def _leaf_layout(leaf: Any) -> tuple[str, list | None]:

@@ -68,6 +68,7 @@ from tensordict import TensorDict, TensorDictBase
 from torch import Tensor
 from torchrl.envs.transforms import MultiStepTransform
 
+from vigen.cuda_graph import indexed
 from vigen.run.replay import to_device
 
 ROWS = "_frame_rows"
@@ -102,7 +103,7 @@ class FrameReplay:
                  check: bool = True) -> None:
         if capacity < 1 or batch_size < 1:
             raise ValueError(f"FrameReplay: capacity ({capacity}) and batch_size ({batch_size}) must be >= 1.")
-        self.capacity, self.batch_size, self.device = capacity, batch_size, torch.device(device)
+        self.capacity, self.batch_size, self.device = capacity, batch_size, indexed(device)
         self.frame_capacity = frame_capacity if frame_capacity is not None else capacity + capacity // 16 + 4096
         self.frame_channels, self.reward_scale, self.check = frame_channels, reward_scale, check
         self.n_step = MultiStepTransform(n_step, gamma)

@@ -15,7 +15,7 @@ from typing import Protocol
 import torch
 from tensordict import TensorDictBase
 
-from vigen.cuda_graph import CudaGraphCall
+from vigen.cuda_graph import CudaGraphCall, indexed
 from vigen.losses import UpdateStep
 from vigen.transforms import ImageAugmentation
 
@@ -75,7 +75,7 @@ class SampledUpdate:
         cudagraph = device.type == "cuda" if cudagraph is None else cudagraph
         if cudagraph and device.type != "cuda":
             raise ValueError(f"SampledUpdate: cudagraph=True needs the update on CUDA; it is on {device}.")
-        if replay.generator.device != device:
+        if indexed(replay.generator.device) != indexed(device):
             raise ValueError(f"SampledUpdate: the replay samples on {replay.generator.device}, the update runs on {device}; "
                              "build the replay with the update's device.")
         if cudagraph and not all(group.get("capturable", False) for group in update.optimizer.param_groups):
