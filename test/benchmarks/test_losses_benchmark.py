@@ -1,9 +1,11 @@
 """benchmarks/losses.py's GPU options cannot rot on a CPU: the captured update's synthetic replay holds CatFrames' stacks, the
-busy measure is the union of device intervals, --jobs passes on every other flag, and a tiny run prints every column."""
+busy measure is the union of device intervals, --jobs passes on every other flag, and a tiny run prints every column; and
+benchmarks/update_gap.py (the eager update inside train.py against losses.py, one condition at a time) runs end to end."""
 
 from __future__ import annotations
 
 import importlib.util
+import json
 import os
 import subprocess
 import sys
@@ -63,3 +65,14 @@ def test_a_tiny_cpu_run_with_the_captured_update_and_bf16_prints_every_column(tm
     cells = dict(zip(columns, (cell.strip() for cell in row.strip("|").split("|"))))
     assert float(cells["captured ms"]) > 0
     assert cells["bf16 loss diff"].endswith(("(ok 2%)", "(over 2%)")), "the difference, checked against the stated tolerance"
+
+
+@pytest.mark.slow
+def test_the_update_gap_runs_every_condition_at_tiny_sizes(tmp_path):
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "OMP_NUM_THREADS": "1"}
+    result = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "update_gap.py"), "--quick", "--json", str(tmp_path / "gap.json")],
+                            cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stdout + result.stderr
+    rows = json.loads((tmp_path / "gap.json").read_text())["rows"]
+    assert [row["row"][0] for row in rows] == ["A", "B", "C", "D", "E"]
+    assert all(row["update_ms"] > 0 for row in rows) and all(row["sample_ms"] > 0 for row in rows[3:])
