@@ -402,7 +402,10 @@ def throughput_tier(args: argparse.Namespace, log: Path, env: dict, timeout: flo
             whole.write("\n[gpu_check] the output of each examples/train.py run:\n")
             whole.write((out / "train_logs.txt").read_text(errors="replace"))
     figures = {"command": " ".join(["python", *command[1:-4]]), "table": report.get("table"),
-               "results": [{key: result.get(key) for key in ("name", "status", "reason", "seconds", "figures", "rows")}
+               "results": [{key: result.get(key) for key in ("name", "runs", "status", "reason", "seconds", "figures", "rows")
+                            if key in result or key != "runs"}
+                           | ({"each_run": [{key: run.get(key) for key in ("seed", "status", "exit_code", "figures")}
+                                            for run in result["results"]]} if "results" in result else {})
                            for result in report.get("results", [])]}
     status = "timed_out" if code is None else "passed" if code == 0 else "timed_out" if report.get("status") == "incomplete" else "failed"
     return {"status": status, "figures": figures, "exit_code": code}
