@@ -77,6 +77,7 @@ import contextlib
 import copy
 import os
 import random
+import shlex
 import signal
 import statistics
 import subprocess
@@ -736,6 +737,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                         help="after compiling, write torch.compiler.save_cache_artifacts() there (per algorithm: PATH.ALGO)")
     parser.add_argument("--load-cache", type=Path, default=None,
                         help="before compiling, torch.compiler.load_cache_artifacts() from there (per algorithm: PATH.ALGO)")
+    parser.add_argument("--also", nargs="+", default=[], metavar="'ALGO FLAGS'",
+                        help="with --jobs: more processes, each an algorithm with its own flags over the others', e.g. "
+                             "'drqv2 --tf32 on --precision bf16' (an option's effect, timed like the rest)")
     parser.add_argument("--hold", action="store_true", help=argparse.SUPPRESS)  # a --jobs child: compile, say READY, wait
     args = parser.parse_args(argv)
     if args.jobs < 1:
@@ -748,7 +752,7 @@ def main(argv: list[str] | None = None) -> int:
     given = sys.argv[1:] if argv is None else argv
     if args.cache_dir is not None:
         os.environ["TORCHINDUCTOR_CACHE_DIR"] = str(args.cache_dir.resolve())
-    if args.jobs > 1 and len(args.algos) > 1 and not args.hold:
+    if args.jobs > 1 and (len(args.algos) > 1 or args.also) and not args.hold:
         return run_in_parallel(args, given)
     device = resolve_device(args.device)
     print("reproduce: python benchmarks/losses.py " + " ".join(given), flush=True)
@@ -772,11 +776,11 @@ def main(argv: list[str] | None = None) -> int:
     if args.hold:  # a --jobs child: everything is compiled; the parent says when this process may time (nothing else runs)
         print("@@READY", flush=True)
         sys.stdin.readline()
-    rows, profiles = [], []
+    columns, profiles = None, []
     for item in prepared:
         row, text = measure(item, args, device, peak)
-        rows.append(row)
-        if len(rows) == 1:
+        if list(row) != columns:  # a header whenever the columns change (a loss that did not compile has fewer)
+            columns = list(row)
             print("| " + " | ".join(row) + " |\n|" + "---|" * len(row), flush=True)
         print("| " + " | ".join(row.values()) + " |", flush=True)
         if text:
@@ -805,23 +809,31 @@ def prepare(algo: str, batch_size: int, args: argparse.Namespace, device: torch.
         item["cache_loaded"] = load_cache(cache)
     if args.compile:
         started = time.perf_counter()
-        item["compiled"] = compiled = Vigen(algo, copy.deepcopy(vigen_nets), bank, compile=True, **options)
-        for _ in range(3):  # compile, then (CUDA graphs) warm up and capture
-            compiled.update(batch.clone())
-        synchronize(device)
-        item["compile_s"] = time.perf_counter() - started
-    if args.captured:
+        try:
+            compiled = Vigen(algo, copy.deepcopy(vigen_nets), bank, compile=True, **options)
+            for _ in range(3):  # compile, then (CUDA graphs) warm up and capture
+                compiled.update(batch.clone())
+            synchronize(device)
+            item["compiled"], item["compile_s"] = compiled, time.perf_counter() - started
+        except Exception as error:  # noqa: BLE001 - a loss that does not compile here still gets its eager row
+            item["failed"] = f"compile failed: {type(error).__name__}: {str(error).splitlines()[0][:150]}"
+            print(f"{algo}: {item['failed']}", flush=True)
+    if args.captured and "failed" not in item:
         capacity = args.replay_capacity or (20_000 if device.type == "cuda" else 500)
-        replay = synthetic_replay(batch_size, capacity, device)
-        item["captured_vigen"] = captured = Vigen(algo, copy.deepcopy(vigen_nets), bank, compile=args.compile, cudagraph=False, **options)
-        item["sampled"] = sampled = SampledUpdate(captured.step, replay)
-        item["replay_bytes"] = replay.bytes_on_device()
         started = time.perf_counter()
-        for _ in range(3):
-            with captured.autocast():
-                sampled()
-        synchronize(device)
-        item["captured_compile_s"] = time.perf_counter() - started
+        try:
+            replay = synthetic_replay(batch_size, capacity, device)
+            captured = Vigen(algo, copy.deepcopy(vigen_nets), bank, compile=args.compile, cudagraph=False, **options)
+            sampled = SampledUpdate(captured.step, replay)
+            for _ in range(3):
+                with captured.autocast():
+                    sampled()
+            synchronize(device)
+            item.update(captured_vigen=captured, sampled=sampled, replay_bytes=replay.bytes_on_device(),
+                        captured_compile_s=time.perf_counter() - started)
+        except Exception as error:  # noqa: BLE001 - as above
+            item["failed"] = f"captured failed: {type(error).__name__}: {str(error).splitlines()[0][:150]}"
+            print(f"{algo}: {item['failed']}", flush=True)
     if args.save_cache is not None and args.compile:
         save_cache(args.save_cache.with_name(f"{args.save_cache.name}.{algo}"))
     return item
@@ -840,8 +852,11 @@ def measure(item: dict, args: argparse.Namespace, device: torch.device, peak: fl
         timed.append(synchronized(compiled_call, device))
     ref_s, vigen_s, *compiled_s = seconds(*timed, repeats=args.repeats)
     cuda = device.type == "cuda"
-    row = {"algo": algo, "batch": str(batch_size), "reference ms": f"{ref_s * 1e3:.1f}",
-           ("eager ms" if cuda else "vigen ms"): f"{vigen_s * 1e3:.1f}"}
+    row = {"algo": algo, "batch": str(batch_size)}
+    if cuda or (args.tf32, args.precision, args.channels_last) != ("default", "fp32", "on"):
+        row["options"] = (f"TF32 {args.tf32}, {args.precision}, channels-last {args.channels_last}"
+                          + (", captured" if args.captured else ""))
+    row.update({"reference ms": f"{ref_s * 1e3:.1f}", ("eager ms" if cuda else "vigen ms"): f"{vigen_s * 1e3:.1f}"})
     if compiled_s:
         row["compiled ms"] = f"{compiled_s[0] * 1e3:.1f}"
     fast = compiled_s[0] if compiled_s else vigen_s
@@ -876,6 +891,8 @@ def measure(item: dict, args: argparse.Namespace, device: torch.device, peak: fl
         row["bf16 loss diff"] = f"{100 * item['bf16']:.2f} % ({'ok' if item['bf16'] <= BF16_TOLERANCE else 'over'} {BF16_TOLERANCE:.0%})"
     if "cache_loaded" in item:
         row["cache"] = item["cache_loaded"]
+    if "failed" in item:
+        row["failed"] = item["failed"].replace("|", "/")
     row["ref GFLOP"], row["vigen GFLOP"] = f"{ref_flops / 1e9:.1f}", f"{vigen_flops / 1e9:.1f}"
     if not cuda:
         row["vigen % of peak"] = f"{100 * vigen_flops / vigen_s / peak:.0f} %"
@@ -914,24 +931,26 @@ def run_in_parallel(args: argparse.Namespace, given: list[str]) -> int:
     times its updates in turn while the others wait, so that no timing shares the machine. Their output, in order."""
     started = time.perf_counter()
     deadline = started + (args.deadline if args.deadline is not None else 1e9)
-    base = strip_flags(given, {"--jobs": 1, "--algos": len(args.algos), "--deadline": 1})
+    base = strip_flags(given, {"--jobs": 1, "--algos": len(args.algos), "--deadline": 1, "--also": len(args.also)})
     cores = os.cpu_count() or 1
     env = {**os.environ, "TORCHINDUCTOR_COMPILE_THREADS": str(max(1, cores // args.jobs)), "PYTHONUNBUFFERED": "1"}
-    print("reproduce: python benchmarks/losses.py " + " ".join(given), flush=True)
-    print(f"--jobs {args.jobs}: {len(args.algos)} processes, {args.jobs} compiling at once "
+    jobs = [(algo, []) for algo in args.algos] + [(extra.split()[0], extra.split()[1:]) for extra in args.also]
+    labels = [" ".join([algo, *flags]) for algo, flags in jobs]
+    print("reproduce: python benchmarks/losses.py " + " ".join(shlex.quote(arg) for arg in given), flush=True)
+    print(f"--jobs {args.jobs}: {len(jobs)} processes, {args.jobs} compiling at once "
           f"({env['TORCHINDUCTOR_COMPILE_THREADS']} inductor compile threads each), then timed one at a time", flush=True)
     children: dict[str, Child] = {}
-    waiting = list(args.algos)
+    waiting = list(zip(labels, jobs))
     while waiting or any(child.compiling() for child in children.values()):
         while waiting and sum(child.compiling() for child in children.values()) < args.jobs:
-            algo = waiting.pop(0)
-            children[algo] = Child([sys.executable, str(Path(__file__).resolve()), *base, "--algos", algo, "--hold"], env)
+            label, (algo, flags) = waiting.pop(0)
+            children[label] = Child([sys.executable, str(Path(__file__).resolve()), *base, *flags, "--algos", algo, "--hold"], env)
         if time.perf_counter() > deadline - TIMING_S * (1 + sum(child.ready.is_set() for child in children.values())):
             break  # leave time to time the compiled ones
         time.sleep(0.5)
     compile_s = time.perf_counter() - started
     results = {}
-    for algo in args.algos:
+    for algo in labels:
         child = children.get(algo)
         if child is None:
             results[algo] = "not started: no time left"
@@ -947,7 +966,7 @@ def run_in_parallel(args: argparse.Namespace, given: list[str]) -> int:
             child.go()
             code = child.wait(left)
             results[algo] = "timed" if code == 0 else f"exit {code}"
-    for algo in args.algos:
+    for algo in labels:
         child = children.get(algo)
         print(f"\n## {algo}: {results[algo]}", flush=True)
         if child is not None:

@@ -86,19 +86,26 @@ class Config:
     compiled: bool = False
     replay: str = "memmap"  # or "device": --replay-on-device
     seconds: float | None = None  # this configuration's own time limit (default: --timeout)
+    runs: int | None = None  # training processes at once (default: each of --runs)
 
     @classmethod
     def parse(cls, spec: str) -> Config:
-        """``WORKERS[/overlap][/compiled][/device][@SECONDS]``, e.g. ``8/overlap/compiled/device@130``."""
+        """``WORKERS[/overlap][/compiled][/device][*RUNS][@SECONDS]``, e.g. ``8/overlap/compiled/device@130``, ``1/overlap*8@100``.
+
+        Examples:
+            >>> Config.parse("1/overlap*8@100")
+            Config(workers=1, overlap=True, compiled=False, replay='memmap', seconds=100.0, runs=8)
+        """
         head, _, seconds = spec.partition("@")
+        head, _, runs = head.partition("*")
         workers, *words = head.split("/")
         unknown = set(words) - {"overlap", "compiled", "device"}
-        if not workers.isdigit() or int(workers) < 1 or unknown:
+        if not workers.isdigit() or int(workers) < 1 or unknown or (runs and (not runs.isdigit() or int(runs) < 1)):
             raise argparse.ArgumentTypeError(
-                f"--configs {spec!r}: expected WORKERS[/overlap][/compiled][/device][@SECONDS], e.g. 8/overlap/device@60"
+                f"--configs {spec!r}: expected WORKERS[/overlap][/compiled][/device][*RUNS][@SECONDS], e.g. 8/overlap/device@60"
                 + (f" ({', '.join(sorted(unknown))} unknown)" if unknown else ""))
         return cls(int(workers), "overlap" in words, "compiled" in words, "device" if "device" in words else "memmap",
-                   float(seconds) if seconds else None)
+                   float(seconds) if seconds else None, int(runs) if runs else None)
 
     @property
     def name(self) -> str:
@@ -380,7 +387,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--workers", type=int, nargs="+", default=None, help="replaces the mode's configurations with the "
                         "product of --workers, --collection, --updates and --replay")
     parser.add_argument("--configs", nargs="+", type=Config.parse, default=None, metavar="SPEC",
-                        help="the configurations in this order, each WORKERS[/overlap][/compiled][/device][@SECONDS] "
+                        help="the configurations in this order, each WORKERS[/overlap][/compiled][/device][*RUNS][@SECONDS] "
                              "(instead of --workers/--collection/--updates/--replay)")
     parser.add_argument("--collection", nargs="+", choices=["serial", "overlap"], default=None)
     parser.add_argument("--updates", nargs="+", choices=["eager", "compiled"], default=None)
@@ -437,7 +444,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with (out / "train_logs.txt").open("w") as log:
             for config in args.configs:
-                for runs in args.runs:
+                for runs in [config.runs] if config.runs else args.runs:
                     name = config.name if runs == 1 else f"{config.name} x{runs}"
                     left = args.deadline - (time.time() - started)
                     limit = args.timeout if config.seconds is None else config.seconds
