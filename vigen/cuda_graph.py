@@ -135,7 +135,8 @@ class CudaGraphCall:
         graph = torch.cuda.CUDAGraph()
         for generator in self.generators:
             graph.register_generator_state(generator)
-        with torch.cuda.device(self.device), torch.cuda.graph(graph):  # synchronizes once, then records fn on a side stream
+        # synchronizes once, then records fn on a side stream; "thread_local": a collector thread may use CUDA meanwhile
+        with torch.cuda.device(self.device), torch.cuda.graph(graph, capture_error_mode="thread_local"):
             self._outputs = self.fn(*self._fresh_inputs())
         self.graph = graph
 
