@@ -12,6 +12,10 @@ from vigen.cuda_graph import CudaGraphCall
 CUDA = pytest.mark.skipif(not torch.cuda.is_available(), reason="needs CUDA: a CUDA graph is captured and replayed on a CUDA device")
 
 
+def forbid_synchronize(*args, **kwargs):
+    raise AssertionError("torch.cuda.synchronize() called during a replay")
+
+
 class Recorder:
     """``fn``: counts its runs, keeps the input objects it was given, adds the input into a running total."""
 
@@ -71,9 +75,10 @@ def test_the_static_path_reads_nothing_back_to_the_host_over_fifty_calls(no_host
 
 
 @CUDA
-def test_a_cuda_graph_call_equals_the_eager_calls_draws_included_and_never_waits_for_the_gpu(no_host_sync):
+def test_a_cuda_graph_call_equals_the_eager_calls_draws_included_and_never_waits_for_the_gpu(no_host_sync, monkeypatch):
     """Random draws from torch's default CUDA generator and from a registered one follow the eager sequence; after the
-    capture, fifty replays neither synchronize (torch.cuda.set_sync_debug_mode('error')) nor read a value back."""
+    capture, fifty replays neither synchronize (torch.cuda.set_sync_debug_mode('error'), and no torch.cuda.synchronize(),
+    which tensordict 0.14.3's CudaGraphModule called before every replay) nor read a value back."""
     device = torch.device("cuda")
 
     def make():
@@ -97,6 +102,7 @@ def test_a_cuda_graph_call_equals_the_eager_calls_draws_included_and_never_waits
         torch.testing.assert_close(out, reference, msg=lambda m: f"call {step}: {m}")
     x = torch.ones(4, device=device)
     torch.cuda.synchronize()
+    monkeypatch.setattr(torch.cuda, "synchronize", forbid_synchronize)  # sync debug mode does not flag the explicit one
     torch.cuda.set_sync_debug_mode("error")
     try:
         with no_host_sync():
@@ -104,4 +110,5 @@ def test_a_cuda_graph_call_equals_the_eager_calls_draws_included_and_never_waits
                 out = call(x)
     finally:
         torch.cuda.set_sync_debug_mode("default")
+        monkeypatch.undo()
     assert torch.isfinite(out).all()

@@ -113,15 +113,21 @@ def test_a_captured_sampled_update_equals_the_eager_one_over_six_updates_on_cuda
 
 @CUDA
 @pytest.mark.parametrize("compile", [False, True], ids=["eager", "compiled"])
-def test_fifty_captured_sampled_updates_never_synchronize_on_cuda(compile, no_host_sync):
+def test_fifty_captured_sampled_updates_never_synchronize_on_cuda(compile, no_host_sync, monkeypatch):
     """After the warm-up and the capture, fifty updates (sampling included) launch one graph each: torch's sync debug mode
-    raises at any synchronization, and the host-read detector at any value read back."""
+    raises at any implicit synchronization, a replaced torch.cuda.synchronize at an explicit one, and the host-read
+    detector at any value read back."""
     cuda = torch.device("cuda")
     replay = filled_replay(cuda)
     sampled = SampledUpdate(build(cuda, compile=compile, capturable=True), replay)
     for _ in range(3):
         sampled()
     torch.cuda.synchronize()
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("torch.cuda.synchronize() called during an update")
+
+    monkeypatch.setattr(torch.cuda, "synchronize", forbidden)
     torch.cuda.set_sync_debug_mode("error")
     try:
         with no_host_sync():
@@ -129,5 +135,6 @@ def test_fifty_captured_sampled_updates_never_synchronize_on_cuda(compile, no_ho
                 out = sampled()
     finally:
         torch.cuda.set_sync_debug_mode("default")
+        monkeypatch.undo()
     assert sampled.captured and torch.isfinite(out["loss_critic"])
     sampled.update.raise_if_diverged()
