@@ -63,7 +63,9 @@ CALLS = {  # issue 48's two device calls, the end-to-end one first: (tiers, dead
     "e2e": ([5], 540, THROUGHPUT_E2E, "--quick --configs 2/overlap/device 1/overlap*2"),
     "learner": ([1, 7, 6], 560, None, None),
 }
-ALSO = ["drqv2 --tf32 on", "drqv2 --tf32 on --precision bf16", "drqv2 --channels-last off"]  # tier 6: the GPU learner's options
+ALSO = ["drqv2 --captured", "drqv2 --captured --tf32 on", "drqv2 --captured --tf32 on --precision bf16"]
+"""Tier 6's DrQ-v2 processes, timed first: the captured learner (sampling inside the graph), with TF32, with TF32 and bf16.
+Channels-last against NCHW weights is tier 7's A against B."""
 MIN_BATCHES = 3  # tier 3 trains until this many batches of updates are logged (frames/s needs two intervals at least)
 INSTALL_S = 60  # the pip install, and then the imports, each stop there: a missing piece is named within a minute
 BUDGET_S = {"gpu": {1: 120, 2: 200, 3: 100, 4: None, 5: None, 6: None, 7: 60},  # seconds per tier; None: what is left
@@ -423,10 +425,10 @@ def all_losses_tier(args: argparse.Namespace, log: Path, env: dict, timeout: flo
     (and DrQ-v2 with the GPU learner's options, ``ALSO``); the losses.py run stops itself before ``timeout``."""
     algos = ast.literal_eval((ROOT / "benchmarks" / "losses.py").read_text().split("\nALGOS = ", 1)[1].split("\n")[0])
     if args.dry:
-        sizes, algos, also = ["--batch", "2", "--repeats", "1", "--jobs", "2"], ["drqv2", "drq"], ["drqv2 --channels-last off"]
+        sizes, algos, also = ["--batch", "2", "--repeats", "1", "--jobs", "2"], ["drqv2", "drq"], ["drqv2 --captured --channels-last off"]
     else:
-        sizes, also = ["--batch", "256", "--repeats", "10", "--compile", "--jobs", "15"], ALSO
-    command = [args.python, "benchmarks/losses.py", "--device", args.device, *sizes, "--captured",
+        sizes, also = ["--batch", "256", "--repeats", "10", "--compile", "--jobs", str(len(algos) + len(ALSO))], ALSO
+    command = [args.python, "benchmarks/losses.py", "--device", args.device, *sizes,
                "--deadline", str(round(max(timeout - 15, 10))), "--cache-dir", str(scratch / "inductor"),
                "--save-cache", str(scratch / "cache-artifacts" / "losses"), "--algos", *algos, "--also", *also]
     code, _ = run_logged(command, log, env, timeout)
