@@ -18,7 +18,13 @@ with the folder ``python scripts/gpu_carry.py`` builds (``.gpu-carry/``) beside 
    walker-walk at batch 256 with 1/4/8 env workers, serial and overlapped collection, the replay
    sampled on the GPU (and today's memory-mapped baseline): frames/s, updates/s, the GPU's busy
    share and each stage's time, in the time left before the deadline (``--quick`` when ``--dry``);
-   ``--throughput-args "--gpu --configs 8/overlap/compiled/device@130 1@50"`` picks configurations in order.
+   ``--throughput-args "--gpu --configs 8/overlap/compiled/device@130 1@50"`` picks configurations in order;
+6. (when asked) every loss in one tier: ``benchmarks/losses.py --compile --jobs 15``, the twelve losses and the captured
+   DrQ-v2 learner (with TF32, and bf16) compiled in parallel processes, then each timed alone against its reference;
+7. (when asked) ``benchmarks/update_gap.py``: the eager DrQ-v2 update under each of ``train.py``'s conditions in turn.
+
+``--call e2e`` and ``--call learner`` are issue 48's two calls (tiers 5; then 1, 7, 6), each with its deadline
+(540 s, 560 s): docs/performance.md says how to run them.
 
 Each tier has a time budget and the whole check stops itself at ``--deadline`` seconds (default 450,
 install included, counted from when ``gpu_check.sh`` started), keeping what finished. It writes, under
