@@ -18,7 +18,13 @@ with the folder ``python scripts/gpu_carry.py`` builds (``.gpu-carry/``) beside 
    walker-walk at batch 256 with 1/4/8 env workers, serial and overlapped collection, the replay
    sampled on the GPU (and today's memory-mapped baseline): frames/s, updates/s, the GPU's busy
    share and each stage's time, in the time left before the deadline (``--quick`` when ``--dry``);
-   ``--throughput-args "--gpu --configs 8/overlap/compiled/device@130 1@50"`` picks configurations in order.
+   ``--throughput-args "--gpu --configs 8/overlap/compiled/device@130 1@50"`` picks configurations in order;
+6. (when asked) every loss in one tier: ``benchmarks/losses.py --compile --jobs 15``, the twelve losses and the captured
+   DrQ-v2 learner (with TF32, and bf16) compiled in parallel processes, then each timed alone against its reference;
+7. (when asked) ``benchmarks/update_gap.py``: the eager DrQ-v2 update under each of ``train.py``'s conditions in turn.
+
+``--call e2e`` and ``--call learner`` are issue 48's two calls (tiers 5; then 1, 7, 6), each with its deadline
+(540 s, 560 s): docs/performance.md says how to run them.
 
 Each tier has a time budget and the whole check stops itself at ``--deadline`` seconds (default 450,
 install included, counted from when ``gpu_check.sh`` started), keeping what finished. It writes, under
@@ -55,12 +61,21 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 RESERVE_S = 5  # kept back from the deadline to stop the last command and write the figures
 TIERS = {1: "device tests", 2: "drqv2 and svea against the reference", 3: "end-to-end training", 4: "the other losses",
-         5: "training throughput"}
-DEFAULT_TIERS = [1, 2, 3, 4]  # tier 5 runs when asked: --tiers 5
+         5: "training throughput", 6: "every loss, compiled in parallel", 7: "the eager update inside train.py"}
+DEFAULT_TIERS = [1, 2, 3, 4]  # tiers 5 to 7 run when asked (--tiers, or a --call)
+THROUGHPUT_E2E = ("--gpu --configs 8/overlap/compiled/device@180 8/overlap/device@60 1/overlap@50 1/overlap*4@90 "
+                  "1/overlap*8@100")
+CALLS = {  # issue 48's two device calls, the end-to-end one first: (tiers, deadline s, tier 5's flags, and --dry's)
+    "e2e": ([5], 540, THROUGHPUT_E2E, "--quick --configs 2/overlap/device 1/overlap*2"),
+    "learner": ([1, 7, 6], 560, None, None),
+}
+ALSO = ["drqv2 --captured", "drqv2 --captured --tf32 on", "drqv2 --captured --tf32 on --precision bf16"]
+"""Tier 6's DrQ-v2 processes, timed first: the captured learner (sampling inside the graph), with TF32, with TF32 and bf16.
+Channels-last against NCHW weights is tier 7's A against B."""
 MIN_BATCHES = 3  # tier 3 trains until this many batches of updates are logged (frames/s needs two intervals at least)
 INSTALL_S = 60  # the pip install, and then the imports, each stop there: a missing piece is named within a minute
-BUDGET_S = {"gpu": {1: 120, 2: 200, 3: 100, 4: None, 5: None},  # seconds per tier; None: whatever is left before the deadline
-            "dry": {1: 60, 2: 60, 3: 40, 4: 60, 5: 120}}
+BUDGET_S = {"gpu": {1: 120, 2: 200, 3: 100, 4: None, 5: None, 6: None, 7: 60},  # seconds per tier; None: what is left
+            "dry": {1: 60, 2: 60, 3: 40, 4: 60, 5: 120, 6: 120, 7: 60}}
 DRY_MODULES = ["torchrl", "tensordict", "mujoco", "dm_control", "gymnasium", "vigen"]  # --carry none: the environment's
 PREFLIGHT = r"""
 import importlib, json, os, sys, traceback
@@ -402,9 +417,46 @@ def throughput_tier(args: argparse.Namespace, log: Path, env: dict, timeout: flo
             whole.write("\n[gpu_check] the output of each examples/train.py run:\n")
             whole.write((out / "train_logs.txt").read_text(errors="replace"))
     figures = {"command": " ".join(["python", *command[1:-4]]), "table": report.get("table"),
-               "results": [{key: result.get(key) for key in ("name", "status", "reason", "seconds", "figures", "rows")}
+               "results": [{key: result.get(key) for key in ("name", "runs", "status", "reason", "seconds", "figures", "rows")
+                            if key in result or key != "runs"}
+                           | ({"each_run": [{key: run.get(key) for key in ("seed", "status", "exit_code", "figures")}
+                                            for run in result["results"]]} if "results" in result else {})
                            for result in report.get("results", [])]}
     status = "timed_out" if code is None else "passed" if code == 0 else "timed_out" if report.get("status") == "incomplete" else "failed"
+    return {"status": status, "figures": figures, "exit_code": code}
+
+
+def all_losses_tier(args: argparse.Namespace, log: Path, env: dict, timeout: float, scratch: Path) -> dict:
+    """``benchmarks/losses.py --jobs``: every loss compiled in parallel processes, then each timed alone against its reference
+    (and DrQ-v2 with the GPU learner's options, ``ALSO``); the losses.py run stops itself before ``timeout``."""
+    algos = ast.literal_eval((ROOT / "benchmarks" / "losses.py").read_text().split("\nALGOS = ", 1)[1].split("\n")[0])
+    if args.dry:
+        sizes, algos, also = ["--batch", "2", "--repeats", "1", "--jobs", "2"], ["drqv2", "drq"], ["drqv2 --captured --channels-last off"]
+    else:
+        sizes, also = ["--batch", "256", "--repeats", "10", "--compile", "--jobs", str(len(algos) + len(ALSO))], ALSO
+    command = [args.python, "benchmarks/losses.py", "--device", args.device, *sizes,
+               "--deadline", str(round(max(timeout - 15, 10))), "--cache-dir", str(scratch / "inductor"),
+               "--save-cache", str(scratch / "cache-artifacts" / "losses"), "--algos", *algos, "--also", *also]
+    code, _ = run_logged(command, log, env, timeout)
+    rows = table_rows(log)
+    done = {row.get("algo") for row in rows}
+    summary = [line for line in log.read_text(errors="replace").splitlines() if line.startswith(("--jobs ", "## "))]
+    figures = {"command": " ".join(["python", *command[1:]]), "rows": rows, "summary": summary,
+               "not_reached": [algo for algo in algos if algo not in done],
+               "cache_artifacts": [line for line in log.read_text(errors="replace").splitlines()
+                                   if line.startswith("save_cache_artifacts")]}
+    status = "timed_out" if code is None or figures["not_reached"] else "passed" if code == 0 else "failed"
+    return {"status": status, "figures": figures, "exit_code": code}
+
+
+def gap_tier(args: argparse.Namespace, log: Path, env: dict, timeout: float, scratch: Path) -> dict:
+    """``benchmarks/update_gap.py``: the eager DrQ-v2 update under each of train.py's conditions in turn."""
+    out = scratch / "update_gap.json"
+    command = [args.python, "benchmarks/update_gap.py", *(["--quick"] if args.dry else ["--device", args.device]), "--json", str(out)]
+    code, _ = run_logged(command, log, env, timeout)
+    report = json.loads(out.read_text()) if out.is_file() else {}
+    figures = {"command": " ".join(["python", *command[1:-2]]), "rows": report.get("rows", [])}
+    status = "timed_out" if code is None else "passed" if code == 0 else "failed"
     return {"status": status, "figures": figures, "exit_code": code}
 
 
@@ -412,7 +464,8 @@ def device_tests_tier(args: argparse.Namespace, log: Path, env: dict, timeout: f
     junit = scratch / "device-tests.xml"
     select = "(test_devices or cuda) and drqv2 and not evaluation" if args.dry else "test_devices or cuda"
     command = [args.python, "-m", "pytest", "-v", "--tb=long", "-p", "no:cacheprovider", f"--junitxml={junit}",
-               "test/test_devices.py", "test/losses/test_update.py", "-k", select]
+               "test/test_devices.py", "test/losses/test_update.py", "test/test_cuda_graph.py", "test/run/test_sampled_update.py",
+               "-k", select]
     code, _ = run_logged(command, log, env, timeout)
     figures = {"command": " ".join(["python", *command[1:]]), **pytest_figures(junit)}
     status = "timed_out" if code is None else "passed" if code == 0 else "failed"
@@ -427,8 +480,12 @@ def main() -> int:
     parser.add_argument("--out", type=Path, default=Path(os.environ.get("OUT") or ROOT / "gpu-check"))
     parser.add_argument("--deadline", type=float, default=None, help="seconds for everything, install included "
                         "(default 450: under 8 minutes; --dry 300), counted from GPU_CHECK_T0 (set by gpu_check.sh)")
-    parser.add_argument("--tiers", type=int, nargs="+", default=DEFAULT_TIERS, choices=sorted(TIERS),
-                        help="which tiers, in this order (default 1 2 3 4; 5, the training throughput, runs when named)")
+    parser.add_argument("--tiers", type=int, nargs="+", default=None, choices=sorted(TIERS),
+                        help="which tiers, in this order (default 1 2 3 4; 5 to 7 run when named)")
+    parser.add_argument("--call", choices=sorted(CALLS), default=None,
+                        help="issue 48's device calls: e2e (tier 5: the 8-worker runs, compiled first, and 1, 4 and 8 runs "
+                             "sharing the machine; deadline 540 s) first, then learner (tiers 1, 7, 6: the device tests, the "
+                             "eager update's gap, every loss compiled in parallel; deadline 560 s)")
     parser.add_argument("--train-seconds", type=float, default=None, help="tier 3's training, from its first update (60; --dry 3)")
     parser.add_argument("--python", default=sys.executable, help="the interpreter whose torch is checked (default this one)")
     parser.add_argument("--throughput-args", default=None, help="tier 5: benchmarks/train_throughput.py's flags instead of "
@@ -437,6 +494,13 @@ def main() -> int:
     args = parser.parse_args()
     args.carry = None if args.carry == "none" else Path(args.carry).resolve()
     args.device = "cpu" if args.dry else "cuda"
+    if args.call is not None:
+        if args.tiers is not None:
+            parser.error("--call names its tiers; leave out --tiers")
+        args.tiers, deadline, throughput, dry_throughput = CALLS[args.call]
+        args.deadline = args.deadline or (None if args.dry else deadline)
+        args.throughput_args = args.throughput_args or (dry_throughput if args.dry else throughput)
+    args.tiers = args.tiers or DEFAULT_TIERS
     args.deadline = args.deadline or (300 if args.dry else 450)
     args.train_seconds = args.train_seconds or (3 if args.dry else 60)
     clock = Clock(float(os.environ.get("GPU_CHECK_T0") or time.time()), args.deadline)
@@ -507,6 +571,10 @@ def check(args: argparse.Namespace, clock: Clock, budgets: dict, report: dict, f
             result = training_tier(args, log, env, timeout, scratch)
         elif tier == 5:
             result = throughput_tier(args, log, env, timeout, scratch)
+        elif tier == 6:
+            result = all_losses_tier(args, log, env, timeout, scratch)
+        elif tier == 7:
+            result = gap_tier(args, log, env, timeout, scratch)
         else:
             algos = ast.literal_eval((ROOT / "benchmarks" / "losses.py").read_text().split("\nALGOS = ", 1)[1].split("\n")[0])
             others = [algo for algo in algos if algo not in ("drqv2", "svea")]

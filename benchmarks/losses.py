@@ -40,12 +40,24 @@ Only the convolution and matmul groups can run near the CPU's peak; the rest bou
 fraction of the peak an update can reach.
 
 ``--device cuda`` runs both sides on the GPU: every timed update ends with
-``torch.cuda.synchronize()``, and the last column becomes the GPU's busy share (summed CUDA kernel
-time of ``--repeats`` updates over their wall time, from ``torch.profiler``). ``--compile`` also
-times vigen's update compiled whole (``vigen.losses.UpdateStep(compile=True)``: inductor, and a
-CUDA graph on CUDA) beside the eager one, after three warm-up calls, and prints its compile time;
-"speed-up" is then the reference over the compiled update. Every run prints the command that
-reproduces it.
+``torch.cuda.synchronize()``. Every table measures the device's time one way
+(``vigen.run.timing``'s union of the intervals during which the device ran anything, from
+``torch.profiler``): "GPU ms" is that union per update, "GPU busy" the union over the updates'
+wall time, each column named for the update it measures (reference, eager, compiled, captured).
+``--compile`` also times vigen's update compiled whole (``vigen.losses.UpdateStep(compile=True)``:
+inductor, and on CUDA a CUDA graph, :class:`vigen.cuda_graph.CudaGraphCall`) beside the eager one,
+after three warm-up calls, and prints its compile time; on CUDA it is also launched back to back
+(no wait between updates, as a training loop launches it: "back-to-back ms") with CUDA events
+around each ``graph.replay()`` ("event ms"). ``--captured`` adds the update with its sampling
+inside (:class:`vigen.run.SampledUpdate` over a :class:`vigen.run.FrameReplay` on the device: the
+slots drawn there, the frames stacked, augmented and updated in one graph). The GPU learner's
+options, each switchable: ``--tf32 on|off`` (matmuls and convolutions, both sides),
+``--precision bf16`` (vigen's updates under bf16 autocast, with the largest relative loss
+difference of one update against fp32, checked against a 2 % tolerance), ``--channels-last on|off``
+(vigen's convolutions). ``--jobs N`` compiles the algorithms in N processes at once (sharing
+inductor's cache, ``--cache-dir``) and then times them one at a time with nothing else running;
+``--save-cache`` / ``--load-cache`` write and read ``torch.compiler``'s cache artifacts. Every run
+prints the command that reproduces it.
 
 Reproduce (about 15 minutes on 2 CPU cores at both batch sizes; run nothing else meanwhile):
 
@@ -54,18 +66,27 @@ Reproduce (about 15 minutes on 2 CPU cores at both batch sizes; run nothing else
     python benchmarks/losses.py --batch 256 --algos svea --profile   # where the time goes
     python benchmarks/losses.py --batch 64 256 --algos drqv2 svea sada curl --compile   # compiled vs eager
     python benchmarks/losses.py --device cuda --batch 256 --compile --repeats 10        # on a GPU
+    python benchmarks/losses.py --device cuda --batch 256 --compile --captured --algos drqv2 --tf32 on --precision bf16
+    python benchmarks/losses.py --device cuda --batch 256 --compile --repeats 10 --jobs 12 --deadline 420  # all twelve
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import copy
+import os
 import random
+import shlex
+import signal
 import statistics
+import subprocess
 import sys
+import threading
 import time
 import warnings
 from collections.abc import Callable
+from pathlib import Path
 
 import torch
 import torch.nn.functional as F
@@ -76,12 +97,16 @@ from torchrl.objectives import SoftUpdate
 
 from augmentations import drqv2_shift, float_overlay, rlvigen_random_mask_freq_v2, seconds
 from vigen.devices import resolve_device
+from vigen.run import FrameReplay, SampledUpdate
+from vigen.run.timing import busy_seconds, device_intervals
 from vigen.losses import ALGOS as VIGEN_ALGOS
 from vigen.losses import ActorCriticLoss, UpdateStep, attribution_mask, build_loss, make_networks
 from vigen.transforms import ImageBank, RandomFrequencyMask, RandomOverlay, RandomShiftedOverlay
 
 ACTIONS, GAMMA, STD, CLIP, TAU, LR = 6, 0.99, 0.2, 0.3, 0.01, 1e-4
 ALGOS = ["drqv2", "svea", "srm", "sgqn", "curl", "drq", "sada", "madi", "simgrl", "vrl3", "pieg", "scpl"]
+TIMING_S = 12  # --jobs keeps this much of its deadline per compiled process, to time it (about 10 s on an H200)
+BF16_TOLERANCE = 0.02  # bf16 autocast is kept where one update's losses stay within 2 % of fp32's
 RLVIGEN_MS_AT_64 = {"drqv2": 280, "svea": 640, "srm": 1050, "curl": 760, "sgqn": 2540}  # RL-ViGen's own agents at batch 64, timed on a machine like this one (issue 5)
 
 
@@ -418,10 +443,16 @@ class Reference:
 
 # -- vigen ---------------------------------------------------------------------------------------
 class Vigen:
-    """The same algorithm from vigen.losses: one loss call, one backward, one optimizer, SoftUpdate."""
+    """The same algorithm from vigen.losses: one loss call, one backward, one optimizer, SoftUpdate.
+
+    ``channels_last`` puts the convolutions' weights and inputs in channels-last layout (as ``make_loss`` and
+    ``examples/train.py`` do); ``precision="bf16"`` runs every update under ``torch.autocast(bfloat16)`` (parameters,
+    gradients and Adam stay fp32); ``cudagraph`` is UpdateStep's (``None``: on CUDA when compiled; ``False`` for a
+    :class:`vigen.run.SampledUpdate`, which captures the sampling with it).
+    """
 
     def __init__(self, algo: str, nets: dict[str, nn.Module], bank: ImageBank, *, device: torch.device = torch.device("cpu"),
-                 compile: bool = False) -> None:
+                 compile: bool = False, channels_last: bool = True, precision: str = "fp32", cudagraph: bool | None = None) -> None:
         def overlay() -> RandomOverlay:
             return RandomOverlay(images=bank)
 
@@ -430,18 +461,31 @@ class Vigen:
                  "madi": {"strong_augmentation": overlay()}, "simgrl": {"strong_augmentation": RandomShiftedOverlay(images=bank)},
                  "pieg": {"strong_augmentation": overlay()}, "scpl": {"strong_augmentation": overlay()}}
         nets = dict(nets)
+        if channels_last:  # as make_loss: the convolutions' weights (the encoder's, SGQN's decoder's) channels-last too
+            for name in ("encoder", "decoder"):
+                if name in nets:
+                    nets[name].to(memory_format=torch.channels_last)
         sampler = {"std": STD} if VIGEN_ALGOS[algo].takes_std else {}
-        self.loss: ActorCriticLoss = build_loss(algo, *nets.values(), **sampler, **views.get(algo, {}))
+        self.loss: ActorCriticLoss = build_loss(algo, *nets.values(), **sampler, **views.get(algo, {}), channels_last=channels_last)
         self.loss.to(device)
         self.loss.make_value_estimator(gamma=GAMMA)
+        self.device, self.precision = device, precision
+        captured = compile or cudagraph  # captured later with its sampling (SampledUpdate) or now (UpdateStep's CUDA graph)
         # as examples/train.py: eager steps a fused Adam, a compiled update fuses the step itself (capturable for a CUDA graph)
         self.optimizer = torch.optim.Adam(self.loss.optimizer_groups(LR), fused=not compile,
-                                          capturable=compile and device.type == "cuda")
+                                          capturable=bool(captured or cudagraph is False) and device.type == "cuda")
         self.updater = SoftUpdate(self.loss, tau=TAU)
-        self.step = UpdateStep(self.loss, self.optimizer, self.updater, compile=compile)
+        self.step = UpdateStep(self.loss, self.optimizer, self.updater, compile=compile, cudagraph=cudagraph)
 
-    def update(self, batch: TensorDict) -> None:
-        self.step(batch)
+    def autocast(self) -> contextlib.AbstractContextManager:
+        """bf16 autocast (without its weight cache, which a CUDA graph cannot hold) or nothing."""
+        if self.precision == "bf16":
+            return torch.autocast(self.device.type, dtype=torch.bfloat16, cache_enabled=False)
+        return contextlib.nullcontext()
+
+    def update(self, batch: TensorDict) -> TensorDict:
+        with self.autocast():
+            return self.step(batch)
 
     def phases(self, batch: TensorDict) -> dict[str, float]:
         """Seconds of each phase of one update."""
@@ -488,17 +532,95 @@ def synchronized(fn: Callable[[], object], device: torch.device) -> Callable[[],
     return run
 
 
-def gpu_busy(update: Callable[[], object], repeats: int) -> float:
-    """The share of ``repeats`` updates' wall time during which CUDA kernels ran (torch.profiler's device time)."""
-    torch.cuda.synchronize()
-    with torch.profiler.profile(activities=[torch.profiler.ProfilerActivity.CPU, torch.profiler.ProfilerActivity.CUDA]) as prof:
+def device_time(update: Callable[[], object], repeats: int, device: torch.device) -> tuple[float, float]:
+    """(device seconds per update, busy share) of ``repeats`` synchronized updates, by one definition for every table:
+    the union of the device's activity intervals (kernels, copies, memsets; ``vigen.run.timing``) that torch.profiler
+    records, over the number of updates and over the updates' wall time. The union counts a kernel once, however many
+    operators or streams it is listed under."""
+    activity = torch.profiler.ProfilerActivity.CUDA if device.type == "cuda" else torch.profiler.ProfilerActivity.CPU
+    synchronize(device)
+    with torch.profiler.profile(activities=[activity]) as prof:
         start = time.perf_counter()
         for _ in range(repeats):
             update()
-        torch.cuda.synchronize()
+        synchronize(device)
         wall = time.perf_counter() - start
-    kernels = sum(event.self_device_time_total for event in prof.key_averages()) / 1e6
-    return kernels / wall
+    busy = busy_seconds(device_intervals(prof, device.type))
+    return busy / repeats, min(busy / wall, 1.0)
+
+
+def synchronize(device: torch.device) -> None:
+    if device.type == "cuda":
+        torch.cuda.synchronize(device)
+
+
+def back_to_back(update: Callable[[], object], repeats: int, device: torch.device) -> tuple[float, float | None]:
+    """(wall seconds per update, device ms per update by CUDA events) of ``repeats`` updates launched back to back.
+
+    One synchronization at the end, none between: the host queues the next update while the device runs the last, as a
+    training loop does; the wall time per update is the loop's rate. On CUDA an event pair around each call times what
+    the device spent from the call's first queued work to its last (for a CUDA graph: ``graph.replay()``); their median.
+    """
+    events = ([(torch.cuda.Event(enable_timing=True), torch.cuda.Event(enable_timing=True)) for _ in range(repeats)]
+              if device.type == "cuda" else [])
+    synchronize(device)
+    start = time.perf_counter()
+    for index in range(repeats):
+        if events:
+            events[index][0].record()
+        update()
+        if events:
+            events[index][1].record()
+    synchronize(device)
+    wall = (time.perf_counter() - start) / repeats
+    return wall, statistics.median(begin.elapsed_time(end) for begin, end in events) if events else None
+
+
+def synthetic_steps(length: int, start: int, pool: Tensor, episode: int = 500) -> TensorDict:
+    """``length`` steps of one worker from step ``start`` on: frames cycled from ``pool``, stacked as CatFrames stacks them
+    (3 frames, the reset frame repeated), episodes of ``episode`` steps (time limits: truncated), random actions and rewards."""
+    frames = len(pool)
+    time_in_episode = (torch.arange(start, start + length) % episode)
+    frame_id = torch.arange(start, start + length + 1) % frames
+    first = torch.arange(start, start + length) - time_in_episode
+    def stack(at: Tensor, since: Tensor) -> Tensor:
+        ids = torch.stack([torch.maximum(at - back, since) for back in (2, 1, 0)], 1) % frames
+        return pool[ids].flatten(1, 2)
+    steps = torch.arange(start, start + length)
+    del frame_id
+    end = time_in_episode == episode - 1
+    return TensorDict({
+        "pixels": stack(steps, first), "action": torch.rand(length, ACTIONS) * 2 - 1,
+        "next": {"pixels": stack(steps + 1, first), "reward": torch.rand(length, 1), "done": end[:, None].clone(),
+                 "terminated": torch.zeros(length, 1, dtype=torch.bool), "truncated": end[:, None].clone()},
+    }, batch_size=[length])
+
+
+def synthetic_replay(batch_size: int, capacity: int, device: torch.device, chunk: int = 2000) -> FrameReplay:
+    """A :class:`vigen.run.FrameReplay` on ``device`` holding ``capacity`` transitions of 84×84 frames (a pool of 64 random
+    frames, cycled: the content does not change the cost), 3-step returns, episodes of 500 steps."""
+    pool = torch.randint(0, 256, (64, 3, 84, 84), dtype=torch.uint8, generator=torch.Generator().manual_seed(0))
+    replay = FrameReplay(capacity, batch_size, n_step=3, gamma=GAMMA, device=device, check=False)
+    done = 0
+    while len(replay) < capacity:
+        length = min(chunk, capacity - len(replay) + 3)
+        replay.extend(synthetic_steps(length, done, pool))
+        done += length
+    return replay
+
+
+def bf16_check(algo: str, nets: dict[str, nn.Module], bank: ImageBank, device: torch.device, batch: TensorDict,
+               channels_last: bool) -> float:
+    """The largest relative difference between the ``loss_*`` values of one bf16-autocast update and one fp32 update from
+    the same networks, batch and random state (the same augmentations and noise)."""
+    values = []
+    for precision in ("fp32", "bf16"):
+        vigen = Vigen(algo, copy.deepcopy(nets), bank, device=device, precision=precision, channels_last=channels_last)
+        torch.manual_seed(1)
+        out = vigen.update(batch.clone())
+        values.append({key: float(value) for key, value in out.items() if key.startswith("loss_")})
+    fp32, bf16 = values
+    return max(abs(bf16[key] - fp32[key]) / max(abs(fp32[key]), 1e-3) for key in fp32)
 
 
 class _NoModuleTracking:
@@ -572,7 +694,18 @@ def profile(vigen: Vigen, batch: TensorDict, repeats: int, update_flops: int, pe
     return "\n".join(lines)
 
 
-def main() -> None:
+def set_tf32(mode: str) -> str:
+    """TF32 for float32 matmuls and convolutions: ``on``, ``off``, or torch's ``default`` (matmuls full fp32, cuDNN
+    convolutions TF32); returns what is in force."""
+    if mode == "on":
+        torch.backends.cuda.matmul.allow_tf32, torch.backends.cudnn.allow_tf32 = True, True
+    elif mode == "off":
+        torch.backends.cuda.matmul.allow_tf32, torch.backends.cudnn.allow_tf32 = False, False
+    return (f"TF32 {mode}: matmuls {'TF32' if torch.backends.cuda.matmul.allow_tf32 else 'fp32'}, "
+            f"convolutions {'TF32' if torch.backends.cudnn.allow_tf32 else 'fp32'}")
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--batch", type=int, nargs="+", default=[64, 256])
     parser.add_argument("--algos", nargs="+", default=ALGOS, choices=ALGOS)
@@ -582,9 +715,47 @@ def main() -> None:
     parser.add_argument("--compile", action="store_true",
                         help="vigen's update compiled whole (vigen.losses.UpdateStep(compile=True); on CUDA also a CUDA graph); "
                              "the eager update is timed beside it")
-    args = parser.parse_args()
+    parser.add_argument("--captured", action="store_true",
+                        help="also vigen's update with its sampling inside (vigen.run.SampledUpdate over a FrameReplay on the "
+                             "device; compiled with --compile), launched back to back")
+    parser.add_argument("--replay-capacity", type=int, default=None,
+                        help="--captured's FrameReplay transitions (default 20000 on CUDA, 500 on the CPU)")
+    parser.add_argument("--tf32", choices=["default", "on", "off"], default="default",
+                        help="TF32 matmuls and convolutions on CUDA, for both sides (default: torch's, convolutions only)")
+    parser.add_argument("--precision", choices=["fp32", "bf16"], default="fp32",
+                        help="bf16: vigen's updates under torch.autocast(bfloat16) (the reference stays fp32); the bf16 column "
+                             f"is the largest relative loss difference of one update against fp32, checked against {BF16_TOLERANCE:.0%}")
+    parser.add_argument("--channels-last", choices=["on", "off"], default="on",
+                        help="vigen's convolutions in channels-last layout, weights and inputs (on: as make_loss and train.py)")
+    parser.add_argument("--jobs", type=int, default=1,
+                        help="compile the algorithms in this many processes at once, then time them one at a time (--compile)")
+    parser.add_argument("--deadline", type=float, default=None,
+                        help="with --jobs: seconds for everything; what has not compiled by then is stopped and named")
+    parser.add_argument("--cache-dir", type=Path, default=None,
+                        help="inductor's cache folder, shared by the --jobs processes (TORCHINDUCTOR_CACHE_DIR)")
+    parser.add_argument("--save-cache", type=Path, default=None,
+                        help="after compiling, write torch.compiler.save_cache_artifacts() there (per algorithm: PATH.ALGO)")
+    parser.add_argument("--load-cache", type=Path, default=None,
+                        help="before compiling, torch.compiler.load_cache_artifacts() from there (per algorithm: PATH.ALGO)")
+    parser.add_argument("--also", nargs="+", default=[], metavar="'ALGO FLAGS'",
+                        help="with --jobs: more processes, each an algorithm with its own flags over the others', e.g. "
+                             "'drqv2 --tf32 on --precision bf16' (an option's effect); timed first, in the order given")
+    parser.add_argument("--hold", action="store_true", help=argparse.SUPPRESS)  # a --jobs child: compile, say READY, wait
+    args = parser.parse_args(argv)
+    if args.jobs < 1:
+        parser.error("--jobs must be >= 1")
+    return args
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    given = sys.argv[1:] if argv is None else argv
+    if args.cache_dir is not None:
+        os.environ["TORCHINDUCTOR_CACHE_DIR"] = str(args.cache_dir.resolve())
+    if args.jobs > 1 and (len(args.algos) > 1 or args.also) and not args.hold:
+        return run_in_parallel(args, given)
     device = resolve_device(args.device)
-    print("reproduce: python benchmarks/losses.py " + " ".join(sys.argv[1:]), flush=True)
+    print("reproduce: python benchmarks/losses.py " + " ".join(given), flush=True)
     torch.manual_seed(0)
     random.seed(0)
     bank = ImageBank.builtin()
@@ -594,53 +765,284 @@ def main() -> None:
         peak = max(matmul_peak, conv_peak)
         print(f"torch {torch.__version__}, {torch.get_num_threads()} threads; peak {peak / 1e9:.0f} GFLOP/s (fp32): "
               f"2048² matmul {matmul_peak / 1e9:.0f}, 32→32 3×3 convolution {conv_peak / 1e9:.0f}")
-        last = "vigen % of peak"
     else:
         peak = float("nan")
-        print(f"torch {torch.__version__} on {torch.cuda.get_device_name(device)}; timers synchronize after each update")
-        last = "GPU busy (vigen)"
-    compiled_columns = " compiled ms | compiled / eager | compile s |" if args.compile else ""
-    print(f"| algo | batch | reference ms | vigen ms | speed-up |{compiled_columns} ref GFLOP | vigen GFLOP | {last} | RL-ViGen ms @64 |\n"
-          f"|---|---|---|---|---|{'---|---|---|' if args.compile else ''}---|---|---|---|")
-    profiles = []
-    for batch_size in args.batch:
-        batch = make_batch(batch_size, device)
-        for algo in args.algos:
-            torch.manual_seed(0)
-            vigen_nets = networks(algo)
-            reference_nets = copy.deepcopy(vigen_nets)
-            reference_nets["encoder"].chunk_size = None
-            for net in reference_nets.values():
-                net.to(device)
-            reference, vigen = Reference(algo, reference_nets, images), Vigen(algo, vigen_nets, bank, device=device)
-            ref_update = synchronized(lambda: reference.update(batch.clone()), device)
-            vigen_update = synchronized(lambda: vigen.update(batch.clone()), device)
-            ref_flops, vigen_flops = flops(ref_update), flops(vigen_update)
-            timed = [ref_update, vigen_update]
-            if args.compile:
-                compiled = Vigen(algo, copy.deepcopy(networks(algo)), bank, device=device, compile=True)
-                compiled_update = synchronized(lambda: compiled.update(batch.clone()), device)
-                for _ in range(3):  # compile, then (CUDA graphs) warm up and capture
-                    compiled_update()
-                timed.append(compiled_update)
-            ref_s, vigen_s, *compiled_s = seconds(*timed, repeats=args.repeats)
-            anchor = RLVIGEN_MS_AT_64.get(algo, "—") if batch_size == 64 else "—"
-            fast = vigen_s if not compiled_s else compiled_s[0]
-            share = (f"{100 * vigen_flops / vigen_s / peak:.0f} %" if device.type == "cpu"
-                     else f"{100 * gpu_busy(compiled_update if compiled_s else vigen_update, args.repeats):.0f} %")
-            columns = (f" {compiled_s[0] * 1e3:.1f} | {vigen_s / compiled_s[0]:.2f}× | {compiled.step.compile_seconds:.0f} |"
-                       if compiled_s else "")
-            print(
-                f"| {algo} | {batch_size} | {ref_s * 1e3:.1f} | {vigen_s * 1e3:.1f} | {ref_s / fast:.2f}× |{columns} "
-                f"{ref_flops / 1e9:.1f} | {vigen_flops / 1e9:.1f} | {share} | {anchor} |",
-                flush=True,
-            )
-            if args.profile and device.type == "cpu":
-                profiles.append(f"\n### {algo}, batch {batch_size}: {vigen_s * 1e3:.0f} ms per update, "
-                                f"{100 * vigen_flops / vigen_s / peak:.0f} % of peak\n\n{profile(vigen, batch, args.repeats, vigen_flops, peak)}")
+        print(f"torch {torch.__version__} on {torch.cuda.get_device_name(device)}; {set_tf32(args.tf32)}; "
+              f"channels-last {args.channels_last}; vigen in {args.precision}. 'ms': median of {args.repeats} updates, each "
+              "followed by torch.cuda.synchronize(); 'GPU ms': the union of the device's activity per update (torch.profiler); "
+              "'GPU busy': that union over the updates' wall time; 'back-to-back ms': updates queued without a wait; "
+              "'event ms': CUDA events around each (graph.replay()).", flush=True)
+    prepared = [prepare(algo, batch_size, args, device, bank, images) for batch_size in args.batch for algo in args.algos]
+    if args.hold:  # a --jobs child: everything is compiled; the parent says when this process may time (nothing else runs)
+        print("@@READY", flush=True)
+        sys.stdin.readline()
+    columns, profiles = None, []
+    for item in prepared:
+        row, text = measure(item, args, device, peak)
+        if list(row) != columns:  # a header whenever the columns change (a loss that did not compile has fewer)
+            columns = list(row)
+            print("| " + " | ".join(row) + " |\n|" + "---|" * len(row), flush=True)
+        print("| " + " | ".join(row.values()) + " |", flush=True)
+        if text:
+            profiles.append(text)
     for table in profiles:
         print(table)
+    return 0
+
+
+def prepare(algo: str, batch_size: int, args: argparse.Namespace, device: torch.device, bank: ImageBank, images: Tensor) -> dict:
+    """Everything one row times, built (and compiled: the first calls of a compiled update) before any timing.
+
+    With ``--captured`` every update of the row takes a batch of the captured update's replay (the same entries, so that
+    the compiled update's graph is the captured one's, and inductor's cache serves the second compile)."""
+    replay = None
+    if args.captured:
+        replay = synthetic_replay(batch_size, args.replay_capacity or (20_000 if device.type == "cuda" else 500), device)
+        batch = replay.gather(torch.arange(batch_size, device=device)).clone()
+    else:
+        batch = make_batch(batch_size, device)
+    torch.manual_seed(0)
+    vigen_nets = networks(algo)
+    reference_nets = copy.deepcopy(vigen_nets)
+    reference_nets["encoder"].chunk_size = None
+    for net in reference_nets.values():
+        net.to(device)
+    options = dict(device=device, channels_last=args.channels_last == "on", precision=args.precision)
+    item = {"algo": algo, "batch_size": batch_size, "batch": batch, "reference": Reference(algo, reference_nets, images),
+            "vigen": Vigen(algo, copy.deepcopy(vigen_nets), bank, **options)}
+    if args.precision == "bf16":
+        item["bf16"] = bf16_check(algo, vigen_nets, bank, device, batch, args.channels_last == "on")
+    if args.load_cache is not None:
+        cache = args.load_cache.with_name(f"{args.load_cache.name}.{algo}")
+        item["cache_loaded"] = load_cache(cache)
+    if args.compile:
+        started = time.perf_counter()
+        try:
+            compiled = Vigen(algo, copy.deepcopy(vigen_nets), bank, compile=True, **options)
+            for _ in range(3):  # compile, then (CUDA graphs) warm up and capture
+                compiled.update(batch.clone())
+            synchronize(device)
+            item["compiled"], item["compile_s"] = compiled, time.perf_counter() - started
+        except Exception as error:  # noqa: BLE001 - a loss that does not compile here still gets its eager row
+            item["failed"] = f"compile failed: {type(error).__name__}: {str(error).splitlines()[0][:150]}"
+            print(f"{algo}: {item['failed']}", flush=True)
+    if replay is not None and "failed" not in item:
+        started = time.perf_counter()
+        try:
+            captured = Vigen(algo, copy.deepcopy(vigen_nets), bank, compile=args.compile, cudagraph=False, **options)
+            sampled = SampledUpdate(captured.step, replay)
+            for _ in range(3):
+                with captured.autocast():
+                    sampled()
+            synchronize(device)
+            item.update(captured_vigen=captured, sampled=sampled, replay_bytes=replay.bytes_on_device(),
+                        captured_compile_s=time.perf_counter() - started)
+        except Exception as error:  # noqa: BLE001 - as above
+            item["failed"] = f"captured failed: {type(error).__name__}: {str(error).splitlines()[0][:150]}"
+            print(f"{algo}: {item['failed']}", flush=True)
+    if args.save_cache is not None and args.compile:
+        save_cache(args.save_cache.with_name(f"{args.save_cache.name}.{algo}"))
+    return item
+
+
+def measure(item: dict, args: argparse.Namespace, device: torch.device, peak: float) -> tuple[dict[str, str], str | None]:
+    """One row of the table (column -> cell), and on the CPU with ``--profile`` the profile's table."""
+    algo, batch_size, batch, reference, vigen = (item[key] for key in ("algo", "batch_size", "batch", "reference", "vigen"))
+    ref_update = synchronized(lambda: reference.update(batch.clone()), device)
+    vigen_update = synchronized(lambda: vigen.update(batch.clone()), device)
+    ref_flops, vigen_flops = flops(ref_update), flops(vigen_update)
+    timed = [ref_update, vigen_update]
+    compiled = item.get("compiled")
+    if compiled is not None:
+        compiled_call = lambda: compiled.update(batch.clone())  # noqa: E731
+        timed.append(synchronized(compiled_call, device))
+    ref_s, vigen_s, *compiled_s = seconds(*timed, repeats=args.repeats)
+    cuda = device.type == "cuda"
+    row = {"algo": algo, "batch": str(batch_size)}
+    if cuda or (args.tf32, args.precision, args.channels_last) != ("default", "fp32", "on"):
+        row["options"] = (f"TF32 {args.tf32}, {args.precision}, channels-last {args.channels_last}"
+                          + (", captured" if args.captured else ""))
+    row.update({"reference ms": f"{ref_s * 1e3:.1f}", ("eager ms" if cuda else "vigen ms"): f"{vigen_s * 1e3:.1f}"})
+    if compiled_s:
+        row["compiled ms"] = f"{compiled_s[0] * 1e3:.1f}"
+    fast = compiled_s[0] if compiled_s else vigen_s
+    row["reference / compiled" if compiled_s and cuda else "speed-up"] = f"{ref_s / fast:.2f}×"
+    if compiled_s:
+        row["compiled / eager"] = f"{vigen_s / compiled_s[0]:.2f}×"
+        row["compile s"] = f"{item['compile_s']:.0f}"
+    if cuda:
+        ref_gpu, _ = device_time(ref_update, args.repeats, device)
+        eager_gpu, eager_busy = device_time(vigen_update, args.repeats, device)
+        row["reference GPU ms"], row["eager GPU ms"], row["eager GPU busy"] = (
+            f"{ref_gpu * 1e3:.2f}", f"{eager_gpu * 1e3:.2f}", f"{100 * eager_busy:.0f} %")
+        if compiled is not None:
+            compiled_gpu, compiled_busy = device_time(synchronized(compiled_call, device), args.repeats, device)
+            wall, event_ms = back_to_back(compiled_call, args.repeats, device)
+            row.update({"compiled GPU ms": f"{compiled_gpu * 1e3:.2f}", "compiled GPU busy": f"{100 * compiled_busy:.0f} %",
+                        "compiled back-to-back ms": f"{wall * 1e3:.2f}", "compiled event ms": f"{event_ms:.2f}"})
+    sampled = item.get("sampled")
+    if sampled is not None:
+        captured = item["captured_vigen"]
+
+        def sampled_call() -> None:
+            with captured.autocast():
+                sampled()
+        wall, event_ms = back_to_back(sampled_call, args.repeats, device)
+        row["captured ms"] = f"{wall * 1e3:.2f}"
+        if cuda:
+            captured_gpu, _ = device_time(synchronized(sampled_call, device), args.repeats, device)
+            row.update({"captured event ms": f"{event_ms:.2f}", "captured GPU ms": f"{captured_gpu * 1e3:.2f}",
+                        "replay GB": f"{item['replay_bytes'] / 1e9:.2f}"})
+    if "bf16" in item:
+        row["bf16 loss diff"] = f"{100 * item['bf16']:.2f} % ({'ok' if item['bf16'] <= BF16_TOLERANCE else 'over'} {BF16_TOLERANCE:.0%})"
+    if "cache_loaded" in item:
+        row["cache"] = item["cache_loaded"]
+    if "failed" in item:
+        row["failed"] = item["failed"].replace("|", "/")
+    row["ref GFLOP"], row["vigen GFLOP"] = f"{ref_flops / 1e9:.1f}", f"{vigen_flops / 1e9:.1f}"
+    if not cuda:
+        row["vigen % of peak"] = f"{100 * vigen_flops / vigen_s / peak:.0f} %"
+        row["RL-ViGen ms @64"] = str(RLVIGEN_MS_AT_64.get(algo, "—") if batch_size == 64 else "—")
+    text = None
+    if args.profile and not cuda:
+        text = (f"\n### {algo}, batch {batch_size}: {vigen_s * 1e3:.0f} ms per update, "
+                f"{100 * vigen_flops / vigen_s / peak:.0f} % of peak\n\n{profile(vigen, batch, args.repeats, vigen_flops, peak)}")
+    return row, text
+
+
+def load_cache(path: Path) -> str:
+    """``torch.compiler.load_cache_artifacts`` from ``path``: what it says (loaded, or the error), for the table."""
+    if not path.is_file():
+        return f"no {path.name}"
+    try:
+        info = torch.compiler.load_cache_artifacts(path.read_bytes())
+    except Exception as error:  # noqa: BLE001 - the finding is the error itself
+        return f"load failed: {type(error).__name__}: {error}"[:200]
+    return f"loaded {path.stat().st_size} bytes: {info}"[:200] if info is not None else f"loaded nothing from {path.name}"
+
+
+def save_cache(path: Path) -> None:
+    artifacts = torch.compiler.save_cache_artifacts()
+    if artifacts is None:
+        print(f"save_cache_artifacts: nothing to save for {path.name}", flush=True)
+        return
+    data, info = artifacts
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(data)
+    print(f"save_cache_artifacts: {len(data)} bytes to {path} ({info})", flush=True)
+
+
+def run_in_parallel(args: argparse.Namespace, given: list[str]) -> int:
+    """``--jobs N``: one child per algorithm, N compiling at once; when all are compiled (or the deadline nears), each
+    times its updates in turn while the others wait, so that no timing shares the machine. Their output, in order."""
+    started = time.perf_counter()
+    deadline = started + (args.deadline if args.deadline is not None else 1e9)
+    base = strip_flags(given, {"--jobs": 1, "--algos": len(args.algos), "--deadline": 1, "--also": len(args.also)})
+    cores = os.cpu_count() or 1
+    env = {**os.environ, "TORCHINDUCTOR_COMPILE_THREADS": str(max(1, cores // args.jobs)), "PYTHONUNBUFFERED": "1"}
+    jobs = [(extra.split()[0], extra.split()[1:]) for extra in args.also] + [(algo, []) for algo in args.algos]
+    labels = [" ".join([algo, *flags]) for algo, flags in jobs]
+    print("reproduce: python benchmarks/losses.py " + " ".join(shlex.quote(arg) for arg in given), flush=True)
+    print(f"--jobs {args.jobs}: {len(jobs)} processes, {args.jobs} compiling at once "
+          f"({env['TORCHINDUCTOR_COMPILE_THREADS']} inductor compile threads each), then timed one at a time", flush=True)
+    children: dict[str, Child] = {}
+    waiting = list(zip(labels, jobs))
+    while waiting or any(child.compiling() for child in children.values()):
+        while waiting and sum(child.compiling() for child in children.values()) < args.jobs:
+            label, (algo, flags) = waiting.pop(0)
+            children[label] = Child([sys.executable, str(Path(__file__).resolve()), *base, *flags, "--algos", algo, "--hold"], env)
+        if time.perf_counter() > deadline - TIMING_S * (1 + sum(child.ready.is_set() for child in children.values())):
+            break  # leave time to time the compiled ones
+        time.sleep(0.5)
+    compile_s = time.perf_counter() - started
+    results = {}
+    for algo in labels:
+        child = children.get(algo)
+        if child is None:
+            results[algo] = "not started: no time left"
+        elif not child.ready.is_set():
+            child.stop()
+            results[algo] = "failed" if child.process.poll() not in (None, -15, -9) else "not compiled before the deadline"
+        else:
+            left = deadline - time.perf_counter()
+            if left < 10:
+                child.stop()
+                results[algo] = "compiled, not timed: no time left"
+                continue
+            child.go()
+            code = child.wait(left)
+            results[algo] = "timed" if code == 0 else f"exit {code}"
+    for algo in labels:
+        child = children.get(algo)
+        print(f"\n## {algo}: {results[algo]}", flush=True)
+        if child is not None:
+            print("".join(child.lines), flush=True)
+    print(f"\n--jobs {args.jobs}: compiled in {compile_s:.0f} s, all done in {time.perf_counter() - started:.0f} s; "
+          + ", ".join(f"{algo} {result}" for algo, result in results.items()), flush=True)
+    return 0 if all(result == "timed" for result in results.values()) else 1
+
+
+def strip_flags(argv: list[str], flags: dict[str, int]) -> list[str]:
+    """``argv`` without the given flags and the values that follow them (``--algos`` takes as many as it had)."""
+    out, skip = [], 0
+    for arg in argv:
+        if skip:
+            skip -= 1
+            if not arg.startswith("--"):
+                continue
+            skip = 0
+        name = arg.split("=", 1)[0]
+        if name in flags:
+            skip = 0 if "=" in arg else flags[name]
+            continue
+        out.append(arg)
+    return out
+
+
+class Child:
+    """One ``--hold`` process: its output lines (read in a thread), whether it said READY, and its exit."""
+
+    def __init__(self, command: list[str], env: dict[str, str]) -> None:
+        self.process = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                        text=True, env=env, start_new_session=True)
+        self.lines: list[str] = []
+        self.ready = threading.Event()
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self) -> None:
+        for line in self.process.stdout:
+            if line.startswith("@@READY"):
+                self.ready.set()
+            else:
+                self.lines.append(line)
+
+    def compiling(self) -> bool:
+        return self.process.poll() is None and not self.ready.is_set()
+
+    def go(self) -> None:
+        self.process.stdin.write("go\n")
+        self.process.stdin.flush()
+
+    def wait(self, timeout: float) -> int | None:
+        try:
+            return self.process.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            self.stop()
+            self.lines.append(f"[losses.py --jobs] stopped: timing ran past the deadline\n")
+            return None
+
+    def stop(self) -> None:
+        for sig, wait in ((signal.SIGTERM, 5), (signal.SIGKILL, 5)):
+            try:
+                os.killpg(self.process.pid, sig)
+            except ProcessLookupError:
+                return
+            try:
+                self.process.wait(timeout=wait)
+                return
+            except subprocess.TimeoutExpired:
+                continue
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

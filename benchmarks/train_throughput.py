@@ -23,6 +23,12 @@ logged. Figures, over the measured batches:
 * per stage: the env workers' mean ms per agent step (step, and its physics and render; the
   policy, resets), the loop's store ms per agent step, sample and update ms per update, and the
   share of the wall time the loop spent waiting for frames;
+* **runs** (``--runs N``): N training processes of the configuration at once, seeds 0 to N - 1,
+  sharing the machine (the GPU and the cores; each ``train.py --threads cores / N``); every run is
+  measured as above and none is stopped before all are, so that each run's window lies in the
+  time all N trained together. **aggregate frames/s** (``aggregate_frames_per_s``) is the sum of the
+  runs' frames/s, beside each run's own (``frames_per_s_each``; the stage columns are the runs'
+  means): what the machine trains in all, five seeds at once being how researchers use it;
 * **GPU busy**: the share of one whole batch (collection to updates, the batch after the first
   updates) during which the GPU ran the training process's kernels or copies (torch.profiler,
   ``time/gpu_busy``; the workers' acting is in other processes, not in it); and, where
@@ -36,6 +42,8 @@ Modes (sizes, configurations and budget; any flag overrides them):
     python benchmarks/train_throughput.py --gpu --out $OUT/throughput  # one GPU call, <= 150 s: walker-walk, batch 256,
                                                                        # 1/4/8 workers, serial vs overlapped, eager
     python benchmarks/train_throughput.py --updates eager compiled --workers 1 2   # compiled too (each compiles once)
+    python benchmarks/train_throughput.py --gpu --configs 1/overlap/device --runs 1 4 8  # several runs sharing the GPU
+    python benchmarks/train_throughput.py --quick --configs 1 --runs 2 --out /tmp/tt   # two runs at once, tiny, on the CPU
 
 It prints a markdown table and writes ``<out>/train_throughput.json`` (every row of every run,
 and the figures; rewritten atomically after each configuration) and ``<out>/train_logs.txt``
@@ -59,6 +67,7 @@ import sys
 import tempfile
 import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -77,19 +86,26 @@ class Config:
     compiled: bool = False
     replay: str = "memmap"  # or "device": --replay-on-device
     seconds: float | None = None  # this configuration's own time limit (default: --timeout)
+    runs: int | None = None  # training processes at once (default: each of --runs)
 
     @classmethod
     def parse(cls, spec: str) -> Config:
-        """``WORKERS[/overlap][/compiled][/device][@SECONDS]``, e.g. ``8/overlap/compiled/device@130``."""
+        """``WORKERS[/overlap][/compiled][/device][*RUNS][@SECONDS]``, e.g. ``8/overlap/compiled/device@130``, ``1/overlap*8@100``.
+
+        Examples:
+            >>> Config.parse("1/overlap*8@100")
+            Config(workers=1, overlap=True, compiled=False, replay='memmap', seconds=100.0, runs=8)
+        """
         head, _, seconds = spec.partition("@")
+        head, _, runs = head.partition("*")
         workers, *words = head.split("/")
         unknown = set(words) - {"overlap", "compiled", "device"}
-        if not workers.isdigit() or int(workers) < 1 or unknown:
+        if not workers.isdigit() or int(workers) < 1 or unknown or (runs and (not runs.isdigit() or int(runs) < 1)):
             raise argparse.ArgumentTypeError(
-                f"--configs {spec!r}: expected WORKERS[/overlap][/compiled][/device][@SECONDS], e.g. 8/overlap/device@60"
+                f"--configs {spec!r}: expected WORKERS[/overlap][/compiled][/device][*RUNS][@SECONDS], e.g. 8/overlap/device@60"
                 + (f" ({', '.join(sorted(unknown))} unknown)" if unknown else ""))
         return cls(int(workers), "overlap" in words, "compiled" in words, "device" if "device" in words else "memmap",
-                   float(seconds) if seconds else None)
+                   float(seconds) if seconds else None, int(runs) if runs else None)
 
     @property
     def name(self) -> str:
@@ -226,44 +242,92 @@ def renderers(output: str) -> list[str]:
     return sorted(set(found))
 
 
-def run_config(config: Config, args: argparse.Namespace, scratch: Path, log, timeout: float,
-               sampler: UtilizationSampler | None) -> dict[str, Any]:
-    """Train with ``config`` until its batches are measured (or ``timeout``), then stop it and summarize its rows."""
-    run_dir = scratch / config.name
-    command = [args.python, str(ROOT / "examples" / "train.py"), "--algo", args.algo, *args.sizes, "--device", args.device,
-               "--frames", "100000000", "--eval-every", "100000000", "--eval-episodes", "1", "--time-stages",
-               "--out", str(run_dir), *(["--threads", str(args.threads)] if args.threads else []), *config.flags()]
-    log.write(f"\n===== {config.name}\n$ {' '.join(command)}\n")
-    log.flush()
+def run_group(config: Config, args: argparse.Namespace, scratch: Path, log, timeout: float,
+              sampler: UtilizationSampler | None, runs: int = 1) -> dict[str, Any]:
+    """Train ``runs`` processes with ``config`` at once (seeds 0 .. runs - 1), until each has logged its measured batches (or
+    ``timeout``), then stop them all and summarize each; with several runs, their aggregate beside each run's figures.
+
+    No run is stopped before every run is measured, so each run's measured window lies in the time all of them trained
+    together; ``aggregate_frames_per_s`` is the sum of the runs' frames/s (and ``aggregate_updates_per_s`` of their
+    updates/s): what the machine trains in all while shared by ``runs`` training processes."""
+    name = config.name if runs == 1 else f"{config.name} x{runs}"
+    threads = args.threads if args.threads else (max(1, (os.cpu_count() or 1) // runs) if runs > 1 else None)
+    members = []
+    for run in range(runs):
+        run_dir = scratch / (config.name if runs == 1 else f"{config.name}-x{runs}-seed{run}")
+        command = [args.python, str(ROOT / "examples" / "train.py"), "--algo", args.algo, *args.sizes, "--device", args.device,
+                   "--frames", "100000000", "--eval-every", "100000000", "--eval-episodes", "1", "--time-stages",
+                   "--out", str(run_dir), *(["--threads", str(threads)] if threads else []),
+                   *(["--seed", str(run)] if runs > 1 else []), *config.flags()]
+        output = scratch / f"{run_dir.name}.log"
+        with output.open("w") as file:
+            file.write(f"$ {' '.join(command)}\n")
+            file.flush()
+            process = subprocess.Popen(command, cwd=ROOT, stdout=file, stderr=subprocess.STDOUT, start_new_session=True)
+        members.append({"run_dir": run_dir, "command": command, "output": output, "process": process, "appeared": {}})
     started = time.time()
-    process = subprocess.Popen(command, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
-    appeared: dict[float, float] = {}  # frames -> when the row was seen, on this clock (for nvidia-smi's samples)
-    code = None
     while True:
-        code = process.poll()
-        rows = read_rows(run_dir)
-        for row in rows:
-            appeared.setdefault(row["frames"], time.time())
-        if code is not None or measured(rows, args.warmup, args.batches, args.min_updates)[1] or time.time() - started > timeout:
+        codes = [member["process"].poll() for member in members]
+        complete = []
+        for member in members:
+            rows = read_rows(member["run_dir"])
+            for row in rows:
+                member["appeared"].setdefault(row["frames"], time.time())
+            complete.append(measured(rows, args.warmup, args.batches, args.min_updates)[1])
+        if all(complete) or any(code not in (None, 0) for code in codes) or all(code is not None for code in codes) \
+                or time.time() - started > timeout:
             break
         time.sleep(0.1)
-    stop(process, term_wait=10)  # a run and its worker processes
-    rows = read_rows(run_dir)
+    with ThreadPoolExecutor(max_workers=len(members)) as pool:  # every run and its worker processes, at once
+        list(pool.map(lambda member: stop(member["process"], term_wait=10), members))
+    log.write(f"\n===== {name}\n")
+    results = []
+    for run, (member, code) in enumerate(zip(members, codes)):
+        output = member["output"].read_text(errors="replace")
+        log.write(output + "\n")
+        rows = read_rows(member["run_dir"])
+        result: dict[str, Any] = {"seed": run, "command": " ".join(member["command"]), "exit_code": code,
+                                  "renderers": renderers(output), "rows": rows}
+        figures = summarize(rows, args.warmup, args.batches, args.min_updates)
+        chosen, complete = measured(rows, args.warmup, args.batches, args.min_updates)
+        if "error" not in figures:
+            appeared = member["appeared"]
+            figures["start_s"] = round(appeared.get(rows[0]["frames"], started) - started, 1)
+            if sampler is not None:
+                before, last = rows[chosen[0] - 1], rows[chosen[-1]]
+                figures["gpu_utilization"] = sampler.mean(appeared.get(before["frames"], 0), appeared.get(last["frames"], 0))
+        result["figures"] = figures
+        result["status"] = "failed" if code not in (None, 0) else "passed" if complete else "incomplete"
+        results.append(result)
     log.flush()
-    output = Path(log.name).read_text(errors="replace").rsplit(f"===== {config.name}\n", 1)[-1]
-    result: dict[str, Any] = {"config": dataclasses.asdict(config), "name": config.name, "command": " ".join(command),
-                              "seconds": round(time.time() - started, 1), "exit_code": code, "renderers": renderers(output),
-                              "rows": rows}
-    figures = summarize(rows, args.warmup, args.batches, args.min_updates)
-    chosen, complete = measured(rows, args.warmup, args.batches, args.min_updates)
-    if "error" not in figures:
-        figures["start_s"] = round(appeared.get(rows[0]["frames"], started) - started, 1)
-        if sampler is not None:
-            before, last = rows[chosen[0] - 1], rows[chosen[-1]]
-            figures["gpu_utilization"] = sampler.mean(appeared.get(before["frames"], 0), appeared.get(last["frames"], 0))
-    result["figures"] = figures
-    result["status"] = "failed" if code not in (None, 0) else "passed" if complete else "incomplete"
-    return result
+    group: dict[str, Any] = {"config": dataclasses.asdict(config), "name": name, "runs": runs,
+                             "seconds": round(time.time() - started, 1)}
+    statuses = {result["status"] for result in results}
+    group["status"] = "failed" if "failed" in statuses else "passed" if statuses == {"passed"} else "incomplete"
+    if runs == 1:
+        (result,) = results
+        group.update({key: result[key] for key in ("command", "exit_code", "renderers", "rows", "figures")})
+        if "frames_per_s" in group["figures"]:
+            group["figures"]["aggregate_frames_per_s"] = group["figures"]["frames_per_s"]
+            group["figures"]["aggregate_updates_per_s"] = group["figures"]["updates_per_s"]
+        return group
+    group["results"] = results
+    measured_runs = [result["figures"] for result in results if "frames_per_s" in result["figures"]]
+    if len(measured_runs) < runs:
+        group["figures"] = {"error": f"{runs - len(measured_runs)} of {runs} runs logged no measured batch",
+                            "frames_per_s_each": [figures["frames_per_s"] for figures in measured_runs]}
+        return group
+    mean = {key: _mean([figures.get(key) for figures in measured_runs]) for key in measured_runs[0]}
+    group["figures"] = {**mean, "measured_batches": min(figures["measured_batches"] for figures in measured_runs),
+                        "frames_per_s_each": [figures["frames_per_s"] for figures in measured_runs],
+                        "aggregate_frames_per_s": sum(figures["frames_per_s"] for figures in measured_runs),
+                        "aggregate_updates_per_s": sum(figures["updates_per_s"] for figures in measured_runs)}
+    return group
+
+
+def _mean(values: list[Any]) -> Any:
+    numbers = [value for value in values if isinstance(value, (int, float)) and not isinstance(value, bool)]
+    return sum(numbers) / len(numbers) if numbers and len(numbers) == len(values) else None
 
 
 def cell(value: Any, spec: str = ".1f", scale: float = 1.0, suffix: str = "") -> str:
@@ -272,20 +336,23 @@ def cell(value: Any, spec: str = ".1f", scale: float = 1.0, suffix: str = "") ->
 
 def table(results: list[dict[str, Any]]) -> str:
     """The results as a markdown table, sorted by update, replay, workers, overlap."""
-    header = ("| config | frames/s | updates/s | collect frames/s | seed frames/s | hidden | GPU busy | GPU util | env step ms "
-              "| render ms | physics ms | policy ms | store ms/step | sample ms/upd | update ms/upd | wait | start s |")
+    header = ("| config | runs | aggregate frames/s | frames/s (each run) | updates/s | collect frames/s | seed frames/s | hidden "
+              "| GPU busy | GPU util | env step ms | render ms | physics ms | policy ms | store ms/step | sample ms/upd "
+              "| update ms/upd | wait | start s |")
     lines = [header, "|" + "---|" * (header.count("|") - 1)]
     order = sorted(results, key=lambda r: (r["config"]["compiled"], r["config"]["replay"] != "memmap", r["config"]["workers"],
-                                           r["config"]["overlap"]))
+                                           r["config"]["overlap"], r.get("runs", 1)))
     for result in order:
         f = result.get("figures", {})
         if "frames_per_s" not in f:
             why = f.get("error") or result.get("reason") or f"exit {result.get('exit_code')}"
-            lines.append(f"| {result['name']} | {result['status']}: {why} |" + " |" * (header.count("|") - 3))
+            lines.append(f"| {result['name']} | {result.get('runs', 1)} | {result['status']}: {why} |" + " |" * (header.count("|") - 4))
             continue
         name = result["name"] if result["status"] == "passed" else f"{result['name']} ({result['status']}: {f['measured_batches']} batches)"
+        each = " / ".join(f"{value:.1f}" for value in f.get("frames_per_s_each", [f["frames_per_s"]]))
         lines.append(
-            f"| {name} | {cell(f['frames_per_s'])} | {cell(f['updates_per_s'])} | {cell(f['collect_frames_per_s'])} "
+            f"| {name} | {result.get('runs', 1)} | {cell(f.get('aggregate_frames_per_s'))} | {each} "
+            f"| {cell(f['updates_per_s'])} | {cell(f['collect_frames_per_s'])} "
             f"| {cell(f.get('seed_frames_per_s'))} | {cell(f['hidden'], '.0f', 100, ' %')} | {cell(f['gpu_busy'], '.0f', 100, ' %')} "
             f"| {cell(f.get('gpu_utilization'), '.0f', 100, ' %')} | {cell(f['env_step_ms'], '.2f')} | {cell(f['env_render_ms'], '.2f')} "
             f"| {cell(f['env_physics_ms'], '.2f')} | {cell(f['env_policy_ms'], '.2f')} | {cell(f['store_ms_per_step'], '.2f')} "
@@ -320,7 +387,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--workers", type=int, nargs="+", default=None, help="replaces the mode's configurations with the "
                         "product of --workers, --collection, --updates and --replay")
     parser.add_argument("--configs", nargs="+", type=Config.parse, default=None, metavar="SPEC",
-                        help="the configurations in this order, each WORKERS[/overlap][/compiled][/device][@SECONDS] "
+                        help="the configurations in this order, each WORKERS[/overlap][/compiled][/device][*RUNS][@SECONDS] "
                              "(instead of --workers/--collection/--updates/--replay)")
     parser.add_argument("--collection", nargs="+", choices=["serial", "overlap"], default=None)
     parser.add_argument("--updates", nargs="+", choices=["eager", "compiled"], default=None)
@@ -330,11 +397,17 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--min-updates", type=int, default=None, help="updates measured, at least (more batches if needed)")
     parser.add_argument("--deadline", type=float, default=None, help="seconds for every configuration together")
     parser.add_argument("--timeout", type=float, default=None, help="seconds per configuration, start-up included")
-    parser.add_argument("--threads", type=int, default=None, help="train.py --threads")
+    parser.add_argument("--threads", type=int, default=None,
+                        help="train.py --threads (default: torch's; with --runs N > 1, the cores / N)")
+    parser.add_argument("--runs", type=int, nargs="+", default=[1], metavar="N",
+                        help="training processes sharing the machine, per configuration: each N in turn (e.g. --runs 1 4 8); "
+                             "the table adds their aggregate frames/s beside each run's")
     parser.add_argument("--train-flags", nargs=argparse.REMAINDER, default=[],
                         help="more train.py flags, after the mode's sizes (last on the line)")
     parser.add_argument("--python", default=sys.executable)
     args = parser.parse_args(argv)
+    if any(runs < 1 for runs in args.runs):
+        parser.error(f"--runs takes numbers of runs >= 1, got {args.runs}")
     args.mode = "quick" if args.quick else "gpu" if args.gpu else "cpu"
     defaults = DEFAULTS[args.mode]
     for key in ("device", "warmup", "batches", "min_updates", "deadline", "timeout"):
@@ -371,18 +444,22 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with (out / "train_logs.txt").open("w") as log:
             for config in args.configs:
-                left = args.deadline - (time.time() - started)
-                limit = args.timeout if config.seconds is None else config.seconds
-                if left < min(limit, 20):
-                    report["results"].append({"config": dataclasses.asdict(config), "name": config.name, "status": "skipped",
-                                              "reason": f"{left:.0f} s left before the deadline", "figures": {}})
-                    continue
-                result = run_config(config, args, scratch, log, min(limit, left), sampler)
-                report["results"].append(result)
-                write_json(out / "train_throughput.json", report)
-                figures = result["figures"]
-                print(f"{config.name}: {result['status']} in {result['seconds']:.0f} s"
-                      + (f", {figures['frames_per_s']:.1f} frames/s" if "frames_per_s" in figures else ""), flush=True)
+                for runs in [config.runs] if config.runs else args.runs:
+                    name = config.name if runs == 1 else f"{config.name} x{runs}"
+                    left = args.deadline - (time.time() - started)
+                    limit = args.timeout if config.seconds is None else config.seconds
+                    if left < min(limit, 20):
+                        report["results"].append({"config": dataclasses.asdict(config), "name": name, "runs": runs,
+                                                  "status": "skipped", "reason": f"{left:.0f} s left before the deadline",
+                                                  "figures": {}})
+                        continue
+                    result = run_group(config, args, scratch, log, min(limit, left), sampler, runs)
+                    report["results"].append(result)
+                    write_json(out / "train_throughput.json", report)
+                    figures = result["figures"]
+                    print(f"{name}: {result['status']} in {result['seconds']:.0f} s"
+                          + (f", {figures['aggregate_frames_per_s']:.1f} frames/s" + (" in all" if runs > 1 else "")
+                             if figures.get("aggregate_frames_per_s") is not None else ""), flush=True)
     finally:
         if sampler is not None:
             sampler.close()
@@ -395,7 +472,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\n{args.algo}, {' '.join(args.sizes)}, device {args.device}; batches measured after {args.warmup} of warm-up: "
           f"{args.batches} at least, holding {args.min_updates} updates at least\n")
     print(report["table"], flush=True)
-    rendered = sorted({name for result in report["results"] for name in result.get("renderers", [])})
+    rendered = sorted({name for result in report["results"] for each in [result, *result.get("results", [])]
+                       for name in each.get("renderers", [])})
     print(f"\nMuJoCo rendered with: {', '.join(rendered) or 'not reported'}", flush=True)
     return 0 if report["status"] == "passed" else 1
 

@@ -127,7 +127,7 @@ from vigen.protocols import PROTOCOLS
 from vigen.ray_cluster import ray_session
 from vigen.rendering import RenderSettings, gl_renderer, render_on_cuda_device
 from vigen.run import (CollectorBatches, GpuBusy, RunReplay, StageClock, TrainConfig, add_flags, build_agent, check_runnable,
-                       given_flags, new_config, resumed_config, setting, transition_bytes)
+                       given_flags, new_config, resumed_config, setting, transition_bytes, worker_timeouts)
 from vigen.seeding import ENV_SEED_LIMIT, derive_seed
 
 
@@ -557,7 +557,8 @@ def make_collector(make, policy, config: TrainConfig, *, env_seed: int, steps_pe
         # with the workers through CUDA IPC, and TorchRL's weight set-up with 8 such workers timed out on the H200
         # (2026-11-28); on the CPU each worker's exploration noise also comes from its own seeded CPU generator
         acting = copy.deepcopy(policy).to("cpu")
-        collector = MultiSyncCollector(makers, acting, cat_results="stack", **options)
+        with worker_timeouts():  # the workers' wait for their first weights (TorchRL reads it as they start)
+            collector = MultiSyncCollector(makers, acting, cat_results="stack", **options)
 
         def send_weights() -> None:
             TensorDict.from_module(acting).data.update_(TensorDict.from_module(policy).data)
@@ -566,7 +567,8 @@ def make_collector(make, policy, config: TrainConfig, *, env_seed: int, steps_pe
     if device.type != "cpu":  # envs step on the CPU; the policy acts on the device; frames are stored on the CPU
         options.update(policy_device=device, env_device="cpu", storing_device="cpu")
     if workers > 1:
-        collector = MultiSyncCollector(makers, policy, cat_results="stack", **options)
+        with worker_timeouts():
+            collector = MultiSyncCollector(makers, policy, cat_results="stack", **options)
     else:
         collector = Collector(makers[0](), policy, **options)
     return collector, collector.update_policy_weights_

@@ -131,3 +131,48 @@ def test_the_table_reader_takes_the_rows_benchmarks_losses_prints(tmp_path):
     rows = load_module().table_rows(log)
     assert [row["algo"] for row in rows] == ["drqv2", "svea"], "torch's warnings between the rows are skipped"
     assert rows[0]["compiled ms"] == 8.0 and rows[0]["speed-up"] == 2.5 and rows[0]["GPU busy (vigen)"] == 64.0
+
+
+@pytest.mark.slow
+def test_the_learner_call_runs_the_device_tests_the_gap_and_every_loss_in_parallel(tmp_path):
+    """issue 48's second call (--call learner) on the CPU: tiers 1, 7, 6 in that order; tier 6 compiles in parallel processes
+    (here two at once, no compile), times each alone, the named variants first, and names their options."""
+    result, _ = gpu_check("--carry", "none", "--call", "learner", "--out", str(tmp_path))
+    assert result.returncode == 0, result.stdout + result.stderr
+    report = json.loads((tmp_path / "figures.json").read_text())
+    assert [tier["tier"] for tier in report["tiers"]] == [1, 7, 6] and report["status"] == "passed"
+    _, gap, losses = (tier["figures"] for tier in report["tiers"])
+    assert [row["row"][0] for row in gap["rows"]] == ["A", "B", "C", "D", "E"]
+    assert [row["algo"] for row in losses["rows"]] == ["drqv2", "drqv2", "drq"] and not losses["not_reached"]
+    assert losses["rows"][0]["options"] == "TF32 default, fp32, channels-last off, captured", "the variants are timed first"
+    assert losses["rows"][0]["captured ms"] > 0, "the update with its sampling inside"
+    assert any(line.startswith("--jobs 2: compiled in") for line in losses["summary"])
+
+
+@pytest.mark.slow
+@pytest.mark.render
+def test_the_end_to_end_call_runs_the_throughput_tier_with_several_runs(tmp_path):
+    """issue 48's first call (--call e2e) on the CPU: tier 5 alone, a multi-worker configuration, then two runs at once."""
+    result, _ = gpu_check("--carry", "none", "--call", "e2e", "--out", str(tmp_path))
+    assert result.returncode == 0, result.stdout + result.stderr
+    report = json.loads((tmp_path / "figures.json").read_text())
+    (tier,) = report["tiers"]
+    results = {result["name"]: result for result in tier["figures"]["results"]}
+    assert list(results) == ["2w-overlap-eager-device", "1w-overlap-eager-memmap x2"]
+    group = results["1w-overlap-eager-memmap x2"]
+    assert group["runs"] == 2 and len(group["each_run"]) == 2 and group["status"] == "passed"
+    assert group["figures"]["aggregate_frames_per_s"] == pytest.approx(sum(group["figures"]["frames_per_s_each"]))
+
+
+def test_the_calls_fit_the_device_tool_and_come_in_order():
+    """Each call stops itself before the device tool's 600 s and 64 MiB; the end-to-end call comes first, its compiled
+    8-worker configuration given at least 170 s; the learner call's budgets add up within its deadline."""
+    module = load_module()
+    e2e, learner = module.CALLS["e2e"], module.CALLS["learner"]
+    assert list(module.CALLS) == ["e2e", "learner"]
+    assert e2e[1] < 600 and learner[1] < 600
+    specs = e2e[2].split("--configs ", 1)[1].split()
+    assert specs[0] == "8/overlap/compiled/device@180" and float(specs[0].split("@")[1]) >= 170
+    assert sum(float(spec.split("@")[1]) for spec in specs) + module.INSTALL_S <= e2e[1]
+    assert sum(module.BUDGET_S["gpu"][tier] or 0 for tier in learner[0]) + module.INSTALL_S < learner[1] - 200, \
+        "the losses tier (no budget of its own) keeps at least 200 s"

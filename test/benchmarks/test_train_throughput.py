@@ -87,3 +87,24 @@ def test_the_device_checks_throughput_tier_runs_the_quick_benchmark_on_the_cpu(t
     log = (tmp_path / "logs" / "tier5.log").read_text()
     assert "env worker 1 renders with" in log and "examples/train.py" in log, "each run's whole output is kept"
     assert sorted(path.name for path in tmp_path.rglob("*") if path.is_file()) == ["figures.json", "install.log", "tier5.log"]
+
+
+@pytest.mark.slow
+@pytest.mark.render
+def test_several_runs_share_the_machine_and_their_aggregate_is_reported_beside_each_run_s(tmp_path):
+    """--runs 2: two train.py processes at once (seeds 0 and 1), both measured while both train; aggregate_frames_per_s is the
+    sum of their frames/s, and each run's figures are kept."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "OMP_NUM_THREADS": "1"}
+    result = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "train_throughput.py"), "--quick", "--configs", "1",
+                             "--runs", "2", "--out", str(tmp_path)], cwd=ROOT, env=env, capture_output=True, text=True, timeout=400)
+    assert result.returncode == 0, result.stdout + result.stderr
+    report = json.loads((tmp_path / "train_throughput.json").read_text())
+    (group,) = report["results"]
+    assert (group["name"], group["runs"], group["status"]) == ("1w-serial-eager-memmap x2", 2, "passed")
+    runs = group["results"]
+    assert [run["seed"] for run in runs] == [0, 1] and all(run["status"] == "passed" for run in runs)
+    assert all("--seed" in run["command"] and "--threads 1" in run["command"] for run in runs)
+    each = [run["figures"]["frames_per_s"] for run in runs]
+    assert all(value > 0 for value in each) and group["figures"]["frames_per_s_each"] == each
+    assert group["figures"]["aggregate_frames_per_s"] == pytest.approx(sum(each))
+    assert "| 1w-serial-eager-memmap x2 | 2 |" in report["table"]

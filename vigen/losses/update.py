@@ -4,7 +4,7 @@ The update of every vigen algorithm is the same four steps on a replay-buffer ba
 ``out = loss(batch)``, one ``backward()`` of the summed ``loss_*`` entries, one optimizer step,
 ``SoftUpdate.step()``. :class:`UpdateStep` runs them as one call that never synchronizes with
 the host, so that it can be compiled whole (``torch.compile(..., fullgraph=True)``) and, on CUDA,
-captured as a CUDA graph (tensordict's ``CudaGraphModule``, as LeanRL does).
+captured as a CUDA graph (:class:`vigen.cuda_graph.CudaGraphCall`, as LeanRL does with tensordict's).
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ from tensordict import TensorDict, TensorDictBase
 from torch import Tensor
 from torchrl.objectives import SoftUpdate
 
+from vigen.cuda_graph import CudaGraphCall
 from vigen.devices import host_reads_are_free
 from vigen.losses.base import ActorCriticLoss
 from vigen.transforms import ImageAugmentation
@@ -54,8 +55,10 @@ class UpdateStep:
     so the compiled update equals the eager one within float tolerance. ``torch.compile`` cannot
     trace a ``torch.Generator``: build the loss without ``seed`` (``make_loss(..., seed=None)``) and
     seed torch instead (``torch.manual_seed``); a loss with seeded augmentations is refused.
-    On CUDA the compiled update is also captured as a CUDA graph (``cudagraph=None`` picks that);
-    the optimizer must then be ``capturable`` (``torch.optim.Adam(..., capturable=True)``).
+    On CUDA the compiled update is also captured as a CUDA graph (``cudagraph=None`` picks that;
+    :class:`~vigen.cuda_graph.CudaGraphCall`: no host wait per replay, and the returned losses are
+    the graph's own tensors, overwritten by the next update: clone what you keep); the optimizer
+    must then be ``capturable`` (``torch.optim.Adam(..., capturable=True)``).
     ``compile_seconds`` holds the time the first call(s) took to compile (and capture).
 
     Gradients, compiled or captured: before the first call every parameter of the optimizer gets a
@@ -153,10 +156,8 @@ class UpdateStep:
         if compile:  # the whole update in one graph
             step = torch.compile(_own_code(step), fullgraph=True, dynamic=False, backend=backend,
                                  **_compile_options(backend, mode, cudagraph))
-        if cudagraph:
-            from tensordict.nn import CudaGraphModule
-
-            step = CudaGraphModule(step, in_keys=[], out_keys=[], device=device)
+        if cudagraph:  # vigen's own wrapper: copies the batch in and replays, without waiting for the GPU or cloning
+            step = CudaGraphCall(step, warmup=2, device=device)
         self._step = step
         self._calls = 0
 

@@ -11,8 +11,11 @@
   the same with a run's trained weights;
 * the training loop's parts: :class:`CollectorBatches` (a collector's batches, serial or collected
   in the background while the loop updates), :class:`RunReplay` (the memory-mapped replay buffer
-  and its optional copy in the device's memory), :class:`StageClock` and :class:`GpuBusy` (where
-  the loop's time goes).
+  and its optional copy in the device's memory), :class:`FrameReplay` (a replay buffer on the device
+  that keeps one frame per observation and rebuilds stacks and n-step transitions),
+  :class:`SampledUpdate` (an update on a batch sampled on the device, both captured as one CUDA
+  graph), :class:`StageClock` and :class:`GpuBusy` (where the loop's time goes);
+  :func:`worker_timeouts` (what TorchRL waits for its worker processes, set where they start).
 
 ``vigen.run.config`` imports no simulator, loss, torch or Ray module (this package loads its
 names lazily).
@@ -35,7 +38,8 @@ from typing import Any
 _HOMES = {
     "Agent": "agent", "TrainedAgent": "agent", "build_agent": "agent", "check_runnable": "agent",
     "env_action_spec": "agent", "exploration_std": "agent", "load_agent": "agent",
-    "CollectorBatches": "collection", "GpuBusy": "timing", "RunReplay": "replay", "StageClock": "timing",
+    "CollectorBatches": "collection", "FrameReplay": "frame_replay", "frame_bytes": "frame_replay",
+    "SampledUpdate": "sampled_update", "worker_timeouts": "collection", "GpuBusy": "timing", "RunReplay": "replay", "StageClock": "timing",
     "busy_seconds": "timing", "to_device": "replay", "transition_bytes": "replay",
     "add_flags": "cli", "flag_name": "cli", "flag_value": "cli", "given_flags": "cli", "setting": "cli",
     "DEFAULT_FRAMES": "config", "PRESETS": "config", "PROTOCOL_KEYS": "config", "TrainConfig": "config",

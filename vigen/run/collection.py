@@ -26,6 +26,8 @@ single-process ``Collector`` reuses its buffer).
 
 from __future__ import annotations
 
+import contextlib
+import os
 import time
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
@@ -33,6 +35,48 @@ from typing import Generic, TypeVar
 
 Batch = TypeVar("Batch")
 _END = object()  # the collector has no more batches
+
+WEIGHT_SYNC_SECONDS = 300.0
+"""How long a TorchRL worker process waits for its first weights, in vigen's runs (TorchRL 0.14.1's default: 60 s)."""
+
+WEIGHT_SYNC_VARIABLES = ("WEIGHT_SYNC_TIMEOUT", "TORCHRL_WEIGHT_SYNC_TIMEOUT")
+"""The environment variables TorchRL reads the wait from: ``WEIGHT_SYNC_TIMEOUT`` (``torchrl._utils``, read in torchrl
+0.14.1) and ``TORCHRL_WEIGHT_SYNC_TIMEOUT`` (``torchrl.collectors._constants``, defined there, read by nothing yet)."""
+
+
+@contextlib.contextmanager
+def worker_timeouts(seconds: float = WEIGHT_SYNC_SECONDS) -> Iterator[dict[str, str]]:
+    """Within it, the worker processes a TorchRL collector starts wait up to ``seconds`` for their first weights.
+
+    TorchRL reads ``WEIGHT_SYNC_TIMEOUT`` once, when a process imports it, as the default wait of
+    its shared-memory weight transport (``SharedMemTransport.setup_connection_and_weights_on_receiver``,
+    60 s): a worker that gets no weights within it fails with ``_queue.Empty`` in the weight
+    scheme's ``connect`` -- what stopped both 8-worker runs on the H200 (2026-11-28). The variable
+    reaches a worker only through the environment it is started with (TorchRL spawns its
+    workers), so vigen sets it around the collector's construction, where the workers start,
+    and puts the environment back after. A value set by the user is kept.
+
+    Yields the variables as the workers see them.
+
+    Examples:
+        >>> import os
+        >>> with worker_timeouts(120) as seen:
+        ...     os.environ["WEIGHT_SYNC_TIMEOUT"] == seen["WEIGHT_SYNC_TIMEOUT"]
+        True
+    """
+    if not seconds > 0:
+        raise ValueError(f"worker_timeouts: seconds must be > 0, got {seconds!r}.")
+    saved = {name: os.environ.get(name) for name in WEIGHT_SYNC_VARIABLES}
+    for name in WEIGHT_SYNC_VARIABLES:
+        os.environ.setdefault(name, f"{float(seconds):g}")
+    try:
+        yield {name: os.environ[name] for name in WEIGHT_SYNC_VARIABLES}
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
 
 
 def _timed_next(iterator: Iterator) -> tuple[object, float]:
