@@ -45,7 +45,10 @@ source (``sgqn``, ``madi``, ``simgrl``, ``curl``). Before any episode runs, it c
 followed that protocol (its ``config.json``: action repeat, frame stack, image size; its
 checkpoint's frames against the published budget) and stops naming every difference otherwise;
 ``--allow-budget-mismatch`` shows a run that trained for another length anyway, marked, and
-``--allow-stand-ins`` levels that showed vigen's stand-ins instead of the benchmark's data. Levels
+``--allow-stand-ins`` levels that showed vigen's stand-ins instead of the benchmark's data. A published
+number is set beside a run only where the run was trained by the recipe of the code behind it
+(``examples/train.py --recipe``, docs/recipes.md); ``--allow-recipe-mismatch`` shows the others, each
+line naming what differs. Levels
 default to the protocol's test levels; the report gains a "Published" table and ``published.png``:
 
     python examples/evaluate.py runs/svea-walker-walk-s0 --compare dmcgb --episodes 100
@@ -72,6 +75,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import fnmatch
+import json
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -95,7 +99,7 @@ from vigen.io import FolderInUse, RunFolderLock, atomic_write, unused_path
 from vigen.protocols import PROTOCOLS
 from vigen.ray_cluster import ray_session
 from vigen.rendering import RenderSettings
-from vigen.results import SOURCES, ProtocolMismatch, compare, load, published
+from vigen.results import SOURCES, ProtocolMismatch, RecipeMismatch, compare, load, published
 from vigen.results.compare import VALUE_UNITS
 from vigen.run import TrainConfig, TrainedAgent, add_flags, given_flags, load_agent, setting
 
@@ -135,6 +139,9 @@ class EvaluationConfig:
     allow_stand_ins: bool = setting(
         False, "with --compare: show levels that showed vigen's stand-ins (procedural videos, statistics-matched colours) "
                "beside the published numbers, each line saying so")
+    allow_recipe_mismatch: bool = setting(
+        False, "with --compare: show published numbers whose code trained the method by another recipe than the run's "
+               "(examples/train.py --recipe), each line naming what differs")
 
 
 @dataclass(frozen=True)
@@ -158,6 +165,7 @@ class Comparison:
     sources: list[str]
     allow_budget_mismatch: bool
     allow_stand_ins: bool
+    allow_recipe_mismatch: bool = False
 
 
 @dataclass(frozen=True)
@@ -313,7 +321,8 @@ def compared_with(config: EvaluationConfig) -> Comparison | None:
                                                                                  for row in load(source))]
     else:
         protocol, sources = load(config.compare)[0].protocol, [config.compare]
-    return Comparison(config.compare, protocol, sources, config.allow_budget_mismatch, config.allow_stand_ins)
+    return Comparison(config.compare, protocol, sources, config.allow_budget_mismatch, config.allow_stand_ins,
+                      config.allow_recipe_mismatch)
 
 
 def levels_per_env(agents: list[TrainedAgent], config: EvaluationConfig, comparison: Comparison | None,
@@ -362,14 +371,16 @@ def run_env_options(config: TrainConfig, episode_length: int | None) -> dict:
 
 
 def run_tags(trained: TrainedAgent, env_options: dict) -> dict:
-    """The columns every row of a run carries: method, run, frames, its training batch and the settings a protocol fixes (for --compare)."""
+    """The columns every row of a run carries: method, run, frames, its training batch, its recipe (and the settings a flag
+    overrode in it) and the settings a protocol fixes (for --compare)."""
     config = trained.config
     channels, _, width = config.observation_shape  # uint8 [3 * frame stack, H, W]
     defaults = get_suite(config.env).env_options
     settings = {"action_repeat": config.action_repeat or defaults.get("action_repeat"), "frame_stack": channels // 3,
                 "image_size": width, "episode_length": env_options.get("episode_length", defaults.get("episode_length"))}
     return {"method": config.algo, "run": config.seed, "frames": trained.frames, "protocol": config.protocol or "",
-            "batch_size": config.batch_size,
+            "batch_size": config.batch_size, "recipe": config.recipe or "",
+            "recipe_overrides": json.dumps(config.recipe_overrides) if config.recipe_overrides else "",
             **{name: value for name, value in settings.items() if value is not None}}
 
 
@@ -533,8 +544,9 @@ def published_lines(rows: list[dict], comparison: Comparison) -> list[dict]:
             try:
                 lines += compare(rows, source=comparison.sources, protocol=comparison.protocol, value=value,
                                  allow_budget_mismatch=comparison.allow_budget_mismatch,
-                                 allow_stand_ins=comparison.allow_stand_ins)
-            except ProtocolMismatch:
+                                 allow_stand_ins=comparison.allow_stand_ins,
+                                 allow_recipe_mismatch=comparison.allow_recipe_mismatch)
+            except (ProtocolMismatch, RecipeMismatch):
                 raise
             except ValueError as error:  # nothing published in this unit for these rows
                 nothing.append(str(error))

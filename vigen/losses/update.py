@@ -133,8 +133,6 @@ class UpdateStep:
                              "loss.make_value_estimator(gamma=...) first.")
         device = loss.device
         cudagraph = compile and device.type == "cuda" if cudagraph is None else cudagraph
-        if cudagraph and device.type != "cuda":
-            raise ValueError(f"UpdateStep: cudagraph=True needs a loss on CUDA; this one is on {device}.")
         if isinstance(target_every, bool) or not isinstance(target_every, int) or target_every < 1:
             raise ValueError(f"UpdateStep: target_every is a number of updates, an integer >= 1, got {target_every!r}.")
         everies = tuple(int(group.get("every", 1)) for group in optimizer.param_groups)
@@ -143,6 +141,8 @@ class UpdateStep:
             raise ValueError("UpdateStep: a schedule (a group's 'every' or target_every above 1) alternates two update "
                              "graphs, which vigen has not yet checked as CUDA graphs on a GPU; pass cudagraph=False "
                              "(torch.compile alone, checked equal to the eager update) or drop the schedule.")
+        if cudagraph and device.type != "cuda":
+            raise ValueError(f"UpdateStep: cudagraph=True needs a loss on CUDA; this one is on {device}.")
         if compile:
             seeded = [type(module).__name__ for module in loss.modules()
                       if isinstance(module, ImageAugmentation) and module.seed is not None]
@@ -266,11 +266,13 @@ class UpdateStep:
             with torch.no_grad():
                 self._adam_step(groups_due)
         else:
-            for group, due in zip(self.optimizer.param_groups, groups_due):
-                if not due:  # Adam skips a parameter without a gradient: its state stays as it is
-                    for parameter in group["params"]:
-                        parameter.grad = None
+            skipped = [(parameter, parameter.grad) for group, due in zip(self.optimizer.param_groups, groups_due) if not due
+                       for parameter in group["params"]]
+            for parameter, _ in skipped:  # Adam skips a parameter without a gradient: its state stays as it is
+                parameter.grad = None
             self.optimizer.step()
+            for parameter, gradient in skipped:  # the gradients stay readable, as in the compiled update
+                parameter.grad = gradient
         if self.target_update is not None and target_due:
             self.target_update.step()
         return TensorDict({"losses": out.detach(), "priority": batch.get(self.loss.tensor_keys.priority).detach()},

@@ -50,7 +50,7 @@ class TrainConfig:
     Each field with a help text is a flag of ``examples/train.py`` (``batch_size`` is
     ``--batch-size``). Frames count environment frames (agent steps × action repeat), as in
     DrQ-v2's curves. ``frames`` is not saved: a resumed run takes it from the flag or, failing
-    that, from its protocol. The last four fields are recorded by the run itself.
+    that, from its protocol. The last six fields are recorded by the run itself.
 
     Paper (the ``paper`` preset): DrQ-v2, https://arxiv.org/abs/2107.09645; RL-ViGen,
     https://arxiv.org/abs/2307.10224.

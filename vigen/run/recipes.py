@@ -316,7 +316,10 @@ def _recipes() -> dict[str, Recipe]:
             code=rlvigen, algo=algo, protocol="rlvigen", protocol_by_suite={"loco": "rlvigen_loco"},
             suites=("dmc", "robosuite", "loco"), common={**DRQV2_SETTINGS, **extra}, tasks=RLVIGEN_TASKS,
             group_settings=DIFFICULTY_STD, task_settings=DRQV2_TASK_SETTINGS, departures=rlvigen_departures[algo],
-            notes={"suites": "its Adroit runs use the ViGen-adroit branch's cfgs_adroit, which this recipe does not cover"}))
+            notes={"suites": "its Adroit runs use the ViGen-adroit branch's cfgs_adroit, which this recipe does not cover",
+                   **({"network.weights": "RL-ViGen builds torchvision's resnet18(pretrained=True), which torchvision "
+                                          "downloads as resnet18-f37072fd.pth since its 2020 re-upload of the same weights "
+                                          "(pytorch/vision#2068; before, resnet18-5c106cde.pth)"} if algo == "pieg" else {})}))
     recipes.append(Recipe(
         name="drq-rlvigen", title="DrQ as RL-ViGen trains it (SAC, a clean and a shifted view)", code=rlvigen,
         algo="drq", protocol="rlvigen", protocol_by_suite={"loco": "rlvigen_loco"}, suites=("dmc", "robosuite", "loco"),
