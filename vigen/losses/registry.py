@@ -27,8 +27,10 @@ here, not classes:
 
 DMC-GB's SAC (MaDi, SimGRL, SCPL) uses SVEA's 11-layer CNN on ``x / 255``, a target encoder in
 the target critic, ``log(relu(1 − tanh²) + ε)`` (:data:`~vigen.losses.samplers.DMCGB_SQUASH_EPSILON`) and the actor's own ``feature_dim``
-projection; the departures of all SAC presets from their code (one optimizer step for all terms,
-one τ) are measured in ``benchmarks/parity``.
+projection; the departure of all SAC presets from their code (one optimizer step for all terms) is
+measured in ``benchmarks/parity``; their actor and targets every second update and their two target
+rates are the update's (:class:`~vigen.losses.UpdateStep`, :class:`~vigen.losses.SplitSoftUpdate`; the
+recipes of :data:`vigen.run.RECIPES`).
 
 Everything that makes an algorithm its paper's is a field of its :class:`Algorithm` record: the
 loss class, the encoder, the actor, the sampler and its options, the extra networks, the preset
