@@ -229,7 +229,7 @@ def read_pinned_files(path: str | Path) -> tuple[PinnedFile, ...]:
         >>> listing = Path(tempfile.mkdtemp()) / "files.tsv"
         >>> _ = listing.write_text("# toy\\nblob\\tsize\\tpath\\ne69de29bb2d1d6434b8b29ae775ad8c2e48c5391\\t?\\ta/empty.bin\\n")
         >>> read_pinned_files(listing)[0]
-        PinnedFile(path='a/empty.bin', git_blob='e69de29bb2d1d6434b8b29ae775ad8c2e48c5391', size=None)
+        PinnedFile(path='a/empty.bin', git_blob='e69de29bb2d1d6434b8b29ae775ad8c2e48c5391', size=None, sha256=None)
     """
     rows = [line for line in Path(path).read_text(encoding="utf-8").splitlines() if line and not line.startswith("#")]
     if not rows or rows[0].split("\t") != ["blob", "size", "path"]:
