@@ -38,7 +38,17 @@ def test_log_std_bounds_shape_the_sac_actor_and_bad_parts_are_refused():
         make_loss("drqv2", (9, 32, 32), 2, hidden_dim=8, log_std_bounds=(-5, 1))
     with pytest.raises(ValueError, match="encoder_type='nope' is not one of vigen's"):
         make_loss("svea", (9, 64, 64), 2, hidden_dim=8, encoder_type="nope")
-    with pytest.raises(ValueError, match="SquashedGaussian draws from a SAC actor, but the actor is a Actor"):
+    with pytest.raises(ValueError, match="SquashedGaussian draws from a SAC actor, but the actor is Actor"):
         make_loss("svea", (9, 64, 64), 2, hidden_dim=8, sampler_type="squashed_gaussian")
     with pytest.raises(TypeError, match="samples with NoisyDeterministic and takes no 'init_temperature'"):
         make_loss("svea", (9, 64, 64), 2, hidden_dim=8, init_temperature=0.1)
+
+
+def test_a_param_group_names_a_module_with_parameters():
+    with pytest.raises(ValueError, match="param_groups names 'masker', which is not one of its modules \\(encoder, actor, "
+                                         "critic, sampler\\)"):
+        make_loss("drq", (9, 32, 32), 2, hidden_dim=8, param_groups={"masker": {"lr": 1e-3}}).optimizer_groups(1e-4)
+    with pytest.raises(ValueError, match="param_groups names 'sampler', which has no parameters"):
+        make_loss("drqv2", (9, 32, 32), 2, hidden_dim=8, param_groups={"sampler": {"every": 2}}).optimizer_groups(1e-4)
+    with pytest.raises(ValueError, match="\['every'\] is a number of updates, an integer >= 1, got 0"):
+        make_loss("drq", (9, 32, 32), 2, hidden_dim=8, param_groups={"actor": {"every": 0}})

@@ -533,8 +533,10 @@ class ActorCriticLoss(LossModule):
         for name, options in self.param_groups.items():
             module = self.encoder_params if name == "encoder" else getattr(self, name, None)
             if not isinstance(module, nn.Module):
+                own = ["encoder", "actor", "critic", *(child for child, value in self.named_children()
+                                                       if not child.endswith("_params") and any(True for _ in value.parameters()))]
                 raise ValueError(f"{type(self).__name__}: param_groups names {name!r}, which is not one of its modules "
-                                 f"({', '.join(sorted(n for n, _ in self.named_children() if not n.startswith('target_')))}).")
+                                 f"({', '.join(dict.fromkeys(own))}).")
             params = list(module.parameters())
             if not params:
                 raise ValueError(f"{type(self).__name__}: param_groups names {name!r}, which has no parameters "

@@ -437,9 +437,10 @@ def build_loss(algo: str, encoder: nn.Module, actor: nn.Module, critic: nn.Modul
         options["sampler"] = make_sampler(algo, options)
     sampler = options["sampler"]
     if isinstance(actor, (Actor, GaussianActor)) and isinstance(sampler, SquashedGaussian) != isinstance(actor, GaussianActor):
-        raise ValueError(f"{algo}: {type(sampler).__name__} draws from {'a SAC actor' if isinstance(sampler, SquashedGaussian) else 'a deterministic actor'}, "
-                         f"but the actor is a {type(actor).__name__}; pick the matching actor_type "
-                         f"({'gaussian or gaussian_projected' if isinstance(sampler, SquashedGaussian) else 'deterministic'}).")
+        sac = isinstance(sampler, SquashedGaussian)
+        raise ValueError(f"{algo}: {type(sampler).__name__} draws from {'a SAC actor' if sac else 'a deterministic actor'}, "
+                         f"but the actor is {type(actor).__name__}; pick the matching actor_type "
+                         f"({'gaussian or gaussian_projected' if sac else 'deterministic'}).")
     if record.param_groups:
         given = options.get("param_groups") or {}
         options["param_groups"] = {module: {**record.param_groups.get(module, {}), **given.get(module, {})}
