@@ -237,17 +237,16 @@ def check_networks(loss: ActorCriticLoss, settings: Mapping[str, Any]) -> None:
         ...
         ValueError: the recipe's encoder has 11 convolutions, vigen's DrQv2Encoder 4; the recipe cannot be built as it is.
     """
-    convolutions = [module for module in loss.encoder.modules() if isinstance(module, nn.Conv2d)]
-    built = {"network.encoder_layers": len(convolutions),
-             "network.encoder_channels": sorted({module.out_channels for module in convolutions})}
-    for key, what in (("network.encoder_layers", "convolutions"), ("network.encoder_channels", "output channels")):
-        if key not in settings:
-            continue
-        expected = settings[key] if key == "network.encoder_layers" else [settings[key]]
-        if built[key] != expected:
-            shown = built[key] if key == "network.encoder_layers" else ", ".join(map(str, built[key]))
-            raise ValueError(f"the recipe's encoder has {settings[key]} {what}, vigen's {type(loss.encoder).__name__} "
-                             f"{shown}; the recipe cannot be built as it is.")
+    for part, module in (("encoder", loss.encoder), ("masker", loss.input_mask)):
+        convolutions = [layer for layer in module.modules() if isinstance(layer, nn.Conv2d)] if module is not None else []
+        hidden = convolutions[:-1] if part == "masker" else convolutions  # a masker's last convolution makes the mask
+        built = {"layers": [len(convolutions)], "channels": sorted({layer.out_channels for layer in hidden})}
+        for what, words in (("layers", "convolutions"), ("channels", "channels")):
+            key = f"network.{part}_{what}"
+            if key in settings and built[what] != [settings[key]]:
+                raise ValueError(f"the recipe's {part} has {settings[key]} {words}, vigen's "
+                                 f"{type(module).__name__} {', '.join(map(str, built[what])) or 'none'}; the recipe "
+                                 "cannot be built as it is.")
 
 
 def make_update(config: TrainConfig, loss: ActorCriticLoss, device: torch.device | str = "cpu") -> UpdateStep:

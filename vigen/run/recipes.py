@@ -345,7 +345,9 @@ def _recipes() -> dict[str, Recipe]:
                     "pixels-only": "RL-ViGen's Adroit agent also reads the robot's sensors (use_sensor: true); vigen's "
                                    "VRL3 sees pixels only",
                     "stage-1-weights": "RL-ViGen loads VRL3's ImageNet-pretrained stage-1 encoder; vigen cannot fetch it: "
-                                       "pass --encoder-weights, or the encoder starts from random weights (and warns)"}))
+                                       "pass --encoder-weights, or the encoder starts from random weights (and warns)"},
+        notes={"reward_scale": "RL-ViGen rescales Adroit's rewards (reward_rescale: true); vigen's vrl3 algorithm applies "
+                               "the same factors (door 1/20, hammer 1/100, pen 1/50) unless --reward-scale is given"}))
     recipes.append(Recipe(
         name="sada-dmcgb2", title="SADA as DMC-GB2 trains it (SAC, all six strong augmentations)",
         code="aalmuzairee/dmcgb2@5fd8fd7", algo="sada", protocol="dmcgb2", suites=("dmc",),
@@ -354,7 +356,9 @@ def _recipes() -> dict[str, Recipe]:
                   "loss.init_temperature": 0.1, "loss.log_std_bounds": (-10.0, 2.0),
                   "loss.strong_augmentation": "dmcgb2_all", "optimizer.betas": (0.9, 0.999), "optimizer.sampler.lr": 5e-4},
         departures={"one-step": "DMC-GB2 steps the encoder and critic, then the actor and temperature on the stepped "
-                                "critic; vigen computes every term at the batch's start and steps once (docs/parity.md)"}))
+                                "critic; vigen computes every term at the batch's start and steps once (docs/parity.md)"},
+        notes={"seed_frames": "num_expl_steps 2000 (random actions for the first 2000 agent steps) equals the 4000 seed "
+                              "frames at DMC-GB2's action repeat 2; vigen acts randomly for the seed frames"}))
     recipes.append(Recipe(
         name="svea-dmcgb", title="SVEA as DMC-GB trains it (SAC, random convolution, the published SVEA)",
         code="nicklashansen/dmcontrol-generalization-benchmark@ff9c0aa", algo="svea", protocol="dmcgb", suites=("dmc",),
@@ -368,7 +372,8 @@ def _recipes() -> dict[str, Recipe]:
         name="madi-dmcgb", title="MaDi as its authors train it (DMC-GB's SAC, a soft masker, overlay)",
         code="bramgrooten/mask-distractions@70982ce", algo="madi", protocol="dmcgb", suites=("dmc",),
         common={**DMCGB_SAC, "batch_size": 64, "loss.strong_augmentation": "overlay", "loss.augment_next": False,
-                  "optimizer.input_mask.lr": 1e-3, "optimizer.input_mask.betas": (0.9, 0.999)},
+                  "optimizer.input_mask.lr": 1e-3, "optimizer.input_mask.betas": (0.9, 0.999),
+                  "network.masker_layers": 3, "network.masker_channels": 32},
         departures={"one-step": DMCGB_ONE_STEP, "conv-init": DMCGB_CONV_INIT, "uint8-overlay": UINT8_OVERLAY,
                     "phase": "MaDi numbers its catch-up updates 1 to init_steps and then its env steps, so its actor, "
                              "temperature and targets are stepped on updates 1, 3, 5, ... (counted from 0); vigen's on "
@@ -378,7 +383,9 @@ def _recipes() -> dict[str, Recipe]:
                "loss.strong_augmentation": "arguments.py's default --augment is none; the README's command trains MaDi "
                                            "with --augment overlay, which the recipe takes",
                "action_repeat": "arguments.py's default action repeat is 4 on every task; protocol dmcgb's is 8 on "
-                                "cartpole and 2 on finger (the recipe keeps the protocol's)"}))
+                                "cartpole and 2 on finger (the recipe keeps the protocol's)",
+               "network.masker_layers": "its masks are soft (mask_type soft, the default), the only kind vigen's masker "
+                                        "makes"}))
     recipes.append(Recipe(
         name="simgrl-dmcgb", title="SimGRL as its authors train it (DMC-GB's SAC, per-frame encoder, shifted overlay)",
         code="W-Song11/SimGRL-Code@08722a8", algo="simgrl", protocol="dmcgb", suites=("dmc",),
