@@ -51,7 +51,10 @@ checkpoint's frames against the published budget) and stops naming every differe
 ``--allow-budget-mismatch`` shows a run that trained for another length anyway, marked, and
 ``--allow-stand-ins`` levels that showed vigen's stand-ins instead of the benchmark's data, and
 ``--allow-partial-data`` levels that showed less than the published data set in full (fewer videos,
-a user's folder, files not verified against the pinned ids), each line saying what was shown. Levels
+a user's folder, files not verified against the pinned ids), each line saying what was shown. A published
+number is set beside a run only where the run was trained by the recipe of the code behind it
+(``examples/train.py --recipe``, docs/recipes.md); ``--allow-recipe-mismatch`` shows the others, each
+line naming what differs. Levels
 default to the protocol's test levels; the report gains a "Published" table and ``published.png``:
 
     python examples/evaluate.py runs/svea-walker-walk-s0 --compare dmcgb --episodes 100
@@ -83,6 +86,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import fnmatch
+import json
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -110,7 +114,8 @@ from vigen.io import FolderInUse, RunFolderLock, atomic_write, unused_path
 from vigen.protocols import PROTOCOLS, Protocol
 from vigen.ray_cluster import ray_session
 from vigen.rendering import RenderSettings
-from vigen.results import SOURCES, PartialData, ProtocolMismatch, StandInRows, compare, load, published
+from vigen.results import (SOURCES, PartialData, ProtocolMismatch, RecipeMismatch, StandInRows, compare, load,
+                           published)
 from vigen.results.compare import VALUE_UNITS
 from vigen.run import TrainConfig, TrainedAgent, add_flags, given_flags, load_agent, setting
 
@@ -153,6 +158,9 @@ class EvaluationConfig:
     allow_partial_data: bool = setting(
         False, "evaluate --videos folders that hold fewer (or other) videos than their level's data set and, with "
                "--compare, show such levels beside the published numbers, each line saying what was shown")
+    allow_recipe_mismatch: bool = setting(
+        False, "with --compare: show published numbers whose code trained the method by another recipe than the run's "
+               "(examples/train.py --recipe), each line naming what differs")
 
 
 @dataclass(frozen=True)
@@ -177,6 +185,7 @@ class Comparison:
     allow_budget_mismatch: bool
     allow_stand_ins: bool
     allow_partial_data: bool = False
+    allow_recipe_mismatch: bool = False
 
 
 @dataclass(frozen=True)
@@ -336,7 +345,7 @@ def compared_with(config: EvaluationConfig) -> Comparison | None:
     else:
         protocol, sources = load(config.compare)[0].protocol, [config.compare]
     return Comparison(config.compare, protocol, sources, config.allow_budget_mismatch, config.allow_stand_ins,
-                      config.allow_partial_data)
+                      config.allow_partial_data, config.allow_recipe_mismatch)
 
 
 def levels_per_env(agents: list[TrainedAgent], config: EvaluationConfig, comparison: Comparison | None,
@@ -385,14 +394,16 @@ def run_env_options(config: TrainConfig, episode_length: int | None) -> dict:
 
 
 def run_tags(trained: TrainedAgent, env_options: dict) -> dict:
-    """The columns every row of a run carries: method, run, frames, its training batch and the settings a protocol fixes (for --compare)."""
+    """The columns every row of a run carries: method, run, frames, its training batch, its recipe (and the settings a flag
+    overrode in it) and the settings a protocol fixes (for --compare)."""
     config = trained.config
     channels, _, width = config.observation_shape  # uint8 [3 * frame stack, H, W]
     defaults = get_suite(config.env).env_options
     settings = {"action_repeat": config.action_repeat or defaults.get("action_repeat"), "frame_stack": channels // 3,
                 "image_size": width, "episode_length": env_options.get("episode_length", defaults.get("episode_length"))}
     return {"method": config.algo, "run": config.seed, "frames": trained.frames, "protocol": config.protocol or "",
-            "batch_size": config.batch_size,
+            "batch_size": config.batch_size, "recipe": config.recipe or "",
+            "recipe_overrides": json.dumps(config.recipe_overrides) if config.recipe_overrides else "",
             **{name: value for name, value in settings.items() if value is not None}}
 
 
@@ -619,8 +630,9 @@ def published_lines(rows: list[dict], comparison: Comparison) -> list[dict]:
                 lines += compare(rows, source=comparison.sources, protocol=comparison.protocol, value=value,
                                  allow_budget_mismatch=comparison.allow_budget_mismatch,
                                  allow_stand_ins=comparison.allow_stand_ins,
-                                 allow_partial_data=comparison.allow_partial_data)
-            except (ProtocolMismatch, StandInRows, PartialData):  # the run or its data, not the unit: stop
+                                 allow_partial_data=comparison.allow_partial_data,
+                                 allow_recipe_mismatch=comparison.allow_recipe_mismatch)
+            except (ProtocolMismatch, StandInRows, PartialData, RecipeMismatch):  # the run or its data, not the unit: stop
                 raise
             except ValueError as error:  # nothing published in this unit for these rows
                 nothing.append(str(error))

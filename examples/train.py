@@ -3,6 +3,7 @@
     python examples/train.py --algo svea --env dmc/cartpole-balance --preset cpu --frames 20000
     python examples/train.py --resume runs/svea-cartpole-balance-s0 --frames 40000   # continue it
     python examples/train.py --algo svea --env dmc/walker-walk --protocol dmcgb        # DMC-GB's protocol
+    python examples/train.py --recipe svea-dmcgb --env dmc/walker-walk                 # DMC-GB's SVEA, its settings
     python examples/train.py --algo svea --env dmc/walker-walk --collector ray --workers 2  # collect on Ray
     python examples/train.py --env dmc/walker-walk --preset paper --device cuda --workers 8 --overlap --replay-on-device
 
@@ -45,6 +46,14 @@ Keeping a GPU busy (``docs/performance.md``, "End-to-end throughput"; ``benchmar
   checkpoints count. Without it, batches bound for a GPU are gathered into pinned memory and
   copied without blocking.
 * ``--time-stages`` logs, per collector batch, where the time goes (``logs/scalars/time/``).
+
+``--recipe NAME`` (``--recipe list`` prints them; :data:`vigen.run.RECIPES`, docs/recipes.md) trains a method as its
+original code does: vigen's loss with the original's options, its networks, per-module learning rates and Adam betas,
+update schedule (seed steps, actor and targets every N updates, the target encoder's own rate, n-step, batch, buffer)
+and the protocol it was published under. A flag that changes a recipe setting wins and is listed under
+``recipe_overrides`` in ``config.json`` (``recipe_settings`` holds the recipe as the run was built); what vigen still
+does differently is named by the recipe (``departures``). ``--recipe pieg-rlvigen`` loads torchvision's ImageNet
+ResNet-18 from the data cache (``python -m vigen.data fetch torchvision-resnet18``).
 
 ``--protocol dmcgb|dmcgb2|rlvigen|drqv2|planet`` (see :mod:`vigen.protocols`) trains as that paper
 did: its budget (DMC-GB's 500k *agent steps* become 2M frames at action repeat 4), its action
@@ -110,7 +119,6 @@ from torchrl.collectors import Collector, MultiSyncCollector
 from torchrl.data import TensorSpec
 from torchrl.envs import RewardSum, TransformedEnv
 from torchrl.envs.transforms import MultiStepTransform
-from torchrl.objectives import SoftUpdate
 from torchrl.record.loggers import get_logger
 from tqdm import tqdm
 
@@ -122,12 +130,13 @@ from vigen.devices import resolve_device
 from vigen.envs import add_step_timers, make_env, step_times, without_step_times
 from vigen.evaluation import evaluate
 from vigen.io import FolderInUse, RunFolderLock, atomic_write, unused_path
-from vigen.losses import UpdateStep, update_metrics
+from vigen.losses import update_metrics
 from vigen.protocols import PROTOCOLS
 from vigen.ray_cluster import ray_session
 from vigen.rendering import RenderSettings, gl_renderer, render_on_cuda_device
-from vigen.run import (CollectorBatches, GpuBusy, RunReplay, StageClock, TrainConfig, add_flags, build_agent, check_runnable,
-                       given_flags, new_config, resumed_config, setting, transition_bytes, worker_timeouts)
+from vigen.run import (RECIPES, CollectorBatches, GpuBusy, RunReplay, StageClock, TrainConfig, add_flags, build_agent,
+                       check_runnable, given_flags, list_recipes, make_update, new_config, resumed_config, setting,
+                       transition_bytes, worker_timeouts)
 from vigen.seeding import ENV_SEED_LIMIT, derive_seed
 
 
@@ -164,6 +173,9 @@ def parse_args(argv: list[str] | None = None) -> tuple[TrainConfig, Launch]:
     args = make_parser().parse_args(argv)
     launch = Launch(**{field.name: getattr(args, field.name) for field in dataclasses.fields(Launch)})
     flags = given_flags(args, TrainConfig)
+    if flags.get("recipe") == "list":
+        print(list_recipes())
+        raise SystemExit(0)
     try:
         config = new_config(flags) if launch.resume is None else resumed(launch, flags)
         config.check()
@@ -245,6 +257,11 @@ def main() -> None:
         if egl is not None:
             print(f"MuJoCo renders on EGL device {egl} (MUJOCO_EGL_DEVICE_ID), the one of {device}", flush=True)
     torch.manual_seed(config.seed)
+    if config.recipe is not None:
+        print("\n".join(RECIPES[config.recipe].describe(config.env)) if config.recipe in RECIPES else
+              f"recipe {config.recipe} (as recorded in config.json)", flush=True)
+        for key, values in (config.recipe_overrides or {}).items():
+            print(f"  overridden by a flag: {key} = {values['flag']} (recipe: {values['recipe']})", flush=True)
     if config.protocol is not None:
         print("\n".join(PROTOCOLS[config.protocol].describe(config.env)), flush=True)
         for key, values in (config.protocol_overrides or {}).items():
@@ -291,10 +308,11 @@ class Training:
         # the agent: a vigen loss on the paper's networks, its acting policy, Adam and the target-critic update
         self.agent = build_agent(config, action_spec, device=device)
         self.noise = self.agent.exploration_noise  # stepped with the frames collected; None: the policy samples (SAC)
-        # eager: fused (the same step, ~10x faster on CPU); compiled: torch.compile fuses it, capturable for a CUDA graph
-        optimizer = torch.optim.Adam(self.agent.loss.optimizer_groups(config.lr), fused=not config.compile,
-                                     capturable=config.compile and device.type == "cuda")
-        self.update = UpdateStep(self.agent.loss, optimizer, SoftUpdate(self.agent.loss, tau=config.tau), compile=config.compile)
+        # Adam over the loss's groups, the target update and the schedule (vigen.run.make_update)
+        self.update = make_update(config, self.agent.loss, device)
+        if config.compile and device.type == "cuda" and not self.update.cudagraph:
+            print("compiled without a CUDA graph: the update schedule (actor / target every N updates) alternates two "
+                  "graphs, which vigen has not checked as CUDA graphs", flush=True)
         # replay: uint8 transitions memory-mapped in the run folder (and, --replay-on-device, copied into the device's
         # memory to sample from), n-step returns computed as trajectories come in; the journal keeps what the last
         # checkpoint counts valid until the next checkpoint
@@ -309,7 +327,7 @@ class Training:
         self.logger = get_logger(config.logger, logger_name=str(run_dir), experiment_name="logs",
                                  **({"offline": True} if config.logger == "wandb" else {}))
         self.total_steps = config.frames // action_repeat
-        self.seed_steps = config.seed_frames // action_repeat
+        self.seed_steps = config.seed_steps if config.seed_steps is not None else config.seed_frames // action_repeat
         self.eval_every = config.eval_every // action_repeat
         self.steps_per_batch = 50 * config.update_every  # per worker
         self.progress: tqdm | None = None
@@ -342,6 +360,7 @@ class Training:
         for note in truncate_csv_logs(self.run_dir / "logs", checkpoint["frames"]):
             print(f"logs: {note}", file=sys.stderr)
         self.steps, self.updates = checkpoint["steps"], checkpoint["updates"]
+        self.update.count = self.updates  # the schedule's phase (actor / target every N updates)
 
     def run(self) -> None:
         """Train up to the config's frames, one segment per checkpoint."""
@@ -441,8 +460,10 @@ class Training:
         self.progress.update(new * self.action_repeat)
 
     def update_as_due(self) -> int:
-        """The gradient updates due after the seed steps (one per ``update_every`` agent steps), then their metrics; how many."""
-        due = (self.steps - self.seed_steps) // self.config.update_every - self.updates if self.steps >= self.seed_steps else 0
+        """The gradient updates due after the seed steps (one per ``update_every`` agent steps; with ``--seed-catch-up`` the
+        seed steps' too, made when they end), then their metrics; how many."""
+        counted = self.steps if self.config.seed_catch_up else self.steps - self.seed_steps
+        due = counted // self.config.update_every - self.updates if self.steps >= self.seed_steps else 0
         started = time.perf_counter()
         self.agent.loss.set_step(self.steps)
         for _ in range(due):

@@ -36,11 +36,13 @@ def test_the_flags_keep_their_meanings(evaluate):
                                           "color_hard", "--sweep", "camera_rotation", "0", "0.1", "--sweep", "light_color",
                                           "0.5", "--episodes", "3", "--seeds", "0", "1", "--random", "--videos", "/v",
                                           "--episode-length", "20", "--compare", "dmcgb", "--allow-budget-mismatch",
-                                          "--allow-stand-ins", "--ray", "--workers", "2", "--device", "cpu", "--out", "r"])
+                                          "--allow-stand-ins", "--allow-recipe-mismatch", "--ray", "--workers", "2",
+                                          "--device", "cpu", "--out", "r"])
     assert config == evaluate.EvaluationConfig(
         runs=(Path("runs/a"), Path("runs/b")), pretrained=("svea-cartpole-balance",), levels=("train", "color_hard"),
         sweep=(("camera_rotation", "0", "0.1"), ("light_color", "0.5")), episodes=3, seeds=(0, 1), random=True,
-        videos=("/v",), episode_length=20, compare="dmcgb", allow_budget_mismatch=True, allow_stand_ins=True)
+        videos=("/v",), episode_length=20, compare="dmcgb", allow_budget_mismatch=True, allow_stand_ins=True,
+        allow_recipe_mismatch=True)
     assert launch == evaluate.Launch(ray="local", workers=2, device="cpu", out=Path("r"))
     assert evaluate.parse_args(["--ray", "10.0.0.1:6379"])[1].ray == "10.0.0.1:6379"
 

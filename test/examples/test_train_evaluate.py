@@ -274,10 +274,17 @@ def test_compare_puts_the_run_beside_the_published_curve(trained, tmp_path):
     assert "episode length 100 in the run, 1000 in protocol drqv2" in refused(), "the run's 100-step episodes"
     # DrQ-v2 publishes its curve at 0 and 20,000 frames: compare() sets the 400-frame run beside the mean interpolated
     # between them (never beside a point at another budget), and says so; no --allow-budget-mismatch is needed
-    result = run("evaluate.py", trained, "--compare", "drqv2", "--episode-length", "1000", "--episodes", "1", "--out", out)
+    # the run names no recipe (--algo drqv2 with vigen's cpu preset): compare() refuses DrQ-v2's own curve (recipe drqv2)
+    # unless asked, and then names every setting that differs
+    assert "the run was trained by no recipe (vigen's algorithm defaults), drqv2's drqv2 row by recipe drqv2" in \
+        refused("--episode-length", "1000")
+    result = run("evaluate.py", trained, "--compare", "drqv2", "--episode-length", "1000", "--episodes", "1",
+                 "--allow-recipe-mismatch", "--out", out)
     assert "| dmc/cartpole-balance | train | drqv2 | return |" in result.stdout and "drqv2: drqv2" in result.stdout
     lines = list(csv.DictReader((out / "published.csv").open()))
     assert [(line["source"], line["published_frames"], line["budget_matches"]) for line in lines] == [("drqv2", "400", "False")]
     assert lines[0]["notes"].startswith("published mean interpolated linearly between 0 frames (")
     assert "and 20,000 frames (" in lines[0]["notes"] and "the source publishes no point at 400" in lines[0]["notes"]
+    assert "batch_size: not set in the run" not in lines[0]["notes"], "a run of no recipe is named as such"
+    assert "the run was trained by no recipe (vigen's algorithm defaults), the published row by recipe drqv2" in lines[0]["notes"]
     assert (out / "published.png").exists() and "## Published" in (out / "report.md").read_text()

@@ -34,6 +34,25 @@ def train():
     del sys.modules[spec.name]
 
 
+def test_recipe_list_prints_every_recipe_and_stops(train, capsys):
+    with pytest.raises(SystemExit) as stopped:
+        train.parse_args(["--recipe", "list"])
+    assert stopped.value.code == 0
+    printed = capsys.readouterr().out
+    assert "recipe svea-dmcgb: SVEA as DMC-GB trains it" in printed and "departs (one-step)" in printed
+
+
+def test_a_recipe_sets_the_run_and_a_flag_over_it_is_recorded(train):
+    config, _ = train.parse_args(["--recipe", "svea-dmcgb", "--env", "dmc/cartpole-swingup", "--seed-steps", "10",
+                                  "--no-seed-catch-up"])
+    assert (config.algo, config.batch_size, config.protocol, config.actor_update_every, config.seed_catch_up) == \
+        ("svea", 128, "dmcgb", 2, False)
+    assert config.recipe_overrides == {"seed_steps": {"recipe": 1000, "flag": 10},
+                                       "seed_catch_up": {"recipe": True, "flag": False}}
+    with pytest.raises(SystemExit, match="--algo drqv2 and --recipe svea-dmcgb"):
+        train.parse_args(["--recipe", "svea-dmcgb", "--algo", "drqv2"])
+
+
 def test_every_earlier_flag_is_still_there(train):
     options = {option for action in train.make_parser()._actions for option in action.option_strings}
     assert set(FLAGS) <= options

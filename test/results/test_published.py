@@ -143,3 +143,24 @@ def test_drqv2_curve_means_match_its_readme():
     assert round(at("cartpole-balance", 60_000)) == 985 and round(at("cartpole-swingup", 100_000)) == 626
     walker = published(source="drqv2", task="walker-walk", budget=500_000)
     assert {row.statistic: round(row.value) for row in walker} == {"mean": 722, "median": 929}
+
+
+def test_every_published_row_names_its_recipe_or_its_source_says_why_not():
+    """A row's recipe (issue 46): the vigen recipe that trains its method as the code behind it did, covering its task."""
+    from vigen.protocols import PROTOCOLS
+    from vigen.results import SOURCES
+    from vigen.run import RECIPES
+
+    for row in published():
+        if row.recipe is None:
+            assert SOURCES[row.source].why_no_recipe(row.method, row.variant, row.suite), (row.source, row.label)
+            continue
+        recipe = RECIPES[row.recipe]
+        assert recipe.algo == row.method, (row.source, row.label, row.recipe)
+        recipe.settings(row.env)  # the recipe covers the row's task (raises otherwise)
+        protocol = PROTOCOLS[recipe.protocol_for(row.env)]
+        assert row.protocol in (protocol.name, *protocol.published_as), (row.source, row.label)
+    named = {(row.source, row.label, row.recipe) for row in published() if row.recipe}
+    assert ("dmcgb", "svea (conv)", "svea-dmcgb") in named and ("madi", "madi", "madi-dmcgb") in named
+    assert ("dmcgb2", "sada", "sada-dmcgb2") in named and ("drqv2", "drqv2", "drqv2") in named
+    assert {name for _, _, name in named} == set(RECIPES) - {"scpl-dmcgb"}, "vigen holds no SCPL numbers"

@@ -42,6 +42,15 @@ def test_each_kind_of_field_reads_its_values_typed():
                               out=Path("elsewhere"))
 
 
+def test_a_switch_turns_on_and_off():
+    """``--no-random`` turns off what a layer under the flags (a recipe, a preset) turned on; neither typed: unset."""
+    assert parsed("--random").random is True and parsed("--no-random").random is False
+    parser = argparse.ArgumentParser()
+    add_flags(parser, Command, given_only=True)
+    assert given_flags(parser.parse_args(["--no-random"]), Command)["random"] is False
+    assert "random" not in given_flags(parser.parse_args([]), Command)
+
+
 def test_a_flag_with_a_bare_value_takes_it_alone_or_a_value_after_it():
     assert parsed().ray is None
     assert parsed("--ray").ray == "local"

@@ -128,6 +128,10 @@ def test_resume_refuses_contradicting_flags_and_takes_its_budget():
     (dict(gamma=1.5), "--gamma, --tau in (0, 1]"),
     (dict(lr=0.0), "--lr must be > 0"),
     (dict(std_final=-0.1), "--std-init and --std-final must be >= 0"),
+    (dict(actor_update_every=0), "--actor-update-every must be an integer >= 1, got 0"),
+    (dict(target_update_every=1.5), "--target-update-every must be an integer >= 1"),
+    (dict(seed_steps=-1), "--seed-steps must be >= 0"),
+    (dict(encoder_tau=0.0), "--encoder-tau must be in (0, 1]"),
     (dict(reward_scale=float("inf")), "--reward-scale positive"),
     (dict(episode_length=0), "--episode-length must be >= 1"),
     (dict(std_duration=0), "--std-duration must be an integer >= 1"),
@@ -163,5 +167,5 @@ def test_flags_hold_only_what_was_typed():
     for bad in (["--algo", "sac"], ["--collector", "slurm"], ["--batch-size", "8.5"], ["--protocol", "dmcgb3"]):
         with pytest.raises(SystemExit):
             parser.parse_args(bad)
-    recorded = {"protocol_settings", "protocol_overrides", "observation_shape", "action_dim"}
+    recorded = {"protocol_settings", "protocol_overrides", "recipe_settings", "recipe_overrides", "observation_shape", "action_dim"}
     assert set(vars(parser.parse_args([]))) == set(TrainConfig.__dataclass_fields__) - recorded

@@ -17,7 +17,7 @@ Examples:
     >>> import tempfile
     >>> import vigen.data
     >>> sorted(vigen.data.DATASETS)
-    ['davis2017', 'dmcgb-videos']
+    ['davis2017', 'dmcgb-videos', 'torchvision-resnet18']
     >>> vigen.data.locate("dmcgb-videos", part="video_hard", root=tempfile.mkdtemp()) is None  # not fetched there
     True
 """

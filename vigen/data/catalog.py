@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from vigen.data.errors import UnknownDataSetError
-from vigen.data.records import Archive, ArchiveLayout, DataSet, read_pinned_files
+from vigen.data.records import Archive, ArchiveLayout, DataSet, PinnedFile, read_pinned_files
 
 DMCGB_COMMIT = "ff9c0aa8d47685ed972414c67f1b7225e37ff85e"
 """The DMC-GB commit whose ``src/env/data/`` the pinned video list was taken from."""
@@ -41,7 +41,22 @@ DAVIS2017 = DataSet(
     notes=("The archive's sha256 is not pinned upstream: vigen records it (and every extracted file's) at the first fetch.",),
 )
 
-DATASETS: dict[str, DataSet] = {dataset.name: dataset for dataset in (DMCGB_VIDEOS, DAVIS2017)}
+RESNET18_SHA256 = "f37072fd47e89c5e827621c5baffa7500819f7896bbacec160b1a16c560e07ec"
+"""The sha256 of torchvision's ``resnet18-f37072fd.pth`` (its name carries the first 8 hex digits, which torchvision
+checks on download); the full value as widely quoted for that file, with its size, 46,830,571 bytes."""
+
+TORCHVISION_RESNET18 = DataSet(
+    name="torchvision-resnet18",
+    title="torchvision's ImageNet ResNet-18 weights (IMAGENET1K_V1), PIE-G's frozen encoder",
+    license="BSD-3-Clause (torchvision); the weights were trained on ImageNet, whose terms restrict use to research",
+    source="download.pytorch.org/models/ (torchvision.models.ResNet18_Weights.IMAGENET1K_V1)",
+    files=(PinnedFile("resnet18-f37072fd.pth", None, 46_830_571, sha256=RESNET18_SHA256),),
+    url_template="https://download.pytorch.org/models/{path}",
+    notes=("A torchvision state dict: load it with vigen's PIEGEncoder(weights=...) or make_loss('pieg', ..., "
+           "encoder_weights=...); examples/train.py --recipe pieg-rlvigen finds it here.",),
+)
+
+DATASETS: dict[str, DataSet] = {dataset.name: dataset for dataset in (DMCGB_VIDEOS, DAVIS2017, TORCHVISION_RESNET18)}
 """Every named data set, by name. A plain dict of :class:`~vigen.data.records.DataSet` records."""
 
 

@@ -11,7 +11,7 @@ from vigen.data.archive import (MANIFEST_NAME, check_layout, extract_zip, manife
                                 record_manifest)
 from vigen.data.cache import dataset_folder
 from vigen.data.catalog import get_dataset
-from vigen.data.checksums import git_blob_id, sha256_file
+from vigen.data.checksums import sha256_file
 from vigen.data.errors import (CorruptFileError, DataError, DownloadError, FetchError, LayoutError, MissingFileError,
                                SourceUnreachableError)
 from vigen.data.mirror import resolve_mirror, source_url
@@ -33,7 +33,7 @@ def fetch(
 
     Pinned files already present and matching their git blob id are kept; the others are
     downloaded into ``<file>.part`` (resuming one left by an interrupted run), checked against
-    their size and git blob id, then renamed into place. A file that fails does not stop the
+    their size and git blob id (or sha256), then renamed into place. A file that fails does not stop the
     others: at the end, :class:`~vigen.data.errors.FetchError` lists every failure (the checked
     files stay). An unreachable source raises :class:`~vigen.data.errors.SourceUnreachableError`
     at once.
@@ -154,12 +154,11 @@ def _fetch_pinned_file(dataset: DataSet, pinned: PinnedFile, target: Path, url: 
 
 
 def _pinned_mismatch(path: Path, pinned: PinnedFile) -> str | None:
-    """None when ``path`` holds the pinned content, else what it holds (``git blob <id> (<size> bytes)``)."""
+    """None when ``path`` holds the pinned content, else what it holds (``git blob <id> (<size> bytes)``, or its sha256)."""
     size = path.stat().st_size
     if pinned.size is not None and size != pinned.size:
         return f"{size} bytes"
-    blob = git_blob_id(path)
-    return None if blob == pinned.git_blob else f"git blob {blob} ({size} bytes)"
+    return None if pinned.matches(path) else f"{pinned.content_id(path)} ({size} bytes)"
 
 
 def _failure_summary(dataset: DataSet, part: str | None, files: tuple[PinnedFile, ...],

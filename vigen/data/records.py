@@ -13,6 +13,7 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from vigen.data.checksums import git_blob_id, sha256_file
 from vigen.data.errors import UnknownDataSetError
 
 _HEX40 = re.compile(r"[0-9a-f]{40}")
@@ -22,31 +23,42 @@ _NAME = re.compile(r"[a-z0-9][a-z0-9._-]*")
 
 @dataclass(frozen=True)
 class PinnedFile:
-    """One file of a data set, pinned by its git blob id (``git hash-object``) and, where known, its size.
+    """One file of a data set, pinned by its git blob id (``git hash-object``) or its sha256, and, where known, its size.
+
+    A file of a git repository is pinned by its blob id; a file served elsewhere (torchvision's
+    weights on download.pytorch.org) by its sha256.
 
     Attributes:
         path: '/'-separated, relative to the data set's folder; its first folder is its part
             (``video_hard/video0.mp4`` is in part ``video_hard``).
-        git_blob: 40 hex digits, ``sha1(b"blob <size>\\0" + content)``.
+        git_blob: 40 hex digits, ``sha1(b"blob <size>\\0" + content)``; None for a file pinned by ``sha256``.
         size: bytes, or None where the source listing does not record it (the blob id still pins the content).
+        sha256: 64 hex digits, for a file that is not pinned by a git blob id.
 
     Examples:
         >>> from vigen.data.records import PinnedFile
         >>> pinned = PinnedFile("video_hard/video0.mp4", "e69de29bb2d1d6434b8b29ae775ad8c2e48c5391", 0)
         >>> pinned.part, pinned.name, pinned.expected
         ('video_hard', 'video0.mp4', 'git blob e69de29bb2d1d6434b8b29ae775ad8c2e48c5391 (0 bytes)')
+        >>> PinnedFile("empty.bin", None, 0, sha256="e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855").expected
+        'sha256 e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855 (0 bytes)'
     """
 
     path: str
-    git_blob: str
+    git_blob: str | None
     size: int | None = None
+    sha256: str | None = None
 
     def __post_init__(self) -> None:
         parts = self.path.split("/")
         if self.path.startswith("/") or any(piece in ("", ".", "..") for piece in parts):
             raise ValueError(f"PinnedFile path {self.path!r} must be relative, '/'-separated, without '.', '..' or empty pieces.")
-        if not _HEX40.fullmatch(self.git_blob):
+        if (self.git_blob is None) == (self.sha256 is None):
+            raise ValueError(f"PinnedFile {self.path}: pin it by a git blob id or by a sha256, one of them.")
+        if self.git_blob is not None and not _HEX40.fullmatch(self.git_blob):
             raise ValueError(f"PinnedFile {self.path}: git_blob must be 40 lowercase hex digits, got {self.git_blob!r}.")
+        if self.sha256 is not None and not _HEX64.fullmatch(self.sha256):
+            raise ValueError(f"PinnedFile {self.path}: sha256 must be 64 lowercase hex digits, got {self.sha256!r}.")
         if self.size is not None and self.size < 0:
             raise ValueError(f"PinnedFile {self.path}: size must be >= 0 or None, got {self.size}.")
 
@@ -62,8 +74,19 @@ class PinnedFile:
 
     @property
     def expected(self) -> str:
-        """How messages name the pinned content: ``git blob <id> (<size> bytes)``."""
-        return f"git blob {self.git_blob}" + (f" ({self.size} bytes)" if self.size is not None else "")
+        """How messages name the pinned content: ``git blob <id> (<size> bytes)`` or ``sha256 <hex> (<size> bytes)``."""
+        pin = f"git blob {self.git_blob}" if self.git_blob is not None else f"sha256 {self.sha256}"
+        return pin + (f" ({self.size} bytes)" if self.size is not None else "")
+
+    def content_id(self, path: str | Path) -> str:
+        """What the file at ``path`` holds, in this pin's terms: ``git blob <id>`` or ``sha256 <hex>``."""
+        return f"git blob {git_blob_id(path)}" if self.git_blob is not None else f"sha256 {sha256_file(path)}"
+
+    def matches(self, path: str | Path) -> bool:
+        """Whether the file at ``path`` has the pinned size (where known) and content."""
+        if self.size is not None and Path(path).stat().st_size != self.size:
+            return False
+        return self.content_id(path) == (f"git blob {self.git_blob}" if self.git_blob is not None else f"sha256 {self.sha256}")
 
 
 @dataclass(frozen=True)
@@ -206,7 +229,7 @@ def read_pinned_files(path: str | Path) -> tuple[PinnedFile, ...]:
         >>> listing = Path(tempfile.mkdtemp()) / "files.tsv"
         >>> _ = listing.write_text("# toy\\nblob\\tsize\\tpath\\ne69de29bb2d1d6434b8b29ae775ad8c2e48c5391\\t?\\ta/empty.bin\\n")
         >>> read_pinned_files(listing)[0]
-        PinnedFile(path='a/empty.bin', git_blob='e69de29bb2d1d6434b8b29ae775ad8c2e48c5391', size=None)
+        PinnedFile(path='a/empty.bin', git_blob='e69de29bb2d1d6434b8b29ae775ad8c2e48c5391', size=None, sha256=None)
     """
     rows = [line for line in Path(path).read_text(encoding="utf-8").splitlines() if line and not line.startswith("#")]
     if not rows or rows[0].split("\t") != ["blob", "size", "path"]:

@@ -9,7 +9,7 @@ from pathlib import Path
 from vigen.data.archive import read_manifest
 from vigen.data.cache import dataset_folder
 from vigen.data.catalog import get_dataset
-from vigen.data.checksums import git_blob_id, sha256_file
+from vigen.data.checksums import sha256_file
 from vigen.data.records import DataSet
 
 
@@ -108,9 +108,8 @@ def verify(name: str | DataSet, root: str | os.PathLike | None = None) -> Verify
         if not path.is_file():
             absent.append(pinned.path)
             continue
-        size, blob = path.stat().st_size, git_blob_id(path)
-        if blob != pinned.git_blob or (pinned.size is not None and size != pinned.size):
-            mismatched.append(Mismatch(pinned.path, pinned.expected, f"git blob {blob} ({size} bytes)"))
+        if not pinned.matches(path):
+            mismatched.append(Mismatch(pinned.path, pinned.expected, f"{pinned.content_id(path)} ({path.stat().st_size} bytes)"))
         else:
             checked.append(pinned.path)
     leftovers = sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*.part")) if folder.is_dir() else []

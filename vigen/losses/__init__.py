@@ -27,8 +27,9 @@ explore, ``loss.make_policy(action_spec)`` (in vigen, "policy" is always that ac
 
 Each takes plain ``nn.Module`` networks (see :mod:`vigen.models`) and a TensorDict batch from a
 TorchRL replay buffer, returns ``loss_*`` entries and detached metrics, and has target critic
-parameters for ``torchrl.objectives.SoftUpdate``. :func:`make_loss` builds one by name with its
-paper's networks.
+parameters for ``torchrl.objectives.SoftUpdate`` (:class:`SplitSoftUpdate`: a rate per part, as DMC-GB's
+SAC moves its encoder faster than its Q heads). :func:`make_loss` builds one by name with its paper's networks;
+:class:`UpdateStep` is one update (steps of some parts on every N-th update only, as DMC-GB's actor).
 
 Before any work a loss checks its batch: the pixels, the action, the next pixels, reward and
 ``terminated`` must be there (missing ones are named, with ``set_keys`` as the fix), and the
@@ -52,6 +53,7 @@ from vigen.losses.saliency import GuidedBackprop, GuidedForward, attribution_mas
 from vigen.losses.schedule import LinearSchedule
 from vigen.losses.sgqn import SGQNLoss
 from vigen.losses.svea import SVEALoss
+from vigen.losses.target_update import SplitSoftUpdate
 from vigen.losses.update import UpdateStep, update_metrics
 from vigen.losses.vrl3 import VRL3Loss
 
@@ -73,6 +75,7 @@ __all__ = [
     "SquashedGaussian",
     "SVEALoss",
     "Sampler",
+    "SplitSoftUpdate",
     "UpdateStep",
     "VRL3Loss",
     "attribution_mask",

@@ -53,8 +53,9 @@ LEGACY_STATE_KEYS = {
 was ``loss.sampler`` (it was ``loss.policy``, a name that now means the acting module only). The actor's renamed
 submodules (``actor_params.policy.*``) are :data:`vigen.models.ACTOR_RENAMES`."""
 
-PARAM_GROUP_OPTIONS = frozenset({"lr", "lr_scale", "betas", "eps", "weight_decay"})
-"""The options a per-module optimizer group (``param_groups``) may set; ``lr_scale`` is a multiple of the base lr."""
+PARAM_GROUP_OPTIONS = frozenset({"lr", "lr_scale", "betas", "eps", "weight_decay", "every"})
+"""The options a per-module optimizer group (``param_groups``) may set; ``lr_scale`` is a multiple of the base lr;
+``every`` steps the group on every N-th update only (:class:`~vigen.losses.UpdateStep`: DMC-GB's actor every second)."""
 
 BATCH_NORMS = (nn.BatchNorm1d, nn.BatchNorm2d, nn.BatchNorm3d, nn.SyncBatchNorm)
 """The BatchNorm module types whose statistics a loss's acting policy or views must manage (VRL3, PIE-G)."""
@@ -517,13 +518,29 @@ class ActorCriticLoss(LossModule):
     def optimizer_groups(self, lr: float) -> list[dict[str, Any]]:
         """Parameter groups for one optimizer over the whole loss: ``torch.optim.Adam(loss.optimizer_groups(lr))``.
 
-        One group at ``lr``, then one per entry of ``param_groups`` (a module, or ``"encoder"`` for the
-        encoder's parameters) with its own options (MaDi's masker: lr 1e-3, betas (0.9, 0.999)).
+        One group at ``lr``, then one per entry of ``param_groups`` (a module: ``"actor"``, ``"sampler"`` (SAC's
+        temperature), ``"input_mask"``, ...; or ``"encoder"`` for the encoder's parameters) with its own options
+        (MaDi's masker: lr 1e-3, betas (0.9, 0.999)). A group's ``every`` stays in it for
+        :class:`~vigen.losses.UpdateStep`, which steps the group on every N-th update only.
+
+        Examples:
+            >>> from vigen.losses import make_loss
+            >>> loss = make_loss("drq", (9, 32, 32), 2, hidden_dim=8, param_groups={"actor": {"lr": 1e-3, "every": 2}})
+            >>> [(group["lr"], group.get("every", 1)) for group in loss.optimizer_groups(1e-4)]
+            [(0.0001, 1), (0.001, 2)]
         """
         groups, own = [], set()
         for name, options in self.param_groups.items():
-            module = self.encoder_params if name == "encoder" else getattr(self, name)
+            module = self.encoder_params if name == "encoder" else getattr(self, name, None)
+            if not isinstance(module, nn.Module):
+                own = ["encoder", "actor", "critic", *(child for child, value in self.named_children()
+                                                       if not child.endswith("_params") and any(True for _ in value.parameters()))]
+                raise ValueError(f"{type(self).__name__}: param_groups names {name!r}, which is not one of its modules "
+                                 f"({', '.join(dict.fromkeys(own))}).")
             params = list(module.parameters())
+            if not params:
+                raise ValueError(f"{type(self).__name__}: param_groups names {name!r}, which has no parameters "
+                                 f"(a DDPG sampler has no temperature).")
             own.update(id(parameter) for parameter in params)
             resolved = {key: value for key, value in options.items() if key != "lr_scale"}
             if "lr_scale" in options:  # a multiple of the base learning rate (VRL3's encoder)
@@ -742,7 +759,11 @@ class ActorCriticLoss(LossModule):
             betas = options.get("betas", (0.9, 0.999))
             if not (len(betas) == 2 and all(isinstance(beta, (int, float)) and 0 <= beta < 1 for beta in betas)):
                 raise ValueError(f"{name}: param_groups[{module!r}]['betas'] are Adam's (β1, β2), each in [0, 1), got {betas!r}.")
-            checked[module] = {key: (tuple(float(beta) for beta in value) if key == "betas" else float(value))
+            every = options.get("every", 1)
+            if isinstance(every, bool) or not isinstance(every, int) or every < 1:
+                raise ValueError(f"{name}: param_groups[{module!r}]['every'] is a number of updates, an integer >= 1, got {every!r}.")
+            checked[module] = {key: (tuple(float(beta) for beta in value) if key == "betas" else
+                                     int(value) if key == "every" else float(value))
                                for key, value in options.items()}
         return checked
 

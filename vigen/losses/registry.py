@@ -27,8 +27,10 @@ here, not classes:
 
 DMC-GB's SAC (MaDi, SimGRL, SCPL) uses SVEA's 11-layer CNN on ``x / 255``, a target encoder in
 the target critic, ``log(relu(1 − tanh²) + ε)`` (:data:`~vigen.losses.samplers.DMCGB_SQUASH_EPSILON`) and the actor's own ``feature_dim``
-projection; the departures of all SAC presets from their code (one optimizer step for all terms,
-one τ) are measured in ``benchmarks/parity``.
+projection; the departure of all SAC presets from their code (one optimizer step for all terms) is
+measured in ``benchmarks/parity``; their actor and targets every second update and their two target
+rates are the update's (:class:`~vigen.losses.UpdateStep`, :class:`~vigen.losses.SplitSoftUpdate`; the
+recipes of :data:`vigen.run.RECIPES`).
 
 Everything that makes an algorithm its paper's is a field of its :class:`Algorithm` record: the
 loss class, the encoder, the actor, the sampler and its options, the extra networks, the preset
@@ -217,6 +219,15 @@ SAMPLER_OPTIONS: Mapping[type, tuple[str, ...]] = MappingProxyType({
 })
 """The options of each sampler that :func:`make_loss` takes as keywords."""
 
+SAMPLERS: Mapping[str, type[NoisyDeterministic] | type[SquashedGaussian]] = MappingProxyType({
+    "noisy_deterministic": NoisyDeterministic, "squashed_gaussian": SquashedGaussian})
+"""Sampler name → class: what ``sampler_type=`` of :func:`make_loss` picks instead of the algorithm's sampler."""
+
+PART_OPTIONS = ("encoder_type", "actor_type", "sampler_type", "log_std_bounds")
+"""The :func:`make_loss` options that swap or shape an algorithm's parts by name (an original's parts on vigen's loss):
+``encoder_type`` (:data:`ENCODERS`), ``actor_type`` (:data:`ACTORS`), ``sampler_type`` (:data:`SAMPLERS`) and the
+SAC actor's ``log_std_bounds``."""
+
 
 def algorithm(algo: str) -> Algorithm:
     """The record of ``algo``, or a ``ValueError`` listing the names.
@@ -233,18 +244,28 @@ def algorithm(algo: str) -> Algorithm:
 def make_sampler(algo: str, options: dict[str, Any]) -> Sampler:
     """The sampler of ``algo`` with the paper's options; pops the sampler's options (``std``, ``init_temperature``, ...).
 
+    ``options["sampler_type"]`` (popped) picks another sampler by name (:data:`SAMPLERS`), e.g. SAC's for SVEA as
+    DMC-GB trains it; the record's sampler options then do not apply.
+
     Examples:
         >>> make_sampler("vrl3", {})
         NoisyDeterministic(std=0.01, clip=0.3)
+        >>> make_sampler("svea", {"sampler_type": "squashed_gaussian", "squash_epsilon": 1e-6})
+        SquashedGaussian(target_entropy='auto', squash_epsilon=1e-06)
     """
     record = algorithm(algo)
-    own = SAMPLER_OPTIONS[record.sampler]
-    wrong = [name for other, names in SAMPLER_OPTIONS.items() if other is not record.sampler for name in names
+    kind = options.pop("sampler_type", None)
+    if kind is not None and kind not in SAMPLERS:
+        raise ValueError(f"{algo}: sampler_type={kind!r} is no sampler; choose one of {', '.join(SAMPLERS)}.")
+    sampler = record.sampler if kind is None else SAMPLERS[kind]
+    own = SAMPLER_OPTIONS[sampler]
+    wrong = [name for other, names in SAMPLER_OPTIONS.items() if other is not sampler for name in names
              if name in options and name not in own]
     if wrong:
-        raise TypeError(f"{record.loss.__name__} ({algo}) samples with {record.sampler.__name__} and takes no "
+        raise TypeError(f"{record.loss.__name__} ({algo}) samples with {sampler.__name__} and takes no "
                         f"{', '.join(map(repr, wrong))}; its sampler's options are {', '.join(own)}.")
-    return record.sampler(**{**record.sampler_options, **{name: options.pop(name) for name in own if name in options}})
+    paper = record.sampler_options if sampler is record.sampler else {}  # the record's options are for its own sampler
+    return sampler(**{**paper, **{name: options.pop(name) for name in own if name in options}})
 
 
 def make_loss(
@@ -277,7 +298,11 @@ def make_loss(
     (:class:`~vigen.losses.NoisyDeterministic`), ``init_temperature``, ``target_entropy``,
     ``squash_epsilon`` for the SAC ones (:class:`~vigen.losses.SquashedGaussian`); or pass
     ``sampler=`` whole. Per-module optimizer options are ``param_groups`` (MaDi's masker:
-    ``param_groups={"input_mask": {"lr": 5e-4}}``), merged over the paper's.
+    ``param_groups={"input_mask": {"lr": 5e-4}}``), merged over the paper's. An algorithm's parts can be
+    swapped by name (:data:`PART_OPTIONS`): ``encoder_type`` (:data:`ENCODERS`), ``actor_type``
+    (:data:`ACTORS`), ``sampler_type`` (:data:`SAMPLERS`), and a SAC actor's ``log_std_bounds``; SVEA as
+    DMC-GB trains it is ``make_loss("svea", ..., encoder_type="shared_cnn_01", actor_type="gaussian_projected",
+    sampler_type="squashed_gaussian", squash_epsilon=1e-6, ...)`` (:data:`vigen.run.RECIPES` holds such sets).
 
     Args:
         algo: one of :data:`ALGOS`.
@@ -348,12 +373,26 @@ def make_networks(
     channels, height, width = observation_shape
     if height != width:
         raise ValueError(f"vigen's encoders take square images, got {height}×{width}; render at a square size.")
+    encoder_type, actor_type = options.pop("encoder_type", record.encoder), options.pop("actor_type", record.actor)
+    for part, name, table in (("encoder_type", encoder_type, ENCODERS), ("actor_type", actor_type, ACTORS)):
+        if name not in table:
+            raise ValueError(f"{algo}: {part}={name!r} is not one of vigen's; choose one of {', '.join(table)}.")
     weights = options.pop(record.encoder_weights, None) if record.encoder_weights else None
-    encoder = ENCODERS[record.encoder](channels, height, max_value, weights)
+    encoder = ENCODERS[encoder_type](channels, height, max_value, weights)
     shapes = Shapes(channels, height, encoder.output_dim(channels, height, width), action_dim, feature_dim, hidden_dim,
                     max_value)
     critic = Critic(shapes.features, action_dim, feature_dim=feature_dim, hidden_dim=hidden_dim)
-    networks: dict[str, nn.Module] = {"encoder": encoder, "actor": ACTORS[record.actor](shapes), "critic": critic}
+    actor = ACTORS[actor_type](shapes)
+    bounds = options.pop("log_std_bounds", None)
+    if bounds is not None:
+        if not isinstance(actor, GaussianActor):
+            raise ValueError(f"{algo}: log_std_bounds shape a SAC actor's log σ; {type(actor).__name__} has none "
+                             f"(pick actor_type='gaussian' or 'gaussian_projected').")
+        low, high = (float(bound) for bound in bounds)
+        if not low < high:
+            raise ValueError(f"{algo}: log_std_bounds must be (low, high) with low < high, got {tuple(bounds)}.")
+        actor.log_std_bounds = (low, high)
+    networks: dict[str, nn.Module] = {"encoder": encoder, "actor": actor, "critic": critic}
     for name, factory in record.networks.items():
         if name not in options:
             networks[name] = factory(shapes)
@@ -396,6 +435,12 @@ def build_loss(algo: str, encoder: nn.Module, actor: nn.Module, critic: nn.Modul
                         "builds the paper's).")
     if "sampler" not in options:
         options["sampler"] = make_sampler(algo, options)
+    sampler = options["sampler"]
+    if isinstance(actor, (Actor, GaussianActor)) and isinstance(sampler, SquashedGaussian) != isinstance(actor, GaussianActor):
+        sac = isinstance(sampler, SquashedGaussian)
+        raise ValueError(f"{algo}: {type(sampler).__name__} draws from {'a SAC actor' if sac else 'a deterministic actor'}, "
+                         f"but the actor is {type(actor).__name__}; pick the matching actor_type "
+                         f"({'gaussian or gaussian_projected' if sac else 'deterministic'}).")
     if record.param_groups:
         given = options.get("param_groups") or {}
         options["param_groups"] = {module: {**record.param_groups.get(module, {}), **given.get(module, {})}

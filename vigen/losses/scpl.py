@@ -70,11 +70,12 @@ class SCPLLoss(ActorCriticLoss):
     Departures from SCPL's code (measured in ``benchmarks/parity``): SCPL steps the critic,
     then the actor and temperature, then (every second update) the encoder and the model with
     their own Adam (lr 3e-4), each after the previous step; here every term comes from the same
-    parameters and one optimizer step takes them all, every update. The actor, the target and
-    the dynamics model are updated on every call (SCPL: every second update of the critic), and
-    ``SoftUpdate`` has one τ (SCPL: 0.01 for the Q heads, 0.05 for the encoder and the critic's
-    projection). With n-step returns the reward model predicts the n-step reward of the batch
-    (SCPL: one step).
+    parameters and one optimizer step takes them all. The loss computes the actor's and the model's
+    terms on every call; SCPL's stepping of the actor, the target and the model every second update,
+    and its two target rates (0.01 for the Q heads, 0.05 for the encoder and the critic's projection),
+    are the update's (:class:`~vigen.losses.UpdateStep`'s schedule, :class:`~vigen.losses.SplitSoftUpdate`;
+    ``examples/train.py --recipe scpl-dmcgb``). With n-step returns the reward model predicts the n-step
+    reward of the batch (SCPL: one step).
 
     Its critic is :class:`~vigen.losses.SVEALoss`'s on SAC (with the next observation shifted, SCPL's
     ``sample_drq``) plus the consistency term; the rest of the update is its own.

@@ -32,16 +32,19 @@ class SVEALoss(ActorCriticLoss):
     DMC-GB's SAC agent:
 
         SVEALoss(encoder, actor, critic, sampler=SquashedGaussian(squash_epsilon=DMCGB_SQUASH_EPSILON),
-                 strong_augmentation=RandomConv(), augment_next=False, target_encoder=True)
+                 strong_augmentation=RandomConv(), augment_next=True, target_encoder=True)
 
     on DMC-GB's networks (``SharedCNN(centered=False)``, :class:`~vigen.models.GaussianActor` and
-    :class:`~vigen.models.Critic` with ``feature_dim`` projections); its next observation is not
-    shifted (``sample_svea``) and its target critic scores on a target encoder. SRM, MaDi and
+    :class:`~vigen.models.Critic` with ``feature_dim`` projections); at DMC-GB @ ff9c0aa its
+    ``sample_svea`` is ``sample_drq`` (the next observation is shifted too; MaDi's and SimGRL's forks
+    leave it as stored) and its target critic scores on a target encoder. ``examples/train.py
+    --recipe svea-dmcgb`` trains it with DMC-GB's settings (:data:`vigen.run.RECIPES`). SRM, MaDi and
     SimGRL are this loss with other defaults (registered presets of :func:`~vigen.losses.make_loss`).
-    Departures from DMC-GB: DMC-GB steps the critic, then the actor and temperature, each with its
-    own Adam and the actor every second update; here every term comes from the batch's parameters
-    and one optimizer step takes them all; ``SoftUpdate`` has one τ (DMC-GB: 0.01 for the Q heads,
-    0.05 for the encoder and the critic's projection).
+    Departure from DMC-GB: DMC-GB steps the critic, then the actor and temperature on the stepped
+    critic, each with its own Adam; here every term comes from the batch's parameters and one
+    optimizer step takes them all. Its actor, temperature and targets every second update, and its
+    two target rates (0.01 for the Q heads, 0.05 for the encoder and the critic's projection), are the
+    update's: :class:`~vigen.losses.UpdateStep`'s schedule and :class:`~vigen.losses.SplitSoftUpdate`.
 
     Paper: SVEA, https://arxiv.org/abs/2107.00644 (code: DMC-GB,
     https://github.com/nicklashansen/dmcontrol-generalization-benchmark; RL-ViGen,

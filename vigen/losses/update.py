@@ -69,13 +69,28 @@ class UpdateStep:
     unless ``weight_decay`` is set), while the eager update skips it; every parameter of vigen's
     losses gets a gradient.
 
+    A schedule steps parts on every N-th update only, as DMC-GB's SAC steps its actor and temperature,
+    and its target networks, on every second update (``actor_update_freq``, ``critic_target_update_freq``):
+    an optimizer group with ``"every": N`` (``loss.optimizer_groups``, from the loss's ``param_groups``)
+    is stepped on updates ``0, N, 2N, ...`` and left untouched on the others (its parameters, and Adam's
+    moments and step count, as under a separate optimizer that is not called), and ``target_every``
+    does the same for the target update. The update's index is :attr:`count` (set it when resuming a
+    run). The loss still computes every term on every update; a group that is not due only skips its
+    step, which equals the original's whenever the group's gradients come from its own terms (the
+    actor's from ``loss_actor`` on detached features, the temperature's from ``loss_alpha``). Compiled,
+    each pattern of due groups is its own graph (two for "every second update"), checked equal to the
+    eager update; captured as a CUDA graph, a schedule is refused (not yet checked on a GPU).
+
     Paper: DrQ-v2's update (https://arxiv.org/abs/2107.09645); compiled RL updates as in LeanRL
-    (https://github.com/pytorch-labs/LeanRL).
+    (https://github.com/pytorch-labs/LeanRL); the schedule, DMC-GB's SAC
+    (https://github.com/nicklashansen/dmcontrol-generalization-benchmark, ``src/algorithms/sac.py``).
 
     Args:
         loss: a vigen loss with its value estimator made.
         optimizer: over the loss's parameters (``torch.optim.Adam(loss.optimizer_groups(lr))``).
-        target_update: TorchRL's ``SoftUpdate(loss, tau=...)``; ``None`` for none.
+        target_update: TorchRL's ``SoftUpdate(loss, tau=...)`` (or :class:`~vigen.losses.SplitSoftUpdate`);
+            ``None`` for none.
+        target_every: update the targets on every N-th update only (DMC-GB: 2).
         compile: compile the update.
         cudagraph: capture the (compiled) update as a CUDA graph; ``None``: on CUDA when compiling.
         backend: ``torch.compile``'s backend (``"inductor"``; ``"aot_eager"`` traces without code
@@ -108,6 +123,7 @@ class UpdateStep:
         optimizer: torch.optim.Optimizer,
         target_update: SoftUpdate | None = None,
         *,
+        target_every: int = 1,
         compile: bool = False,
         cudagraph: bool | None = None,
         backend: str = "inductor",
@@ -120,6 +136,14 @@ class UpdateStep:
                              "loss.make_value_estimator(gamma=...) first.")
         device = loss.device
         cudagraph = compile and device.type == "cuda" if cudagraph is None else cudagraph
+        if isinstance(target_every, bool) or not isinstance(target_every, int) or target_every < 1:
+            raise ValueError(f"UpdateStep: target_every is a number of updates, an integer >= 1, got {target_every!r}.")
+        everies = tuple(int(group.get("every", 1)) for group in optimizer.param_groups)
+        scheduled = target_every > 1 or any(every > 1 for every in everies)
+        if cudagraph and scheduled:
+            raise ValueError("UpdateStep: a schedule (a group's 'every' or target_every above 1) alternates two update "
+                             "graphs, which vigen has not yet checked as CUDA graphs on a GPU; pass cudagraph=False "
+                             "(torch.compile alone, checked equal to the eager update) or drop the schedule.")
         if cudagraph and device.type != "cuda":
             raise ValueError(f"UpdateStep: cudagraph=True needs a loss on CUDA; this one is on {device}.")
         if compile:
@@ -141,6 +165,10 @@ class UpdateStep:
         self.loss = loss
         self.optimizer = optimizer
         self.target_update = target_update
+        self.target_every = target_every
+        self.group_every = everies
+        self.count = 0
+        """Updates made so far: the schedule's phase (a group of ``every`` N is stepped when ``count % N == 0``)."""
         self.device = device
         self.compiled = compile
         self.cudagraph = cudagraph
@@ -152,13 +180,17 @@ class UpdateStep:
         self.static_gradients = compile or cudagraph
         self._diverged = torch.zeros((), dtype=torch.long, device=device)
         self._parameters = [parameter for group in optimizer.param_groups for parameter in group["params"]]
+        self._compile = functools.partial(torch.compile, fullgraph=True, dynamic=False, backend=backend,
+                                          **_compile_options(backend, mode, cudagraph)) if compile else None
+        self._every_due = (tuple(True for _ in everies), True)
+        self._pattern = self._every_due  # which groups and whether the targets are due in the update running now
         step = self._update
         if compile:  # the whole update in one graph
-            step = torch.compile(_own_code(step), fullgraph=True, dynamic=False, backend=backend,
-                                 **_compile_options(backend, mode, cudagraph))
+            step = self._compile(_own_code(step))
         if cudagraph:  # vigen's own wrapper: copies the batch in and replays, without waiting for the GPU or cloning
             step = CudaGraphCall(step, warmup=2, device=device)
-        self._step = step
+        self._step = step  # the update with every part due
+        self._scheduled_steps: dict[tuple, Callable[[TensorDictBase], TensorDictBase]] = {}  # compiled, one per other pattern
         self._calls = 0
 
     def __call__(self, batch: TensorDictBase) -> TensorDictBase:
@@ -180,17 +212,38 @@ class UpdateStep:
                 if isinstance(module, ImageAugmentation) and pixels is not None:
                     module.prepare(pixels.shape, self.device)
         self.optimizer.zero_grad(set_to_none=not self.static_gradients)  # dynamo does not trace zero_grad
+        self._pattern = self.due(self.count)
+        step = self._step
+        if self._pattern != self._every_due and self.compiled:  # its own code object: its own graph and cache
+            step = self._scheduled_steps.get(self._pattern)
+            if step is None:
+                step = self._scheduled_steps[self._pattern] = self._compile(_own_code(self._update))
         if self.compiled:
             with torch._dynamo.config.patch(trace_autograd_ops=True):  # backward() inside the graph
-                result = self._step(batch)
+                result = step(batch)
         else:
-            result = self._step(batch)
+            result = step(batch)
+        self.count += 1
         if started is not None:  # compilation (and CUDA-graph warm-up and capture) happens in the first calls
             self.compile_seconds = (self.compile_seconds or 0.0) + time.perf_counter() - started
         self._calls += 1
         # the loss wrote the priority into the batch it was given; a CUDA graph's replay gives it a copy, so write it here
         batch.set(self.loss.tensor_keys.priority, result["priority"])
         return result["losses"]
+
+    def due(self, index: int) -> tuple[tuple[bool, ...], bool]:
+        """Which optimizer groups are stepped in update ``index`` (one flag per group), and whether the targets are.
+
+        Examples:
+            >>> import torch
+            >>> from vigen.losses import UpdateStep, make_loss
+            >>> loss = make_loss("drq", (9, 32, 32), 2, hidden_dim=8,
+            ...                  param_groups={"actor": {"every": 2}}).make_value_estimator(gamma=0.99)
+            >>> update = UpdateStep(loss, torch.optim.Adam(loss.optimizer_groups(1e-4)), target_every=2)
+            >>> update.due(0), update.due(1)
+            (((True, True), True), ((True, False), False))
+        """
+        return tuple(index % every == 0 for every in self.group_every), index % self.target_every == 0
 
     def _check_capturable(self) -> None:
         if self.cudagraph and not all(group.get("capturable", False) for group in self.optimizer.param_groups):
@@ -209,19 +262,29 @@ class UpdateStep:
             for parameter in self._parameters:
                 if parameter.grad is not None:
                     parameter.grad.copy_(torch.where(finite, parameter.grad, torch.zeros_like(parameter.grad)))
+        groups_due, target_due = self._pattern
         if self.compiled:
             with torch.no_grad():
-                self._adam_step()
+                self._adam_step(groups_due)
         else:
+            skipped = [(parameter, parameter.grad) for group, due in zip(self.optimizer.param_groups, groups_due) if not due
+                       for parameter in group["params"]]
+            for parameter, _ in skipped:  # Adam skips a parameter without a gradient: its state stays as it is
+                parameter.grad = None
             self.optimizer.step()
-        if self.target_update is not None:
+            for parameter, gradient in skipped:  # the gradients stay readable, as in the compiled update
+                parameter.grad = gradient
+        if self.target_update is not None and target_due:
             self.target_update.step()
         return TensorDict({"losses": out.detach(), "priority": batch.get(self.loss.tensor_keys.priority).detach()},
                           batch_size=[])
 
-    def _adam_step(self) -> None:
-        """``optimizer.step()`` through Adam's functional form, which dynamo traces (the method graph-breaks on purpose)."""
-        for group in self.optimizer.param_groups:
+    def _adam_step(self, groups_due: tuple[bool, ...]) -> None:
+        """``optimizer.step()`` through Adam's functional form, which dynamo traces (the method graph-breaks on purpose),
+        over the groups due."""
+        for group, due in zip(self.optimizer.param_groups, groups_due):
+            if not due:
+                continue
             params = [parameter for parameter in group["params"] if parameter.grad is not None]
             states = [self.optimizer.state[parameter] for parameter in params]
             beta1, beta2 = group["betas"]

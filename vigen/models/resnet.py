@@ -22,6 +22,8 @@ from vigen.pixel_format import check_pixels, white_value
 
 RGB = 3
 RESNET18_URL = "https://download.pytorch.org/models/resnet18-f37072fd.pth"
+RESNET18_FETCH = "python -m vigen.data fetch torchvision-resnet18"
+"""The command that fetches torchvision's ImageNet ResNet-18 into vigen's data cache (:mod:`vigen.data`)."""
 """torchvision's ImageNet ResNet-18 (``ResNet18_Weights.IMAGENET1K_V1``), a plain state dict."""
 _WIDTHS = (64, 128, 256, 512)
 _BATCH_NORM_COUNTER = "num_batches_tracked"
@@ -255,11 +257,12 @@ class PIEGEncoder(nn.Module):
         self.ln = nn.LayerNorm(self.out_dim)
         if weights is None:
             warnings.warn(
-                f"{name}: the ResNet-18 starts from random weights; PIE-G's results need ImageNet weights. Pass "
-                f"weights=<file> with torchvision's ResNet-18 state dict ({RESNET18_URL}, or "
-                "torch.save(torchvision.models.resnet18(weights='IMAGENET1K_V1').state_dict(), file)); "
-                "with make_loss: make_loss('pieg', ..., encoder_weights=<file>); with examples/train.py: "
-                "--encoder-weights <file>.",
+                f"{name}: the ResNet-18 starts from random weights; PIE-G's results need ImageNet weights. Fetch "
+                f"torchvision's ResNet-18 state dict, checked by its sha256, with `{RESNET18_FETCH}` "
+                "(examples/train.py --recipe pieg-rlvigen then finds it), or download it "
+                f"({RESNET18_URL}, or torch.save(torchvision.models.resnet18(weights='IMAGENET1K_V1').state_dict(), "
+                "file)) and pass weights=<file>; with make_loss: make_loss('pieg', ..., encoder_weights=<file>); with "
+                "examples/train.py: --encoder-weights <file>.",
                 UserWarning, stacklevel=1,  # one location: shown once per process by the default filter
             )
         else:
@@ -319,8 +322,9 @@ def _read_state_dict(path: str | os.PathLike, name: str) -> dict[str, Tensor]:
     """The state dict in ``path`` (plain or under ``"state_dict"``, ``module.`` prefixes removed), no code unpickled."""
     if not os.path.isfile(path):
         raise FileNotFoundError(
-            f"{name}: no ResNet-18 weights at {os.fspath(path)!r}. vigen cannot download them: on a machine with "
-            f"internet, download {RESNET18_URL} (or save torchvision.models.resnet18(weights='IMAGENET1K_V1').state_dict() "
+            f"{name}: no ResNet-18 weights at {os.fspath(path)!r}. Fetch them into vigen's data cache, checked by their "
+            f"sha256, with `{RESNET18_FETCH}` (then `python -m vigen.data path torchvision-resnet18` prints the folder), "
+            f"or download {RESNET18_URL} (or save torchvision.models.resnet18(weights='IMAGENET1K_V1').state_dict() "
             "with torch.save) and pass its path; weights=None starts from random weights."
         )
     try:

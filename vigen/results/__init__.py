@@ -4,7 +4,8 @@
   source in ``vigen/results/data/`` (:data:`SOURCES` says where each was read), each row keyed by
   method, source, protocol, suite, task, level, statistic, unit, budget and seeds;
 * :func:`compare`: a vigen evaluation next to the published numbers of the same method, task and
-  level; it raises :class:`ProtocolMismatch` when the protocol, a setting, the budget or the unit differ;
+  level; it raises :class:`ProtocolMismatch` when the protocol, a setting, the budget or the unit differ, and
+  :class:`RecipeMismatch` when the run was not trained by the recipe behind the published row (:data:`vigen.run.RECIPES`);
 * :func:`seed_aggregates` and :func:`task_means`: the aggregates the papers print, recomputed from the rows.
 
 Examples:
@@ -17,7 +18,7 @@ Examples:
 """
 
 from vigen.results.aggregates import seed_aggregates, task_means
-from vigen.results.compare import PartialData, ProtocolMismatch, StandInRows, check_protocol, compare
+from vigen.results.compare import PartialData, ProtocolMismatch, RecipeMismatch, StandInRows, check_protocol, compare
 from vigen.results.published import COLUMNS, PublishedScore, as_dicts, load, published
 from vigen.results.sources import SOURCES, Source
 
@@ -26,6 +27,7 @@ __all__ = [
     "PartialData",
     "ProtocolMismatch",
     "PublishedScore",
+    "RecipeMismatch",
     "SOURCES",
     "Source",
     "StandInRows",

@@ -24,6 +24,7 @@ from vigen.data.identity import not_in_full
 from vigen.protocols import Protocol, get_protocol
 from vigen.results.published import PublishedScore, published
 from vigen.results.sources import SOURCES
+from vigen.run.recipes import RECIPES, differences
 
 VALUE_UNITS: Mapping[str, str] = MappingProxyType({"return": "return", "success": "success_percent"})
 """Evaluation column -> the published unit it is compared with (``success`` rows are 0/1, shown in %)."""
@@ -114,6 +115,81 @@ def _options_not_played(rows: Sequence[Mapping[str, Any]], wanted: Mapping[str, 
     """The protocol's ``level_options`` some of ``rows`` were not played with (their ``level_options`` column, JSON)."""
     played = [json.loads(str(row.get("level_options") or "{}")) for row in rows]
     return {key: value for key, value in wanted.items() if any(options.get(key) != value for options in played)}
+
+
+class RecipeMismatch(ValueError):
+    """The run was trained by another recipe than the code behind the published numbers; ``differences`` lists how.
+
+    Examples:
+        >>> from vigen.results.compare import RecipeMismatch
+        >>> RecipeMismatch(["svea on dmc/walker-walk: the run was trained by no recipe, dmcgb's svea (conv) row by recipe "
+        ...                 "svea-dmcgb"]).differences[0][:40]
+        'svea on dmc/walker-walk: the run was tra'
+    """
+
+    def __init__(self, differences: Sequence[str]) -> None:
+        self.differences = list(differences)
+        super().__init__(
+            "cannot set the run beside these published numbers: it was not trained by the recipe behind them:\n"
+            + "\n".join(f"  - {difference}" for difference in self.differences)
+            + "\nTrain with the published row's recipe (examples/train.py --recipe NAME; --recipe list), or pass "
+              "allow_recipe_mismatch=True (--allow-recipe-mismatch) to show it anyway, each line saying what differs.")
+
+
+def run_recipe(rows: Sequence[Mapping[str, Any]]) -> tuple[str | None, dict[str, Any]]:
+    """The recipe the rows' run was trained by (their ``recipe`` column; ``None``: none or no column) and its overrides.
+
+    ``recipe_overrides`` is ``{setting: {"recipe": value, "flag": value}}``, a dict or its JSON text (as a CSV holds it).
+
+    Examples:
+        >>> run_recipe([{"recipe": "svea-dmcgb", "recipe_overrides": '{"seed_steps": {"recipe": 1000, "flag": 10}}'}])
+        ('svea-dmcgb', {'seed_steps': {'recipe': 1000, 'flag': 10}})
+        >>> run_recipe([{"method": "svea"}])
+        (None, {})
+    """
+    names = {str(row.get("recipe") or "") for row in rows} - {"", "nan", "None"}
+    if len(names) > 1:
+        raise ValueError(f"the rows mix runs of the recipes {sorted(names)}; compare one recipe at a time.")
+    overrides: dict[str, Any] = {}
+    for row in rows:
+        given = row.get("recipe_overrides") or {}
+        overrides.update(json.loads(given) if isinstance(given, str) else dict(given))
+    return (next(iter(names)) if names else None), overrides
+
+
+def _recipe_lines(name: str | None, overrides: Mapping[str, Any], row: PublishedScore, env: str) -> tuple[str, str]:
+    """Whether the run's recipe is the published row's, as (the mismatch, or ``""``; the note for the line)."""
+    published_recipe = row.recipe
+    if name is not None and name == published_recipe:
+        recipe = RECIPES.get(name)
+        changed = "; ".join(f"{key} {values['flag']} (recipe {values['recipe']})" for key, values in overrides.items())
+        departs = ", ".join(recipe.departures) if recipe is not None else ""
+        return "", (f"recipe {name}, the published row's" + (f"; overridden in the run: {changed}" if changed else "")
+                    + (f"; vigen departs from its code: {departs} (docs/recipes.md)" if departs else ""))
+    source = SOURCES[row.source]
+    theirs = (f"recipe {published_recipe}" if published_recipe else
+              f"code vigen has no recipe for ({source.why_no_recipe(row.method, row.variant, row.suite)})")
+    mine = f"recipe {name}" if name else "no recipe (vigen's algorithm defaults)"
+    mismatch = f"{row.method} on {env}: the run was trained by {mine}, {row.source}'s {row.label} row by {theirs}"
+    lines = [f"the run was trained by {mine}, the published row by {theirs}"]
+    if name in RECIPES and published_recipe in RECIPES:
+        try:
+            settings = {**RECIPES[name].settings(env), **{key: value["flag"] for key, value in overrides.items()}}
+            lines += differences(settings, RECIPES[published_recipe].settings(env), run_name="the run",
+                                 published_name=published_recipe)
+        except ValueError as error:  # a recipe that does not cover the env
+            lines.append(str(error))
+    return mismatch, "; ".join(lines)
+
+
+def _published_batch(row: PublishedScore, env: str, protocol: Protocol) -> tuple[int | None, str]:
+    """The training batch of the code behind a published row: its recipe's where it has one, else the protocol's code's."""
+    if row.recipe in RECIPES:
+        try:
+            return RECIPES[row.recipe].settings(env).get("batch_size"), f"recipe {row.recipe}'s"
+        except ValueError:  # a task the recipe's code has no config for
+            pass
+    return protocol.batch_size, f"{protocol.name}'s code"
 
 
 def _is_true(value: Any) -> bool:
@@ -240,6 +316,7 @@ def compare(
     allow_budget_mismatch: bool = False,
     allow_stand_ins: bool = False,
     allow_partial_data: bool = False,
+    allow_recipe_mismatch: bool = False,
 ) -> list[dict[str, Any]]:
     """A vigen evaluation beside the published numbers of the same method, env and level, one line per pair.
 
@@ -265,6 +342,14 @@ def compare(
             a user's folder, files not verified against the pinned ids, a ``data`` label naming no
             data set); each such line says in ``notes`` what was shown. Without it such rows raise
             :class:`PartialData`. Rows without a ``data`` column are taken as showing it in full.
+        allow_recipe_mismatch: set a run beside published numbers whose code trained the method by
+            another recipe than the run's (the rows' ``recipe`` column, :data:`vigen.run.RECIPES`;
+            rows without one name none) instead of leaving them out; each such line says in ``notes``
+            what differs, setting by setting where both recipes are known. Without it, a published
+            row of another recipe is left out (a line of the same method that is shown says so), and
+            :class:`RecipeMismatch` is raised where no row of a method, env and level is left. A run of
+            the row's recipe gets a note naming it, the settings a flag overrode and vigen's departures
+            from the code.
 
     Returns:
         Lines with the vigen side (``runs``, ``mean``, ``std`` over runs of each run's mean, as
@@ -285,15 +370,18 @@ def compare(
         StandInRows: rows showed vigen's stand-ins (without ``allow_stand_ins``).
         PartialData: rows showed less than the published data set, or not the benchmark's files (without
             ``allow_partial_data``).
+        RecipeMismatch: the run's recipe is not that of any published row of its method, env and level.
         ValueError: the source publishes nothing for the rows' methods, envs and levels.
 
     Examples:
         >>> from vigen.results import compare
         >>> rows = [{"method": "sada", "env": "dmc/walker-walk", "level": "rotate_hard", "run": run, "frames": 1_000_000,
-        ...          "action_repeat": 2, "frame_stack": 3, "image_size": 84, "episode_length": 1000, "return": value}
-        ...         for run, value in enumerate([700.0, 800.0])]
-        >>> [(line["source"], line["published"], line["mean"], line["notes"]) for line in compare(rows, source="dmcgb2", protocol="dmcgb2")]
-        [('dmcgb2', 799.0, 750.0, '')]
+        ...          "action_repeat": 2, "frame_stack": 3, "image_size": 84, "episode_length": 1000, "return": value,
+        ...          "recipe": "sada-dmcgb2"} for run, value in enumerate([700.0, 800.0])]
+        >>> [(line["source"], line["published"], line["mean"]) for line in compare(rows, source="dmcgb2", protocol="dmcgb2")]
+        [('dmcgb2', 799.0, 750.0)]
+        >>> compare(rows, source="dmcgb2", protocol="dmcgb2")[0]["notes"]  # doctest: +ELLIPSIS
+        "recipe sada-dmcgb2, the published row's; vigen departs from its code: one-step (docs/recipes.md)"
         >>> compare([dict(row, action_repeat=4) for row in rows], source="dmcgb2", protocol="dmcgb2")
         Traceback (most recent call last):
         ...
@@ -340,6 +428,7 @@ def compare(
 
     lines: list[dict[str, Any]] = []
     budget_problems: dict[tuple, tuple[dict, dict]] = {}  # (method, env, frames, published budget) -> (sources, levels)
+    recipe_problems: list[str] = []
     for (method, env, level), members in groups.items():
         matches = [key for key in cells if key[:3] == (method, env, level)]
         if not matches:
@@ -349,8 +438,14 @@ def compare(
             raise ValueError(f"{method} on {env} ({level}) mixes checkpoints of {sorted(frames)} frames; compare one budget at a time.")
         run_frames = int(next(iter(frames))) if frames else None
         repeat = protocol.action_repeat_for(env)
+        recipe_name, overrides = run_recipe(members)
+        shown_from, left_out = len(lines), []
         for source_name, variant in dict.fromkeys(key[3:5] for key in matches):
             budgets = {key[5]: cells[key] for key in matches if key[3:5] == (source_name, variant)}
+            mismatch, recipe_note = _recipe_lines(recipe_name, overrides, next(iter(budgets.values()))[0], env)
+            if mismatch and not allow_recipe_mismatch:  # before the budget: a row of another recipe is not compared at all
+                left_out.append(mismatch)
+                continue
             point, problem = _at_budget(budgets, run_frames, repeat)
             if point is None and not allow_budget_mismatch:
                 key = (method, env, run_frames, problem)
@@ -359,8 +454,11 @@ def compare(
                 continue
             cell = next(iter(budgets.values()))
             if point is None:  # shown, with no published number beside it
+                values = "; ".join(f"{mean:.0f}" + (f" ± {spread:.0f}" if spread is not None else "") + f" at {cell_rows[0].budget_text}"
+                                   for cell_rows in budgets.values() for mean, spread, _ in [_published_mean(cell_rows)])
                 point = PublishedPoint(float("nan"), None, None, None,
-                                       f"no published point at the run's {run_frames or 0:,} frames: the source publishes {problem}")
+                                       f"no published point at the run's {run_frames or 0:,} frames: the source publishes {problem}"
+                                       f" ({cell[0].label}: {values}; not set beside the run's number)")
             clip = value == "return" and (env.startswith(CLIPPED_AT_ZERO.get(source_name, ())) or protocol.clip_returns_at == 0)
             scores = _run_scores(members, value, clip_at_zero=clip)
             mean, spread, seeds, published_frames = point.mean, point.spread, point.seeds, point.frames
@@ -374,9 +472,12 @@ def compare(
             elif published_frames is None:
                 notes.append("budget not published")
             batches = {row.get("batch_size") for row in members} - {None, ""}
-            if protocol.batch_size is not None and batches and batches != {protocol.batch_size}:
-                notes.append(f"batch: run {', '.join(map(str, sorted(batches)))}, {protocol.name}'s code {protocol.batch_size}")
-            if SOURCES[source_name].reproduced_by.get(cell[0].method) != method:
+            code_batch, whose = _published_batch(cell[0], env, protocol)
+            if code_batch is not None and batches and batches != {code_batch}:
+                notes.append(f"batch: run {', '.join(map(str, sorted(batches)))}, {whose} {code_batch}")
+            if recipe_note:
+                notes.append(recipe_note)
+            if mismatch and SOURCES[source_name].reproduced_by.get(cell[0].method) != method:
                 notes.append(f"published from another implementation of {cell[0].label} than vigen's {method}")
             if not SOURCES[source_name].verified:
                 notes.append(f"{source_name}'s rows are unverified: {SOURCES[source_name].unverified}")
@@ -401,8 +502,14 @@ def compare(
                 "published_frames": published_frames,
                 "budget_matches": None if published_frames is None else not point.note,
                 "difference": float(np.mean(scores)) - mean, "unit": cell[0].unit, "notes": "; ".join(notes),
-                "where": point.where,
+                "where": point.where, "published_recipe": cell[0].recipe or "",
             })
+        if left_out and len(lines) == shown_from and not any(key[:2] == (method, env) for key in budget_problems):
+            recipe_problems += [f"{text} ({level})" for text in left_out]
+        for line in lines[shown_from:]:
+            line["notes"] = "; ".join(filter(None, [line["notes"], *(f"left out, another recipe: {text}" for text in left_out)]))
+    if recipe_problems:
+        raise RecipeMismatch(list(dict.fromkeys(recipe_problems)))
     if budget_problems:
         raise ProtocolMismatch([
             f"{method} on {env}: the run's checkpoint is at {'an unknown number of' if frames is None else f'{frames:,}'} frames; "

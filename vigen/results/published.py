@@ -71,6 +71,18 @@ class PublishedScore:
         return SOURCES[self.source].verified
 
     @property
+    def recipe(self) -> str | None:
+        """The vigen recipe that trains this row's method as the code behind it did (:meth:`Source.recipe_of`); ``None``
+        where vigen has none (:meth:`Source.why_no_recipe` says why).
+
+        Examples:
+            >>> from vigen.results import published
+            >>> {row.recipe for row in published(source="dmcgb", method="svea", variant="conv")}
+            {'svea-dmcgb'}
+        """
+        return SOURCES[self.source].recipe_of(self.method, self.variant, self.suite)
+
+    @property
     def label(self) -> str:
         """The method as a table names it, e.g. ``"svea (overlay)"``."""
         return f"{self.method} ({self.variant})" if self.variant else self.method

@@ -2,13 +2,14 @@
 
 * :class:`TrainConfig`: every setting of ``examples/train.py``, one documented field each, saved as
   the run's ``config.json``; :data:`PRESETS` (``paper``, ``cpu``) are values of it;
-  :func:`new_config` layers a preset, flags and a protocol (:func:`with_protocol`);
+  :data:`RECIPES`: each method's original training settings by name (``--recipe svea-dmcgb``);
+  :func:`new_config` layers a preset, flags, a recipe (:func:`with_recipe`) and a protocol (:func:`with_protocol`);
   :func:`resumed_config` reads a run's ``config.json`` back; settings left unset take their
   algorithm's value when the run is built;
 * :func:`add_flags`, :func:`given_flags`: the command line generated from the config's fields;
 * :func:`check_runnable`: the checks that need the simulators, losses or Ray; :func:`build_agent`:
   the loss and acting policy of a config, shared by training and evaluation; :func:`load_agent`:
-  the same with a run's trained weights;
+  the same with a run's trained weights; :func:`make_update`: its optimizer, target update and schedule;
 * the training loop's parts: :class:`CollectorBatches` (a collector's batches, serial or collected
   in the background while the loop updates), :class:`RunReplay` (the memory-mapped replay buffer
   and its optional copy in the device's memory), :class:`FrameReplay` (a replay buffer on the device
@@ -37,7 +38,9 @@ from typing import Any
 
 _HOMES = {
     "Agent": "agent", "TrainedAgent": "agent", "build_agent": "agent", "check_runnable": "agent",
-    "env_action_spec": "agent", "exploration_std": "agent", "load_agent": "agent",
+    "env_action_spec": "agent", "exploration_std": "agent", "load_agent": "agent", "make_update": "agent",
+    "recipe_loss_options": "agent", "recipe_weights": "agent", "RECIPES": "recipes", "Recipe": "recipes",
+    "list_recipes": "recipes", "with_recipe": "config",
     "CollectorBatches": "collection", "FrameReplay": "frame_replay", "frame_bytes": "frame_replay",
     "SampledUpdate": "sampled_update", "worker_timeouts": "collection", "GpuBusy": "timing", "RunReplay": "replay", "StageClock": "timing",
     "busy_seconds": "timing", "to_device": "replay", "transition_bytes": "replay",

@@ -7,20 +7,36 @@ them, :func:`build_agent` fills the settings left unset from the algorithm's rec
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import torch
 from tensordict.nn import TensorDictModuleBase
+from torch import nn
 from torchrl.data import TensorSpec
 from torchrl.modules import AdditiveGaussianModule
+from torchrl.objectives import SoftUpdate
 
 from vigen.checkpoint import CheckpointError, load_checkpoint, newest_checkpoint
+from vigen.data import fetch_command, get_dataset, locate
 from vigen.envs import available_envs, make_env
 from vigen.envs.levels import resolve_levels
-from vigen.losses import ALGOS, ActorCriticLoss, LinearSchedule, make_loss
+from vigen.losses import ALGOS, ActorCriticLoss, LinearSchedule, SplitSoftUpdate, UpdateStep, make_loss
 from vigen.ray_cluster import import_ray
 from vigen.run.config import TrainConfig
+from vigen.transforms import RandomConv, RandomFrequencyMask, RandomOverlay, RandomShiftedOverlay
+from vigen.transforms.augmentations.dmcgb2 import dmcgb2_strong_augmentation
+
+AUGMENTATIONS = {
+    "overlay": lambda: RandomOverlay(alpha=0.5),
+    "random_conv": lambda: RandomConv(),
+    "shifted_overlay": lambda: RandomShiftedOverlay(alpha=0.5, max_shift=6),
+    "srm": lambda: [RandomOverlay(alpha=0.5), RandomFrequencyMask()],
+    "dmcgb2_all": lambda: dmcgb2_strong_augmentation("all"),
+}
+"""A recipe's strong augmentation by name (:data:`vigen.run.recipes.AUGMENTATION_NAMES`) → a fresh one."""
 
 
 @dataclass
@@ -70,6 +86,7 @@ def check_runnable(config: TrainConfig) -> None:
         raise ValueError(f"--encoder-weights: {config.algo} has no pretrained encoder; it applies to {', '.join(pretrained)}.")
     if config.encoder_weights is not None and not Path(config.encoder_weights).expanduser().is_file():
         raise ValueError(f"--encoder-weights {config.encoder_weights}: no such file; give the path of the weights file.")
+    recipe_weights(config)  # a recipe's pretrained encoder: fetched, or the command that fetches it
     if config.collector == "ray":
         try:
             import_ray()
@@ -94,9 +111,10 @@ def exploration_std(config: TrainConfig) -> LinearSchedule | None:
         (0.01, None)
     """
     record = ALGOS[config.algo]
-    if not record.takes_std:
+    kind = (config.recipe_settings or {}).get("loss.sampler_type")
+    if not (record.takes_std if kind is None else kind == "noisy_deterministic"):
         return None
-    own = record.std
+    own = record.std if record.takes_std else LinearSchedule(1.0, 0.1, 100_000)
     return LinearSchedule(own.init if config.std_init is None else config.std_init,
                           own.final if config.std_final is None else config.std_final,
                           own.duration if config.std_duration is None else config.std_duration)
@@ -136,19 +154,134 @@ def build_agent(
         raise ValueError(f"build_agent: the action spec has {action_spec.shape[-1]} dimensions, the config's action_dim "
                          f"is {config.action_dim}; build the spec from the run's env ({config.env}).")
     record = ALGOS[config.algo]
-    options: dict[str, object] = {}  # check_finite stays on: it raises on the CPU and counts on the device elsewhere
+    # check_finite stays on: it raises on the CPU and counts on the device elsewhere
+    options: dict[str, object] = recipe_loss_options(config)
     std = exploration_std(config)
     if std is not None:
         options["std"] = std
-    if pretrained and config.encoder_weights is not None:
+    weights = config.encoder_weights if config.encoder_weights is not None else recipe_weights(config) if pretrained else None
+    if pretrained and weights is not None:
         if record.encoder_weights is None:
             raise ValueError(f"build_agent: {config.algo} has no pretrained encoder for encoder_weights.")
-        options[record.encoder_weights] = str(Path(config.encoder_weights).expanduser())
+        options[record.encoder_weights] = str(Path(weights).expanduser())
     loss = make_loss(config.algo, config.observation_shape, config.action_dim, feature_dim=config.feature_dim,
                      hidden_dim=config.hidden_dim, seed=None if config.compile else config.seed, device=device, **options)
+    check_networks(loss, config.recipe_settings or {})
     loss.make_value_estimator(gamma=config.gamma)  # its gamma is part of the saved state
     reward_scale = record.reward_scale(config.env) if config.reward_scale is None else config.reward_scale
     return Agent(loss, loss.make_policy(action_spec), reward_scale)
+
+
+def recipe_loss_options(config: TrainConfig) -> dict[str, Any]:
+    """The :func:`vigen.losses.make_loss` options of the run: its recipe's ``loss.*`` settings and per-module optimizer groups.
+
+    ``loss.strong_augmentation`` names an augmentation (:data:`AUGMENTATIONS`); ``optimizer.<module>.<option>`` becomes
+    ``param_groups[<module>][<option>]``; ``actor_update_every`` above 1 steps the actor (and a SAC temperature) on every
+    N-th update only (their groups' ``every``), recipe or not.
+
+    Examples:
+        >>> from vigen.run import new_config
+        >>> options = recipe_loss_options(new_config({"recipe": "svea-dmcgb", "env": "dmc/walker-walk"}))
+        >>> options["param_groups"]["sampler"], type(options["strong_augmentation"]).__name__
+        ({'lr': 0.0001, 'betas': [0.5, 0.999], 'every': 2}, 'RandomConv')
+    """
+    settings = config.recipe_settings or {}
+    options: dict[str, Any] = {key.removeprefix("loss."): value for key, value in settings.items() if key.startswith("loss.")}
+    if "strong_augmentation" in options:
+        name = options["strong_augmentation"]
+        if name not in AUGMENTATIONS:
+            raise ValueError(f"recipe {config.recipe}: strong augmentation {name!r} is not one of {', '.join(AUGMENTATIONS)}.")
+        options["strong_augmentation"] = AUGMENTATIONS[name]()
+    groups: dict[str, dict[str, Any]] = {}
+    for key, value in settings.items():
+        parts = key.split(".")
+        if parts[0] == "optimizer" and len(parts) == 3:
+            groups.setdefault(parts[1], {})[parts[2]] = value
+    if config.actor_update_every > 1:
+        sampler = options.get("sampler_type", "noisy_deterministic" if ALGOS[config.algo].takes_std else "squashed_gaussian")
+        for module in ("actor", *(("sampler",) if sampler == "squashed_gaussian" else ())):
+            groups.setdefault(module, {})["every"] = config.actor_update_every
+    if groups:
+        options["param_groups"] = groups
+    return options
+
+
+def recipe_weights(config: TrainConfig) -> Path | None:
+    """The pretrained encoder file a recipe loads (``network.weights``, a data set of :mod:`vigen.data`), from the cache.
+
+    ``None`` when the run gives ``--encoder-weights`` or its recipe loads none.
+
+    Raises:
+        ValueError: the data set is not fetched; the message holds the command that fetches it.
+    """
+    dataset = (config.recipe_settings or {}).get("network.weights")
+    if dataset is None or config.encoder_weights is not None:
+        return None
+    record = get_dataset(dataset)
+    folder = locate(record)
+    if folder is None:
+        raise ValueError(f"--recipe {config.recipe} loads the data set {record.name} ({record.title}) into its encoder, "
+                         f"and it is not in the data cache. Fetch it (checked by its sha256) with `{fetch_command(record.name)}`, "
+                         "or pass --encoder-weights PATH.")
+    return folder / record.files[0].path
+
+
+def check_networks(loss: ActorCriticLoss, settings: Mapping[str, Any]) -> None:
+    """Raise if the built networks are not what a recipe's ``network.*`` settings say (its encoder's layers and channels).
+
+    Examples:
+        >>> from vigen.losses import make_loss
+        >>> check_networks(make_loss("madi", (9, 64, 64), 2, hidden_dim=8), {"network.encoder_layers": 11})
+        >>> check_networks(make_loss("drqv2", (9, 64, 64), 2, hidden_dim=8), {"network.encoder_layers": 11})
+        Traceback (most recent call last):
+        ...
+        ValueError: the recipe's encoder has 11 convolutions, vigen's DrQv2Encoder 4; the recipe cannot be built as it is.
+    """
+    for part, module in (("encoder", loss.encoder), ("masker", loss.input_mask)):
+        convolutions = [layer for layer in module.modules() if isinstance(layer, nn.Conv2d)] if module is not None else []
+        hidden = convolutions[:-1] if part == "masker" else convolutions  # a masker's last convolution makes the mask
+        built = {"layers": [len(convolutions)], "channels": sorted({layer.out_channels for layer in hidden})}
+        for what, words in (("layers", "convolutions"), ("channels", "channels")):
+            key = f"network.{part}_{what}"
+            if key in settings and built[what] != [settings[key]]:
+                raise ValueError(f"the recipe's {part} has {settings[key]} {words}, vigen's "
+                                 f"{type(module).__name__} {', '.join(map(str, built[what])) or 'none'}; the recipe "
+                                 "cannot be built as it is.")
+
+
+def make_update(config: TrainConfig, loss: ActorCriticLoss, device: torch.device | str = "cpu") -> UpdateStep:
+    """The run's update: Adam over the loss's groups (the recipe's betas), the target update and the schedule.
+
+    Adam is fused when eager (the same step, ~10x faster on the CPU); compiled, torch.compile fuses it, capturable for a
+    CUDA graph. The targets move at ``tau``, the target encoder and the critic's trunk at ``encoder_tau`` where it is set
+    (:class:`~vigen.losses.SplitSoftUpdate`), on every ``target_update_every``-th update; a group with ``every`` (the
+    actor's with ``actor_update_every``) is stepped on every N-th. A compiled update with such a schedule is not captured
+    as a CUDA graph (:class:`~vigen.losses.UpdateStep` has not been checked there).
+
+    Examples:
+        >>> from torchrl.data import Bounded
+        >>> from vigen.run import build_agent, new_config
+        >>> from dataclasses import replace
+        >>> config = replace(new_config({"recipe": "svea-dmcgb", "env": "dmc/walker-walk", "hidden_dim": 16}),
+        ...                  observation_shape=(9, 84, 84), action_dim=2)
+        >>> update = make_update(config, build_agent(config, Bounded(-1.0, 1.0, shape=(2,))).loss)
+        >>> update.target_every, update.group_every, update.target_update.rates()["critic.trunk"]
+        (2, (1, 2, 2), 0.05)
+    """
+    device = torch.device(device)
+    betas = tuple((config.recipe_settings or {}).get("optimizer.betas", (0.9, 0.999)))
+    optimizer = torch.optim.Adam(loss.optimizer_groups(config.lr), betas=betas, fused=not config.compile,
+                                 capturable=config.compile and device.type == "cuda")
+    if config.encoder_tau is not None and config.encoder_tau != config.tau:
+        taus = {"critic.trunk": config.encoder_tau}
+        if "target_encoder_params" in dict(loss.named_children()):  # DMC-GB's target critic holds its own encoder
+            taus = {"encoder": config.encoder_tau, **taus}
+        target: SoftUpdate = SplitSoftUpdate(loss, tau=config.tau, taus=taus)
+    else:
+        target = SoftUpdate(loss, tau=config.tau)
+    scheduled = config.target_update_every > 1 or any(group.get("every", 1) > 1 for group in optimizer.param_groups)
+    return UpdateStep(loss, optimizer, target, target_every=config.target_update_every, compile=config.compile,
+                      cudagraph=False if scheduled else None)
 
 
 @dataclass

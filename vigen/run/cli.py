@@ -46,7 +46,7 @@ def add_flags(parser: argparse.ArgumentParser, settings: type, *, given_only: bo
     """Add one flag per :func:`setting` field of the dataclass ``settings`` to ``parser``.
 
     ``batch_size: int`` becomes ``--batch-size`` of type ``int``; ``X | None`` takes an ``X``;
-    ``bool`` is a switch (``--compile``); ``tuple[str, ...]`` takes one value or more;
+    ``bool`` is a switch (``--compile``, and ``--no-compile``); ``tuple[str, ...]`` takes one value or more;
     ``tuple[tuple[str, ...], ...]`` is a repeatable flag of one value or more each time
     (``--sweep camera_rotation 0 0.1 --sweep light_color 0.5``); a ``Literal`` or the field's
     ``choices`` restricts the values. The help ends with the default (a switch's is off). Read the
@@ -82,8 +82,8 @@ def add_flags(parser: argparse.ArgumentParser, settings: type, *, given_only: bo
         shown = field.metadata["unset"] if field.default is None and field.metadata["unset"] else flag_value(field.default)
         options: dict[str, Any] = {"default": None if given_only else field.default,
                                    "help": f"{field.metadata['help']} (default: {shown})"}
-        if kind is bool:
-            options.update(action="store_const", const=True, help=field.metadata["help"])
+        if kind is bool:  # --compile, and --no-compile to turn off what a recipe (or a preset) turns on
+            options.update(action=argparse.BooleanOptionalAction, help=field.metadata["help"])
         else:
             if typing.get_origin(kind) is tuple and typing.get_origin(typing.get_args(kind)[0]) is tuple:
                 options.update(action="append", default=None)  # argparse appends to a copy of its default

@@ -1,7 +1,8 @@
 """The settings of one training run of ``examples/train.py``: :class:`TrainConfig`, its presets and its protocols.
 
 A new run's config is built in layers, each a :class:`TrainConfig` value: a preset (:data:`PRESETS`),
-the flags, then a protocol (:func:`with_protocol`, which the flags override). A setting left unset
+the flags, a recipe (:func:`with_recipe`: a method's original settings, :data:`vigen.run.RECIPES`, which
+the flags override), then a protocol (:func:`with_protocol`, which the flags override). A setting left unset
 (``None``) takes its algorithm's value when the run is built (the exploration std, the rewards'
 scale: fields of the algorithm's record, :data:`vigen.losses.ALGOS`). ``config.json`` in the run
 folder holds the result (:meth:`TrainConfig.to_json`); ``--resume`` reads it back
@@ -24,6 +25,7 @@ from typing import Any, Literal
 
 from vigen.protocols import PROTOCOLS
 from vigen.run.cli import flag_name, flag_value, setting
+from vigen.run.recipes import TRAIN_KEYS, get_recipe
 
 DEFAULT_FRAMES = 100_000
 """A run's budget in environment frames when neither ``--frames`` nor a protocol sets it."""
@@ -48,7 +50,7 @@ class TrainConfig:
     Each field with a help text is a flag of ``examples/train.py`` (``batch_size`` is
     ``--batch-size``). Frames count environment frames (agent steps × action repeat), as in
     DrQ-v2's curves. ``frames`` is not saved: a resumed run takes it from the flag or, failing
-    that, from its protocol. The last four fields are recorded by the run itself.
+    that, from its protocol. The last six fields are recorded by the run itself.
 
     Paper (the ``paper`` preset): DrQ-v2, https://arxiv.org/abs/2107.09645; RL-ViGen,
     https://arxiv.org/abs/2307.10224.
@@ -107,23 +109,40 @@ class TrainConfig:
     reward_scale: float | None = setting(None, "factor on the rewards stored in the replay buffer",
                                          unset="the algorithm's, 1; VRL3 on Adroit RL-ViGen's, door 1/20, hammer 1/100, pen 1/50")
     frames: int = setting(DEFAULT_FRAMES, "environment frames in all, with action repeat (a protocol sets its budget)")
+    recipe: str | None = setting(None, "train as a method's original code does: its loss, networks, optimizer, update "
+                                       "schedule and protocol (vigen.run.RECIPES); --recipe list prints them", metavar="NAME")
+    seed_steps: int | None = setting(None, "agent steps of random actions before the first update (DMC-GB's init_steps); "
+                                           "overrides --seed-frames", unset="--seed-frames / action repeat")
+    seed_catch_up: bool = setting(False, "when the seed steps end, make at once the updates they would have had, then one "
+                                         "per --update-every (DMC-GB's init_steps updates at step init_steps)")
+    actor_update_every: int = setting(1, "gradient updates per step of the actor and SAC's temperature (DMC-GB's "
+                                         "actor_update_freq 2); their Adam state is untouched in between")
+    target_update_every: int = setting(1, "gradient updates per target-network update (DMC-GB's critic_target_update_freq 2)")
+    encoder_tau: float | None = setting(None, "update rate of the target encoder and the target critic's trunk (DMC-GB's "
+                                              "encoder_tau 0.05: its critic encoder is the convolutions and the projection)",
+                                        unset="--tau")
     protocol_settings: Mapping[str, Any] | None = None
     """Every value the protocol fixes on the env (:meth:`vigen.protocols.Protocol.settings`)."""
     protocol_overrides: Mapping[str, Mapping[str, Any]] | None = None
     """The protocol settings a flag changed: ``{name: {"protocol": value, "flag": value}}``."""
+    recipe_settings: Mapping[str, Any] | None = None
+    """Every setting of the recipe on the run's env (:meth:`vigen.run.recipes.Recipe.settings`), as the run was built with."""
+    recipe_overrides: Mapping[str, Mapping[str, Any]] | None = None
+    """The recipe settings a flag changed: ``{name: {"recipe": value, "flag": value}}``."""
     observation_shape: tuple[int, int, int] | None = None
     """The pixels' shape, ``(3 · frame stack, height, width)``, read from the env at the run's start."""
     action_dim: int | None = None
     """The action's size, read from the env at the run's start."""
 
     def to_json(self) -> dict[str, Any]:
-        """The run's ``config.json``: every field but ``frames``, the protocol's two only with a protocol, ``overlap`` only when
-        set, tuples as lists."""
+        """The run's ``config.json``: every field but ``frames``, the protocol's two only with a protocol, ``overlap``, the
+        recipe's and the update schedule's (:data:`WRITTEN_WHEN_SET`) only when set, tuples as lists."""
         saved = {field.name: _plain(getattr(self, field.name)) for field in dataclasses.fields(self) if field.name != "frames"}
         if self.protocol is None:
             del saved["protocol_settings"], saved["protocol_overrides"]
-        if not self.overlap:  # written only when set: a run without it keeps the format of the runs before the setting
-            del saved["overlap"]
+        for name in WRITTEN_WHEN_SET:  # a run without them keeps the format of the runs before the settings
+            if getattr(self, name) == getattr(TrainConfig, name):
+                del saved[name]
         return saved
 
     @classmethod
@@ -162,6 +181,14 @@ class TrainConfig:
         for name in ("action_repeat", "frame_stack", "image_size", "std_duration"):
             if getattr(self, name) is not None and getattr(self, name) < 1:
                 raise ValueError(f"{flag_name(name)} must be an integer >= 1, got {getattr(self, name)}.")
+        for name in ("actor_update_every", "target_update_every"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"{flag_name(name)} must be an integer >= 1, got {value}.")
+        if self.seed_steps is not None and self.seed_steps < 0:
+            raise ValueError(f"--seed-steps must be >= 0, got {self.seed_steps}.")
+        if self.encoder_tau is not None and not 0 < self.encoder_tau <= 1:
+            raise ValueError(f"--encoder-tau must be in (0, 1], got {self.encoder_tau}.")
         if self.frames < 0 or self.seed_frames < 0:
             raise ValueError(f"--frames and --seed-frames must be >= 0, got {self.frames} and {self.seed_frames}.")
         if self.buffer_size < self.batch_size:
@@ -180,6 +207,10 @@ class TrainConfig:
                              f"{self.collector}. Drop one of them.")
 
 
+WRITTEN_WHEN_SET = ("overlap", "recipe", "seed_steps", "seed_catch_up", "actor_update_every", "target_update_every",
+                    "encoder_tau", "recipe_settings", "recipe_overrides")
+"""Settings ``config.json`` holds only when they differ from their default (the format of the runs before them)."""
+
 PRESETS: Mapping[str, TrainConfig] = MappingProxyType({
     "paper": TrainConfig(preset="paper", batch_size=256, buffer_size=1_000_000, eval_episodes=10),
     "cpu": TrainConfig(preset="cpu"),
@@ -190,7 +221,7 @@ frames, an update every 2 agent steps, 10 evaluation episodes); ``cpu``: the sam
 
 
 def new_config(flags: Mapping[str, Any]) -> TrainConfig:
-    """A new run's config: the preset, the flags, then the protocol, which the flags override.
+    """A new run's config: the preset, the flags, then the recipe and the protocol, which the flags override.
 
     Settings left unset take their algorithm's value when the run is built (:func:`vigen.run.build_agent`).
 
@@ -198,7 +229,7 @@ def new_config(flags: Mapping[str, Any]) -> TrainConfig:
         flags: :class:`TrainConfig` fields given on the command line (or by a caller).
 
     Raises:
-        ValueError: an unknown preset, or a protocol that does not cover the env.
+        ValueError: an unknown preset or recipe, or a recipe or protocol that does not cover the env.
 
     Examples:
         >>> config = new_config({"algo": "vrl3", "preset": "paper", "frames": 800})
@@ -206,13 +237,57 @@ def new_config(flags: Mapping[str, Any]) -> TrainConfig:
         (256, None, 800)
         >>> new_config({"protocol": "dmcgb", "env": "dmc/walker-walk"}).action_repeat
         4
+        >>> recipe = new_config({"recipe": "svea-dmcgb", "env": "dmc/walker-walk"})
+        >>> recipe.algo, recipe.batch_size, recipe.lr, recipe.protocol, recipe.action_repeat  # the recipe's protocol too
+        ('svea', 128, 0.001, 'dmcgb', 4)
     """
     preset = flags.get("preset", TrainConfig.preset)
     if preset not in PRESETS:
         raise ValueError(f"--preset {preset}: no such preset; choose one of {', '.join(PRESETS)}.")
     base = PRESETS[preset]
     config = replace(base, **flags)
+    if config.recipe is not None:
+        config = with_recipe(config, base, explicit=flags.keys())
     return config if config.protocol is None else with_protocol(config, explicit=flags.keys())
+
+
+def with_recipe(config: TrainConfig, base: TrainConfig | None = None, explicit: Collection[str] = ()) -> TrainConfig:
+    """``config`` trained as its recipe says on its env, keeping the settings named in ``explicit`` (recorded as overrides).
+
+    The recipe sets its :class:`TrainConfig` fields (and its protocol, unless ``--protocol`` is given) and is recorded
+    whole in ``recipe_settings``; each explicit flag that differs from what the recipe would have set is recorded in
+    ``recipe_overrides`` as ``{"recipe": value, "flag": value}`` (``base``, the preset, gives the value of a setting the
+    recipe leaves to it). The recipe's algorithm cannot be overridden, nor its seed steps given in frames.
+
+    Raises:
+        ValueError: an unknown recipe, an env it does not cover, ``--algo`` other than its algorithm, or
+            ``--seed-frames`` where it counts seed steps.
+
+    Examples:
+        >>> config = with_recipe(TrainConfig(recipe="svea-dmcgb", env="dmc/cartpole-balance", seed_steps=10),
+        ...                      explicit={"seed_steps"})
+        >>> config.algo, config.batch_size, config.seed_steps, config.protocol, config.recipe_overrides
+        ('svea', 128, 10, 'dmcgb', {'seed_steps': {'recipe': 1000, 'flag': 10}})
+    """
+    base = TrainConfig() if base is None else base
+    recipe = get_recipe(str(config.recipe))
+    try:
+        settings = recipe.settings(config.env)
+    except ValueError as error:
+        raise ValueError(f"--recipe {recipe.name}: {error}") from None
+    if "algo" in explicit and config.algo != recipe.algo:
+        raise ValueError(f"--algo {config.algo} and --recipe {recipe.name}: the recipe trains vigen's {recipe.algo}; drop "
+                         "--algo (or the recipe).")
+    if "seed_frames" in explicit and "seed_steps" in settings and "seed_steps" not in explicit:
+        raise ValueError(f"--seed-frames and --recipe {recipe.name}: the recipe counts its seed phase in agent steps "
+                         f"({settings['seed_steps']}); give --seed-steps instead.")
+    own = {key: settings[key] for key in TRAIN_KEYS if key in settings}
+    recipe_values = replace(base, **{key: _tupled(value) for key, value in own.items()})
+    overrides = {key: {"recipe": _plain(getattr(recipe_values, key)), "flag": _plain(getattr(config, key))}
+                 for key in TRAIN_KEYS if key in explicit and key != "algo" and getattr(config, key) != getattr(recipe_values, key)}
+    kept = {key: value for key, value in own.items() if key not in explicit}
+    return replace(config, **{key: _tupled(value) for key, value in kept.items()},
+                   recipe_settings={key: _plain(value) for key, value in settings.items()}, recipe_overrides=overrides)
 
 
 def with_protocol(config: TrainConfig, explicit: Collection[str] = ()) -> TrainConfig:
