@@ -386,11 +386,13 @@ def random_evaluated(runs: list[Evaluated]) -> list[Evaluated]:
 
 
 def run_env_options(config: TrainConfig, episode_length: int | None) -> dict:
-    """The evaluation env of a run: its action repeat, frame stack and image size, and the episode length asked for."""
+    """The evaluation env of a run: its action repeat, frame stack and image size, the episode length asked for and its
+    protocol's options of evaluation envs (``test_env_options``: RL-ViGen's loco evaluator's scaled actions, ...)."""
     length = episode_length or config.episode_length
     return {"render_settings": RenderSettings.fast(),
             **({} if length is None else {"episode_length": length}),
-            **{name: getattr(config, name) for name in RUN_SETTINGS if getattr(config, name) is not None}}
+            **{name: getattr(config, name) for name in RUN_SETTINGS if getattr(config, name) is not None},
+            **(config.protocol_settings or {}).get("test_env_options", {})}
 
 
 def run_tags(trained: TrainedAgent, env_options: dict) -> dict:

@@ -266,7 +266,7 @@ def main() -> None:
         print("\n".join(PROTOCOLS[config.protocol].describe(config.env)), flush=True)
         for key, values in (config.protocol_overrides or {}).items():
             print(f"  overridden by a flag: {key} = {values['flag']} (protocol: {values['protocol']})", flush=True)
-    make = partial(training_env, config.env, time_stages=launch.time_stages, **config.env_options())
+    make = partial(training_env, config.env, time_stages=launch.time_stages, **config.training_env_options())
     probe = make(seed=config.seed)
     action_repeat, action_spec = probe.base_env.action_repeat, probe.action_spec
     observation_shape = tuple(probe.observation_spec["pixels"].shape)
@@ -511,8 +511,8 @@ class Training:
         """Evaluate the policy on the config's levels, log the returns, then write the checkpoint that ends the segment."""
         config, frames = self.config, self.steps * self.action_repeat
         rows = evaluate(self.agent.policy, config.env, list(config.eval_levels), episodes=config.eval_episodes,
-                        seeds=[config.seed + 10_000], device=self.device, protocol=config.protocol,
-                        env_options={"render_settings": RenderSettings.fast(), **config.env_options()})
+                        seeds=[config.evaluation_seed()], device=self.device, protocol=config.protocol,
+                        env_options={"render_settings": RenderSettings.fast(), **config.test_env_options()})
         for level in config.eval_levels:
             returns = [row["return"] for row in rows if row["level"] == level]
             self.logger.log_scalar(f"eval/{level}_return", sum(returns) / len(returns), step=frames)

@@ -126,3 +126,18 @@ def test_runs_play_the_levels_of_their_protocol(evaluate, monkeypatch):
     assert played(["dmcgb2", ""]) == [("m0", None), ("m1", None), ("random", None)]
     assert played(["dmcgb2", None]) == [("m0", None), ("m1", None), ("random", None)]
     assert played(["dmcgb2"], "dmcgb") == [("m0", "dmcgb"), ("random", "dmcgb")]
+
+
+def test_a_runs_evaluation_env_takes_its_protocols_test_env_options(evaluate):
+    """RL-ViGen's loco rows come from locoeval.py (scaled actions, the time limit a truncation), not from the training
+    path: a run trained under rlvigen_loco is evaluated with the protocol's test_env_options, and trained with its
+    train_env_options (TrainConfig.training_env_options, which train.py builds its envs with)."""
+    from vigen.run import new_config
+
+    config = new_config({"protocol": "rlvigen_loco", "env": "loco/unitree-walk"})
+    options = evaluate.run_env_options(config, None)
+    assert options["action_mapping"] == "scaled" and options["time_limit_as"] == "truncated"
+    assert options["start_clearance"] == "rlvigen"
+    assert config.training_env_options()["action_mapping"] == "rlvigen_train"
+    assert config.training_env_options()["time_limit_as"] == "terminated"
+    assert "action_mapping" not in evaluate.run_env_options(new_config({"env": "loco/unitree-walk"}), None)

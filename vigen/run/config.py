@@ -162,6 +162,37 @@ class TrainConfig:
         names = ("episode_length", "action_repeat", "frame_stack", "image_size")
         return {name: getattr(self, name) for name in names if getattr(self, name) is not None}
 
+    def training_env_options(self) -> dict[str, Any]:
+        """:meth:`env_options` and the protocol's options of its training envs (``train_env_options``).
+
+        Examples:
+            >>> config = new_config({"protocol": "rlvigen_loco", "env": "loco/unitree-walk"})
+            >>> config.training_env_options()["action_mapping"], config.training_env_options()["start_clearance"]
+            ('rlvigen_train', 'rlvigen')
+        """
+        return {**self.env_options(), **(self.protocol_settings or {}).get("train_env_options", {})}
+
+    def test_env_options(self) -> dict[str, Any]:
+        """:meth:`env_options` and the protocol's options of its evaluation envs (``test_env_options``).
+
+        Examples:
+            >>> new_config({"protocol": "rlvigen_loco", "env": "loco/unitree-walk"}).test_env_options()["action_mapping"]
+            'scaled'
+        """
+        return {**self.env_options(), **(self.protocol_settings or {}).get("test_env_options", {})}
+
+    def evaluation_seed(self) -> int:
+        """The env seed of the evaluations while training: the protocol's (DMC-GB: ``seed + 42``), else ``seed + 10000``.
+
+        Examples:
+            >>> new_config({"protocol": "dmcgb", "env": "dmc/walker-walk", "seed": 1}).evaluation_seed()
+            43
+            >>> new_config({"seed": 1}).evaluation_seed()
+            10001
+        """
+        offset = (self.protocol_settings or {}).get("eval_seed_offset")
+        return self.seed + (10_000 if offset is None else offset)
+
     def resumed_frames(self) -> int:
         """A resumed run's budget without ``--frames``: the flag that overrode its protocol's, the protocol's, or the default."""
         overridden = (self.protocol_overrides or {}).get("frames")
