@@ -42,6 +42,7 @@ install_requires = [
     "scipy>=1.10",
     "matplotlib>=3.7,<4",
     "tqdm>=4.60",
+    "tyro>=1.0,<1.1",  # the example scripts' flags, from vigen.run's settings dataclasses (vigen.run.cli)
 ]
 
 extras_require = {

@@ -33,7 +33,7 @@ import vigen  # noqa: F401  (selects the EGL backend before mujoco is imported)
 import torch
 from tensordict.nn import TensorDictModule
 from torchrl.data import Bounded
-from vigen.checkpoint import load_checkpoint
+from vigen.run.checkpoint import load_checkpoint
 from vigen.evaluation import evaluate
 from vigen.losses import make_loss
 from vigen.rendering import RenderSettings

@@ -3,8 +3,8 @@ compiled update, replay sampled from the memory map or from the device; frames/s
 the time of each stage.
 
 Each configuration runs ``examples/train.py --time-stages`` in its own process and run folder. The
-run logs one row per collector batch (``logs/scalars/time/*.csv``, see ``log_stages`` in
-``examples/train.py``): the run's wall clock, the batch's agent steps and updates, the loop's
+run logs one row per collector batch (``logs/scalars/time/*.csv``, see ``vigen.run.StageTimes``): the run's
+wall clock, the batch's agent steps and updates, the loop's
 seconds per stage and the env workers' milliseconds per agent step, each *measured* where it
 happens (the env workers time their own steps, physics and rendering). The benchmark reads those
 rows while the run trains and stops it once ``--warmup`` batches of updates (the first update,

@@ -9,7 +9,7 @@
 ``runs`` trains two tiny runs on ``dmc/cartpole-balance`` (DrQ-v2 under the ``drqv2`` protocol, SVEA under
 ``dmcgb``; 800 frames, ``--threads 1``) into ``<cases>/runs``, and writes a folder of two short videos
 (``<cases>/videos2``) for the partial-data cases. ``cases`` runs every case of :data:`CASES` with the checkout this
-script lies in (``PYTHONPATH`` set to it), each from its own empty folder, and keeps the report folder (CSV, markdown,
+script lies in (first on ``PYTHONPATH``), each from its own empty folder, and keeps the report folder (CSV, markdown,
 PNG), stdout, stderr and the exit code in ``<cases>/<into>/<case>/``.
 
 The cases cover runs, seeds, ``--random``, ``--sweep``, ``--compare`` (with the ``--allow-*`` flags), shipped agents
@@ -73,7 +73,8 @@ TINY = ["--env", "dmc/cartpole-balance", "--frames", "800", "--eval-every", "400
 def environment(cases: Path) -> dict[str, str]:
     empty = cases / "empty-data-cache"
     empty.mkdir(parents=True, exist_ok=True)
-    return dict(os.environ, PYTHONPATH=str(ROOT), OMP_NUM_THREADS="1", MKL_NUM_THREADS="1", TQDM_DISABLE="1",
+    python_path = os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))
+    return dict(os.environ, PYTHONPATH=python_path, OMP_NUM_THREADS="1", MKL_NUM_THREADS="1", TQDM_DISABLE="1",
                 VIGEN_DATA=str(empty), MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"), PYTHONHASHSEED="0", COLUMNS="120")
 
 

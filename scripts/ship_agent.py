@@ -26,7 +26,7 @@ import json
 import statistics
 from pathlib import Path
 
-from vigen.checkpoint import CheckpointError
+from vigen.run.checkpoint import CheckpointError
 from vigen.io import atomic_write
 from vigen.pretrained import AGENTS, info, load_policy
 

@@ -9,7 +9,7 @@ import torch
 from torchrl.data import Bounded
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-from vigen.checkpoint import CheckpointError
+from vigen.run.checkpoint import CheckpointError
 from vigen.pretrained import available, export_policy, info, load_agent, load_config, load_policy
 from vigen.run import TrainConfig, build_agent
 

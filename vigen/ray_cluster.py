@@ -1,7 +1,7 @@
 """Join a Ray cluster, or start a local one that listens on 127.0.0.1 only, for the whole of a ``with`` block.
 
 Ray is an optional extra (``pip install -e ".[ray]"``); vigen imports it only here and in the
-Ray paths of :func:`~vigen.evaluation.evaluate` and ``examples/train.py --collector ray``.
+Ray paths of :func:`~vigen.evaluation.evaluate` and ``examples/train.py --ray``.
 """
 
 from __future__ import annotations

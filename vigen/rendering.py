@@ -197,3 +197,20 @@ def gl_renderer(physics: Any) -> str:
 
     with physics.contexts.gl.make_current() as context:
         return context.call(GL.glGetString, GL.GL_RENDERER).decode()
+
+
+def renderer_name(env: Any) -> str:
+    """Which OpenGL renderer a vigen env (or its base env) draws with, for a report: :func:`gl_renderer` of its physics, or
+    ``unknown (...)`` where it cannot be read (not a dm_control env, no GL context).
+
+    Examples:
+        >>> from vigen.envs import make_env
+        >>> from vigen.rendering import renderer_name
+        >>> isinstance(renderer_name(make_env("dmc/cartpole-balance", image_size=16)), str)
+        True
+    """
+    physics = getattr(getattr(env, "base_env", env), "physics", None)
+    try:
+        return gl_renderer(physics) if physics is not None else "unknown (not a dm_control env)"
+    except Exception as error:  # noqa: BLE001 - only a report
+        return f"unknown ({type(error).__name__})"

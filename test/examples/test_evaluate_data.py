@@ -73,8 +73,10 @@ def test_videos_are_given_per_level_pattern():
                           lambda level: script.videos_for("dmc/walker-walk", level, pairs[:2]))
     assert runs == [(["train"], {}), (["video_easy"], {"videos": "/e"}), (["video_hard"], {}),
                     (["dcs_0.1", "dcs_0.2"], {"videos": "/davis"})]
-    with pytest.raises(SystemExit, match="is not a folder"):
-        script.parse_videos(["video_easy=/no/such/folder"])
+    from vigen.evaluation.level_data import video_folders
+
+    with pytest.raises(ValueError, match="is not a folder"):
+        video_folders(["video_easy=/no/such/folder"])
 
 
 @pytest.mark.slow
@@ -94,25 +96,26 @@ def test_stand_in_levels_are_labelled_in_the_report_and_warned_about(tmp_path):
 
 
 def test_a_videos_folder_is_checked_against_its_levels_data_set_before_any_work(tmp_path):
-    script = evaluate_script()
+    from vigen.evaluation.level_data import check_video_counts, video_folders
+
     six = tmp_path / "video_easy"
     six.mkdir()
     for i in (0, 1, 2, 6, 8, 9):  # the 6 of DMC-GB's 10 video_easy files the committed results had
         (six / f"video{i}.mp4").write_bytes(b"")  # counted, not opened
     levels = {"dmc/cartpole-balance": ["train", "video_easy", "color_video_easy", "dcs_0.1"]}
-    videos = script.parse_videos([str(six)])  # one folder for every video level
-    with pytest.raises(SystemExit) as stopped:
-        script.check_video_counts(levels, videos, allow_partial_data=False)
+    videos = video_folders([str(six)])  # one folder for every video level
+    with pytest.raises(ValueError) as stopped:
+        check_video_counts(levels, videos, allow_partial_data=False)
     message = str(stopped.value)
     assert f"video_easy={six}: 6 videos; video_easy plays dmcgb-videos/video_easy, 10 videos" in message
     assert f"color_video_easy={six}: 6 videos" in message and "dcs_0.1" not in message, "DAVIS pins no count"
     assert "python -m vigen.data fetch dmcgb-videos --part video_easy" in message and "--allow-partial-data" in message
-    script.check_video_counts(levels, videos, allow_partial_data=True)  # asked for: no stop
+    check_video_counts(levels, videos, allow_partial_data=True)  # asked for: no stop
     for i in (3, 4, 5, 7):
         (six / f"video{i}.mp4").write_bytes(b"")
-    script.check_video_counts(levels, videos, allow_partial_data=False)  # all 10
-    with pytest.raises(SystemExit, match="video_hard=.*10 videos; video_hard plays dmcgb-videos/video_hard, 100 videos"):
-        script.check_video_counts({"dmc/walker-walk": ["video_hard"]}, videos, allow_partial_data=False)
+    check_video_counts(levels, videos, allow_partial_data=False)  # all 10
+    with pytest.raises(ValueError, match="video_hard=.*10 videos; video_hard plays dmcgb-videos/video_hard, 100 videos"):
+        check_video_counts({"dmc/walker-walk": ["video_hard"]}, videos, allow_partial_data=False)
 
 
 def test_under_dmcgb_the_env_seeds_are_seed_plus_42():

@@ -1,5 +1,5 @@
-"""examples/evaluate.py's flags come from its EvaluationConfig and Launch: every flag of the hand-written parser keeps its
-name and meaning, and the command's checks stop with the flag and the fix before any agent loads."""
+"""examples/evaluate.py's flags come from its EvaluationConfig and Launch (parsed by tyro; every flag's name, meaning and
+default: test_script_flags.py), and the command's checks stop with the flag and the fix before any agent loads."""
 
 from __future__ import annotations
 
@@ -11,9 +11,6 @@ import pytest
 import torch
 
 ROOT = Path(__file__).resolve().parents[2]
-# evaluate.py's flags before EvaluationConfig (README, docs/, tests and scripts use them)
-FLAGS = ["--pretrained", "--levels", "--sweep", "--episodes", "--seeds", "--random", "--videos", "--episode-length",
-         "--compare", "--allow-budget-mismatch", "--allow-stand-ins", "--ray", "--workers", "--device", "--out"]
 
 
 @pytest.fixture(scope="module")
@@ -24,11 +21,6 @@ def evaluate():
     spec.loader.exec_module(module)
     yield module
     del sys.modules[spec.name]
-
-
-def test_every_earlier_flag_is_still_there(evaluate):
-    options = {option for action in evaluate.make_parser()._actions for option in action.option_strings}
-    assert set(FLAGS) <= options
 
 
 def test_the_flags_keep_their_meanings(evaluate):
@@ -128,16 +120,17 @@ def test_runs_play_the_levels_of_their_protocol(evaluate, monkeypatch):
     assert played(["dmcgb2"], "dmcgb") == [("m0", "dmcgb"), ("random", "dmcgb")]
 
 
-def test_a_runs_evaluation_env_takes_its_protocols_test_env_options(evaluate):
+def test_a_runs_evaluation_env_takes_its_protocols_test_env_options():
     """RL-ViGen's loco rows come from locoeval.py (scaled actions, the time limit a truncation), not from the training
     path: a run trained under rlvigen_loco is evaluated with the protocol's test_env_options, and trained with its
     train_env_options (TrainConfig.training_env_options, which train.py builds its envs with)."""
+    from vigen.evaluation.runs import run_env_options
     from vigen.run import new_config
 
     config = new_config({"protocol": "rlvigen_loco", "env": "loco/unitree-walk"})
-    options = evaluate.run_env_options(config, None)
+    options = run_env_options(config, None)
     assert options["action_mapping"] == "scaled" and options["time_limit_as"] == "truncated"
     assert options["start_clearance"] == "rlvigen"
     assert config.training_env_options()["action_mapping"] == "rlvigen_train"
     assert config.training_env_options()["time_limit_as"] == "terminated"
-    assert "action_mapping" not in evaluate.run_env_options(new_config({"env": "loco/unitree-walk"}), None)
+    assert "action_mapping" not in run_env_options(new_config({"env": "loco/unitree-walk"}), None)

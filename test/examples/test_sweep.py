@@ -1,4 +1,4 @@
-"""examples/sweep.py and examples/evaluate.py --sweep: rows per intensity, the robustness curve, clear errors."""
+"""examples/sweep.py (the API) and examples/evaluate.py --sweep: rows per intensity, the robustness curve, clear errors."""
 
 from __future__ import annotations
 
@@ -37,40 +37,17 @@ def trained(tmp_path_factory) -> Path:
 @pytest.mark.render
 @pytest.mark.slow
 def test_sweep_example_writes_table_and_curve(tmp_path):
+    """examples/sweep.py, the API's robustness curve: a random policy on walker-walk at four camera_rotation intensities."""
     out = tmp_path / "sweep"
-    result = run("sweep.py", "--intensities", "0", "0.3", "--seeds", "0", "1", "--episode-length", "8", "--out", out)
-    assert "| camera_rotation=0 | " in result.stdout and "| camera_rotation=0.3 | " in result.stdout
-    assert {p.name for p in out.iterdir()} == {"episodes.csv", "summary.csv", "report.md", "intensity_camera_rotation.png"}
+    result = run("sweep.py", out)
+    assert "| camera_rotation=0 | " in result.stdout and "| camera_rotation=0.5 | " in result.stdout
+    assert {p.name for p in out.iterdir()} == {"episodes.csv", "intensity_camera_rotation.png"}
     rows = _rows(out / "episodes.csv")
     assert [(r["env"], r["level"], r["factor"], r["intensity"], r["seed"]) for r in rows] == [
         ("dmc/walker-walk", f"camera_rotation={x}", "camera_rotation", f"{float(x)}", s)
-        for x in ("0", "0.3") for s in ("0", "1")]
-    assert all(r["method"] == "random" and r["length"] == "4" for r in rows), "8 control steps = 4 agent steps"
+        for x in ("0", "0.1", "0.3", "0.5") for s in ("0", "1")]
+    assert all(r["method"] == "random" and r["length"] == "50" for r in rows), "100 control steps = 50 agent steps"
     assert (out / "intensity_camera_rotation.png").read_bytes()[:8] == PNG
-    assert "![intensity_camera_rotation.png](intensity_camera_rotation.png)" in (out / "report.md").read_text()
-    run("sweep.py", "--intensities", "0.1", "--seeds", "0", "--episode-length", "4", "--out", out)
-    assert (tmp_path / "sweep-1" / "intensity_camera_rotation.png").exists(), "an existing report is never overwritten"
-
-
-@pytest.mark.slow
-def test_sweep_example_refuses_bad_arguments(tmp_path):
-    result = run("sweep.py", "--intensities", "0", "1.5", "--out", tmp_path / "a", ok=False)
-    assert "--intensities" in result.stderr and "[0, 1]" in result.stderr and "1.5" in result.stderr
-    result = run("sweep.py", "--factor", "camera_rotaton", "--out", tmp_path / "b", ok=False)
-    assert "camera_rotaton" in result.stderr and "camera_rotation" in result.stderr
-    assert not any(tmp_path.iterdir()), "nothing is written before the arguments are checked"
-
-
-@pytest.mark.render
-@pytest.mark.slow
-def test_sweep_example_loads_a_checkpoint(trained, tmp_path):
-    out = tmp_path / "report"
-    run("sweep.py", "--checkpoint", trained, "--random", "--intensities", "0", "0.2", "--seeds", "0",
-        "--episode-length", "6", "--out", out)
-    rows = _rows(out / "episodes.csv")
-    assert [(r["method"], r["env"], r["level"]) for r in rows] == [
-        (method, "dmc/cartpole-balance", level) for method in ("drqv2", "random")
-        for level in ("camera_rotation=0", "camera_rotation=0.2")]
 
 
 @pytest.mark.render

@@ -1,4 +1,5 @@
-"""examples/train.py's flags come from TrainConfig: every flag of the script before TrainConfig keeps its name and meaning."""
+"""examples/train.py's flags come from TrainConfig and its Launch (parsed by tyro): recipes, resumes, the checks before
+any work, one writer per run folder (every flag's name, meaning and default: test_script_flags.py)."""
 
 from __future__ import annotations
 
@@ -13,15 +14,9 @@ from pathlib import Path
 
 import pytest
 
-from vigen.run import PRESETS
+from vigen.run import PRESETS, RunSchedule
 
 ROOT = Path(__file__).resolve().parents[2]
-# train.py's flags before TrainConfig (README, docs/, scripts/ and benchmarks/ use them)
-FLAGS = ["--algo", "--env", "--preset", "--protocol", "--frames", "--action-repeat", "--frame-stack", "--image-size", "--seed",
-         "--out", "--resume", "--workers", "--collector", "--ray-address", "--eval-levels", "--logger", "--episode-length",
-         "--threads", "--device", "--compile", "--encoder-weights", "--batch-size", "--buffer-size", "--lr", "--hidden-dim",
-         "--feature-dim", "--n-step", "--gamma", "--tau", "--seed-frames", "--update-every", "--std-duration", "--eval-every",
-         "--eval-episodes", "--std-init", "--std-final", "--reward-scale"]
 
 
 @pytest.fixture(scope="module")
@@ -53,11 +48,6 @@ def test_a_recipe_sets_the_run_and_a_flag_over_it_is_recorded(train):
         train.parse_args(["--recipe", "svea-dmcgb", "--algo", "drqv2"])
 
 
-def test_every_earlier_flag_is_still_there(train):
-    options = {option for action in train.make_parser()._actions for option in action.option_strings}
-    assert set(FLAGS) <= options
-
-
 def test_flags_build_the_same_config_as_the_preset_with_overrides(train, tmp_path):
     config, launch = train.parse_args(["--algo", "svea", "--preset", "paper", "--batch-size", "32", "--compile", "--eval-levels",
                                        "train", "color_hard", "--threads", "1", "--device", "cpu", "--out", str(tmp_path)])
@@ -71,6 +61,8 @@ def test_flags_build_the_same_config_as_the_preset_with_overrides(train, tmp_pat
     (["--lr", "-1"], "--lr must be > 0"),
     (["--protocol", "dmcgb", "--env", "robosuite/lift"], "--protocol dmcgb: protocol 'dmcgb' covers the dmc suite"),
     (["--overlap", "--collector", "ray"], "--overlap collects in this machine's worker processes"),
+    (["--ray", "--collector", "local"], "--ray is --collector ray with its cluster"),
+    (["--ray", "10.0.0.1:6379", "--ray-address", "10.0.0.2:6379"], "--ray is --collector ray with its cluster"),
 ])
 def test_bad_flags_stop_before_any_work(train, flags, message):
     with pytest.raises(SystemExit) as stop:
@@ -136,13 +128,26 @@ def test_a_second_writer_is_refused_at_once_naming_the_holder_and_a_killed_holde
     lock.release()
 
 
-def test_the_run_says_before_it_starts_how_many_frames_it_trains(train):
+def test_ray_is_the_collector_and_its_cluster_as_in_evaluate(train):
+    """One spelling of "use Ray" in both scripts: --ray [ADDRESS]; train.py's --collector ray and --ray-address say the same."""
+    config, launch = train.parse_args(["--ray"])
+    assert (config.collector, launch.ray_address) == ("ray", None)
+    config, launch = train.parse_args(["--ray", "10.0.0.1:6379", "--workers", "2"])
+    assert (config.collector, config.workers, launch.ray_address) == ("ray", 2, "10.0.0.1:6379")
+    assert train.parse_args(["--collector", "ray", "--ray-address", "10.0.0.1:6379"])[0] == config.__class__(collector="ray")
+
+
+def schedule(frames: int, steps_between_checkpoints: int) -> RunSchedule:
+    return RunSchedule(action_repeat=2, frames=frames, seed_steps=0, eval_every=steps_between_checkpoints, worker_batch_steps=100)
+
+
+def test_the_run_says_before_it_starts_how_many_frames_it_trains():
     """Collector batches of 100 agent steps (--update-every 2) at action repeat 2: the run trains 200 frames at a time."""
-    note = train.frames_note(300, 2, 0, eval_every=5000, batch_steps=100)
+    note = schedule(300, 2500).frames_note()
     assert note.startswith("--frames 300: training 400 frames, not 300: the collector gathers whole batches of 100 agent "
                            "steps (200 frames at action repeat 2)")
-    assert train.frames_note(400, 2, 0, eval_every=5000, batch_steps=100) is None, "a whole number of batches: no note"
-    assert "301 frames are 150 whole agent steps" in train.frames_note(301, 2, 0, eval_every=5000, batch_steps=100)
+    assert schedule(400, 2500).frames_note() is None, "a whole number of batches: no note"
+    assert "301 frames are 150 whole agent steps" in schedule(301, 2500).frames_note()
     # a checkpoint every 150 agent steps ends a segment at the first batch past it: 200 steps, then 300
-    assert "training 600 frames, not 500" in train.frames_note(500, 2, 0, eval_every=150, batch_steps=100)
-    assert train.frames_note(600, 2, 200, eval_every=150, batch_steps=100) is None, "resumed at 200 steps"
+    assert "training 600 frames, not 500" in schedule(500, 150).frames_note()
+    assert schedule(600, 150).frames_note(steps=200) is None, "resumed at 200 steps"

@@ -10,7 +10,7 @@ import pytest
 import torch
 from tensordict import TensorDict
 
-from vigen.checkpoint import ReplayJournal, replay_state, restore_replay
+from vigen.run.checkpoint import ReplayJournal, replay_state, restore_replay
 from vigen.run import CollectorBatches, GpuBusy, RunReplay, StageClock, busy_seconds
 
 

@@ -3,12 +3,9 @@
 from __future__ import annotations
 
 import contextlib
-import importlib.util
 import multiprocessing
 import os
-import sys
 from dataclasses import replace
-from pathlib import Path
 
 import pytest
 import torch
@@ -16,7 +13,6 @@ import torch
 from vigen.run import PRESETS, worker_timeouts
 from vigen.run.collection import WEIGHT_SYNC_SECONDS, WEIGHT_SYNC_VARIABLES
 
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def _read_torchrl_wait(queue) -> None:
@@ -65,19 +61,12 @@ def test_the_environment_is_set_only_around_the_start_and_a_value_the_user_set_i
             pass
 
 
-@pytest.fixture
-def train():
-    spec = importlib.util.spec_from_file_location("train_example_timeouts", ROOT / "examples" / "train.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    yield module
-    del sys.modules[spec.name]
-
-
 @pytest.mark.parametrize("overlap", [False, True])
-def test_train_py_starts_its_worker_processes_inside_it(train, monkeypatch, clean_environment, overlap):
-    """examples/train.py's multi-process collectors (--workers N, --overlap) are built with the wait set, whoever calls it."""
+def test_train_py_starts_its_worker_processes_inside_it(monkeypatch, clean_environment, overlap):
+    """examples/train.py's multi-process collectors (--workers N, --overlap; vigen.run.make_collector) are built with the
+    wait set, whoever calls it."""
+    from vigen.run import collection
+
     seen = []
 
     class Recording:
@@ -87,9 +76,9 @@ def test_train_py_starts_its_worker_processes_inside_it(train, monkeypatch, clea
         def update_policy_weights_(self) -> None:
             return None
 
-    monkeypatch.setattr(train, "MultiSyncCollector", Recording)
+    monkeypatch.setattr(collection, "MultiSyncCollector", Recording)
     policy = torch.nn.Linear(1, 1)
     config = replace(PRESETS["cpu"], workers=2, overlap=overlap)
-    train.make_collector(lambda seed: None, policy, config, env_seed=0, steps_per_batch=10, batches=1, random_steps=0)
+    collection.make_collector(lambda seed: None, policy, config, env_seed=0, steps_per_batch=10, batches=1, random_steps=0)
     assert seen == [{name: f"{WEIGHT_SYNC_SECONDS:g}" for name in WEIGHT_SYNC_VARIABLES}]
     assert not any(name in os.environ for name in WEIGHT_SYNC_VARIABLES)

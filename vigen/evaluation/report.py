@@ -1,4 +1,5 @@
-"""Writers for an evaluation: raw rows as CSV, the summary as a markdown table, bar plots and robustness curves as PNG.
+"""An evaluation's report: the report folder of ``examples/evaluate.py`` (:func:`write_report`), and the writers it is made
+of: raw rows as CSV, the summary as a markdown table, bar plots and robustness curves as PNG.
 
 None of them overwrites a file: an existing path raises ``FileExistsError`` (pick a new folder,
 e.g. with :func:`vigen.io.unused_path`).
@@ -11,15 +12,21 @@ import io
 import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from vigen.data.identity import not_in_full
+from vigen.envs import get_suite
 from vigen.evaluation.statistics import performance_profile, performance_profile_ci
-from vigen.evaluation.summary import score_matrix, summarize
+from vigen.evaluation.summary import generalization_gaps, improvements, score_matrix, summarize
 from vigen.io import atomic_write
+from vigen.protocols import PROTOCOLS
+
+if TYPE_CHECKING:
+    from vigen.evaluation.comparison import Comparison
 
 
 def _new_file(path: str | Path) -> Path:
@@ -425,3 +432,165 @@ def plot_performance_profile(
         axes.set_title(title or f"performance profile over {pooled_levels} (95 % CI)", fontsize="small")
         axes.legend(frameon=False, fontsize="small")
     return path
+
+
+@dataclass
+class Report:
+    """A report folder as :func:`write_report` wrote it: ``report.md``'s text and the files beside it, in the order they are
+    listed."""
+
+    folder: Path
+    rows: list[dict]
+    """The episodes (episodes.csv)."""
+    lines: list[dict]
+    """The summary lines (summary.csv): per method and level."""
+    text: str = ""
+    tables: list[Path] = field(default_factory=list)
+    figures: list[Path] = field(default_factory=list)
+    curves: list[Path] = field(default_factory=list)
+    comparison: Comparison | None = None
+    published_table: str = ""
+    """With a comparison: the runs beside the published numbers, as printed."""
+
+    def summary(self) -> str:
+        """What ``examples/evaluate.py`` prints: the return table, the published numbers (with a comparison), the files."""
+        text = markdown_table(label_stand_ins(self.lines, self.rows))
+        if self.comparison is not None:
+            text += (f"\n\nPublished numbers, protocol {self.comparison.protocol}:\n\n{self.published_table}\n\n"
+                     f"{level_notes(self.rows)}")
+        names = [path.name for path in [*self.tables, self.folder / "report.md", *self.figures, *self.curves]]
+        return text + f"\n\nwrote {self.folder}/: {', '.join(names)}"
+
+
+def write_report(rows: list[dict], folder: str | Path, *, swept: Sequence[str] = (), comparison: Comparison | None = None,
+                 played: int | None = None) -> Report:
+    """Write the report folder of an evaluation's rows: each section by its own step, then ``report.md``.
+
+    The folder (new: an existing one raises ``FileExistsError``) gets ``episodes.csv`` (one row per episode),
+    ``summary.csv`` and, in ``report.md``, the return per level and method (IQM with its 95 % stratified-bootstrap CI, and
+    RL-ViGen's mean ± std over runs), what each level showed and the success rate where the task has one; ``gaps.csv``
+    (test / train return of the same runs), ``improvements.csv`` (P(X > Y), with two methods or more); ``levels.png``,
+    ``profile.png`` over the test levels and an ``intensity_FACTOR.png`` robustness curve per ``swept`` factor; with a
+    ``comparison`` (:class:`vigen.evaluation.comparison.Comparison`), ``published.csv`` and ``published*.png``, the runs
+    beside the published numbers (``played``: the episodes per level and run, said when fewer than the protocol's).
+
+    Examples:
+        >>> import tempfile, pathlib
+        >>> rows = [{"env": "dmc/cartpole-balance", "method": "random", "run": 0, "level": level, "seed": 0, "return": r,
+        ...          "stand_in": False} for level, r in [("train", 120.0), ("color_hard", 80.0)]]
+        >>> report = write_report(rows, pathlib.Path(tempfile.mkdtemp()) / "report")
+        >>> report.summary().splitlines()[-1]
+        'wrote .../report/: episodes.csv, summary.csv, gaps.csv, report.md, levels.png, profile.png'
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True)
+    report = Report(folder, rows, summarize(rows), comparison=comparison)
+    _add_returns(report)
+    _add_gaps(report)
+    _add_improvements(report)
+    _add_figures(report, swept)
+    if comparison is not None:
+        _add_published(report, comparison, played)
+    atomic_write(folder / "report.md", report.text)
+    return report
+
+
+def _task_names(rows: list[dict]) -> str:
+    """The envs of the rows, in order: the report's title."""
+    return ", ".join(dict.fromkeys(row["env"] for row in rows))
+
+
+def _add_returns(report: Report) -> None:
+    """episodes.csv and summary.csv; the return per level and method, what each level showed, the success rate."""
+    rows = report.rows
+    report.tables += [write_csv(rows, report.folder / "episodes.csv"), write_csv(report.lines, report.folder / "summary.csv")]
+    report.text += (f"# Zero-shot evaluation: {_task_names(rows)}\n\n## Episode return\n\n"
+                    f"{markdown_table(label_stand_ins(report.lines, rows))}\n")
+    if any(row["stand_in"] for row in rows):
+        report.text += ("\nLevels marked (stand-in) showed vigen's stand-ins (procedural videos, statistics-matched colours), "
+                        "not the benchmark's own data; `python -m vigen.data fetch ...` gets the data (docs/data.md).\n")
+    if any(not_in_full(row.get("data")) for row in rows):
+        report.text += ("\nLevels marked (partial data) showed less than their data set in full (fewer files than its part, "
+                        "a user's folder, or files not verified against the pinned ids): their `data` column says what.\n")
+    report.text += f"\n## What each level showed\n\n{level_notes(rows, heading=False)}"
+    if all("success" in row for row in rows):  # tasks with a success check: the success rate in %
+        success = summarize([dict(row, success=100.0 * row["success"]) for row in rows], value="success")
+        report.tables.append(write_csv(success, report.folder / "summary_success.csv"))
+        report.text += f"\n## Success rate (%)\n\n{markdown_table(success)}\n"
+
+
+def _add_gaps(report: Report) -> None:
+    """gaps.csv: each method's test / train return per level, with its 95 % CI (the random policy has no gap)."""
+    gaps = generalization_gaps([row for row in report.rows if row["method"] != "random"])
+    if gaps:
+        report.tables.append(write_csv(gaps, report.folder / "gaps.csv"))
+        report.text += "\n## Generalization gap (test / train return of the same runs, 95 % CI)\n\n" + markdown_table(
+            gaps, cell=lambda line: interval_cell(line["gap"], line["gap_low"], line["gap_high"], line["runs"])) + "\n"
+
+
+def _add_improvements(report: Report) -> None:
+    """improvements.csv, with two methods or more: P(row beats column) per level, with its 95 % CI."""
+    if len({row["method"] for row in report.rows}) <= 1:
+        return
+    better = improvements(report.rows)
+    report.tables.append(write_csv(better, report.folder / "improvements.csv"))
+    report.text += "\n## Probability of improvement P(row beats column), per level (95 % CI)\n\n" + "\n\n".join(
+        f"{level}:\n\n" + markdown_table([line for line in better if line["level"] == level], rows="method", columns="over",
+                                          cell=lambda line: interval_cell(line["probability"], line["low"], line["high"],
+                                                                            max(line["runs"], line["over_runs"])))
+        for level in dict.fromkeys(line["level"] for line in better)) + "\n"
+
+
+def _add_figures(report: Report, swept: Sequence[str]) -> None:
+    """levels.png; profile.png over the test levels; one intensity_FACTOR.png robustness curve per swept factor."""
+    task, folder, lines = _task_names(report.rows), report.folder, report.lines
+    report.figures.append(plot_levels(lines, folder / "levels.png", title=f"{task}: zero-shot IQM per level (95 % CI)"))
+    if any(row["level"] != "train" for row in report.rows):
+        report.figures.append(plot_performance_profile(report.rows, folder / "profile.png"))
+        report.text += "\n## Performance profile over the test levels\n\n![profile.png](profile.png)\n"
+    report.curves += [plot_intensity(lines, folder / f"intensity_{factor}.png", factor=factor,
+                                     title=f"{task}: IQM against {factor} (95 % CI)") for factor in dict.fromkeys(swept)]
+    if report.curves:
+        report.text += "\n## Robustness curves\n\n" + "".join(f"![{curve.name}]({curve.name})\n" for curve in report.curves)
+
+
+def _add_published(report: Report, comparison: Comparison, played: int | None) -> None:
+    """published.csv and published*.png: the runs beside the published numbers, with what each level showed."""
+    protocol = PROTOCOLS[comparison.protocol]
+    compared = comparison.lines([row for row in report.rows if row["method"] != "random"])
+    report.tables.append(write_csv(compared, report.folder / "published.csv"))
+    for unit in dict.fromkeys(line["unit"] for line in compared):
+        name = "published.png" if unit == "return" else f"published_{unit}.png"
+        report.figures.append(plot_comparison([line for line in compared if line["unit"] == unit], report.folder / name,
+                                              ylabel="episode return" if unit == "return" else "success rate (%)"))
+    wanted = protocol.test.episodes
+    report.published_table = comparison_table(compared) + ("" if played is None or played >= wanted else
+        f"\nThis evaluation played {played} episodes per level and run; protocol {comparison.protocol} plays {wanted} "
+        f"(--episodes {wanted}): fewer episodes, a noisier mean.")
+    report.text += (f"\n## Published ({protocol.title}; sources: {', '.join(comparison.sources)})\n\n"
+                    f"{report.published_table}\n\n{level_notes(report.rows)}\n"
+                    + "".join(f"![{figure.name}]({figure.name})\n" for figure in report.figures
+                              if figure.name.startswith("published")))
+
+
+def level_notes(rows: Sequence[Mapping[str, Any]], heading: bool = True) -> str:
+    """What vigen's levels are and the data each showed, so a reader sees where they approximate the source's.
+
+    Examples:
+        >>> print(level_notes([{"env": "dmc/walker-walk", "level": "color_hard", "data": "dmcgb-colors/color_hard: 100 of "
+        ...                     "100, shipped", "stand_in": False}]).splitlines()[-1][:38])
+        - color_hard: DMC-GB color_hard (its 1
+    """
+    notes = []
+    for env, level in dict.fromkeys((row["env"], row["level"]) for row in rows):
+        if level == "train":
+            continue
+        source = get_suite(env).levels[level].source if level in get_suite(env).levels else level
+        mine = [row for row in rows if (row["env"], row["level"]) == (env, level)]
+        shown = [data for data in dict.fromkeys(row.get("data", "") for row in mine) if data]
+        stand_in = any(row.get("stand_in") is True for row in mine)
+        notes.append(f"- {level}: {source}" + (f"; showed {', '.join(shown)}" if shown else "")
+                     + (" (vigen's stand-ins, not the benchmark's data)" if stand_in else ""))
+    if not notes:
+        return ""
+    return ("vigen's levels, for reading the comparison:\n\n" if heading else "") + "\n".join(dict.fromkeys(notes)) + "\n"

@@ -249,7 +249,7 @@ class UpdateStep:
         if self.cudagraph and not all(group.get("capturable", False) for group in self.optimizer.param_groups):
             raise ValueError("UpdateStep(cudagraph=True): the optimizer must be capturable, e.g. "
                              "torch.optim.Adam(loss.optimizer_groups(lr), capturable=True); an optimizer state loaded "
-                             "from another run keeps this run's flags with vigen.checkpoint.load_optimizer_state.")
+                             "from another run keeps this run's flags with vigen.run.checkpoint.load_optimizer_state.")
 
     def _update(self, batch: TensorDictBase) -> TensorDictBase:
         """The update; its losses and metrics (``"losses"``) and the batch's priority (``"priority"``), detached."""

@@ -37,7 +37,7 @@ import torch
 from tensordict.nn import TensorDictModuleBase, TensorDictSequential
 from torchrl.data import Bounded, TensorSpec
 
-from vigen.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
+from vigen.run.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
 from vigen.io import atomic_write
 from vigen.losses import ActorCriticLoss
 from vigen.run.agent import TrainedAgent, build_agent

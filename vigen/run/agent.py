@@ -19,7 +19,7 @@ from torchrl.data import TensorSpec
 from torchrl.modules import AdditiveGaussianModule
 from torchrl.objectives import SoftUpdate
 
-from vigen.checkpoint import CheckpointError, load_checkpoint, newest_checkpoint
+from vigen.run.checkpoint import CheckpointError, load_checkpoint, newest_checkpoint
 from vigen.data import fetch_command, get_dataset, locate
 from vigen.envs import available_envs, make_env
 from vigen.envs.levels import resolve_levels

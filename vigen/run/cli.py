@@ -1,124 +1,118 @@
-"""Command-line flags generated from a dataclass: one ``--flag-name`` per documented field, typed by its annotation."""
+"""Command lines from settings dataclasses, parsed by `tyro <https://brentyi.github.io/tyro/>`_, and what vigen adds to it.
+
+Each field of a settings dataclass is a flag, documented by the docstring below it (a long one as
+string literals in parentheses, which Python joins into one, so that tyro does not break its lines): ``batch_size``
+is ``--batch-size``; a ``bool`` is a switch (``--compile``, and ``--no-compile`` to turn off what a
+layer under the flags turned on); ``tuple[X, ...]`` takes one value or more; a field marked
+``tyro.conf.UseAppendAction`` is repeatable, ``tyro.conf.Positional`` holds the positional
+arguments; a ``Literal`` (or ``tyro.conf.arg(constructor_factory=...)`` returning one, for names
+known only when the command runs) restricts the values. :func:`parse_flags` hands the command's
+dataclasses to ``tyro.cli`` in one flat namespace and adds three things tyro does not do:
+
+* **which flags were typed** (:attr:`Parsed.typed`): the layers under the flags (a preset, a
+  recipe, a protocol, a resumed run's ``config.json``) give way to the flags on the command line,
+  whatever their value, and only to them;
+* **a flag whose value may be left out** (:class:`BareValue`, argparse's ``nargs="?"``): ``--ray``
+  alone is ``--ray local``, ``--ray ADDRESS`` names a cluster;
+* **one value or more** for tuple flags (tyro also takes none): an empty ``--levels`` is refused;
+  and a switch typed with a value (``--random=False``, which tyro would read as ``--random``) too.
+
+:func:`flag_name` and :func:`flag_value` spell a field and a value as they are typed, for messages.
+"""
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
-import types
+import inspect
+import sys
 import typing
-from collections.abc import Callable, Iterable
-from typing import Any, Literal
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import tyro
 
 
-def setting(
-    default: Any,
-    help: str,
-    *,
-    choices: Callable[[], Iterable[str]] | None = None,
-    unset: str | None = None,
-    metavar: str | None = None,
-    bare: Any = None,
-    positional: bool = False,
-) -> Any:
-    """A dataclass field that is also a flag: its default, what it means (the flag's help) and, optionally, its choices.
+@dataclass(frozen=True)
+class BareValue:
+    """Marks a flag whose value may be left out: ``Annotated[str | None, BareValue("local")]``.
 
-    ``choices`` is a function, called when the parser is built, so that a field may list names
-    defined after the class (a registry, the presets). ``unset`` says what a ``None`` default
-    means (``"the suite's"``), for the help. ``metavar`` names the flag's values in the help.
-    ``bare`` is the value of the flag given without one (``--ray`` alone: ``"local"``; ``--ray
-    ADDRESS`` gives the address). ``positional`` makes the field the command's positional
-    arguments (``tuple[X, ...]``: any number of them) instead of a ``--flag``. Fields made with
-    plain ``dataclasses.field`` (or none) get no flag.
+    Typed alone (at the end of the command line, or before another ``-`` option), the flag takes
+    ``value``; otherwise the token after it is its value.
+    """
+
+    value: str
+
+
+@dataclass(frozen=True)
+class Parsed:
+    """A parsed command line: one settings instance per name, and the fields whose flag was typed."""
+
+    settings: Mapping[str, Any]
+    typed: frozenset[str]
+    """The fields whose flag is on the command line (a switch's ``--no-`` spelling too), whatever the value typed."""
+
+    def given(self, name: str) -> dict[str, Any]:
+        """The typed fields of ``settings[name]`` and their values: what the layers under the flags give way to."""
+        values = self.settings[name]
+        return {field.name: getattr(values, field.name) for field in dataclasses.fields(values) if field.name in self.typed}
+
+
+def parse_flags(settings: Mapping[str, type], argv: Sequence[str] | None = None, *, description: str | None = None) -> Parsed:
+    """Parse ``argv`` (default: ``sys.argv[1:]``) into one instance of each settings dataclass, with tyro.
+
+    ``settings`` names the dataclasses (the names head their groups in ``--help``); their fields
+    share one namespace of flags (no ``--config.`` prefixes). A malformed command line (an unknown
+    flag, a value of the wrong type, a choice not offered) stops with tyro's message, which shows
+    the flag's help, and exit status 2.
 
     Examples:
-        >>> from dataclasses import dataclass, fields
-        >>> @dataclass
+        >>> from typing import Annotated
+        >>> @dataclass(frozen=True)
         ... class Settings:
-        ...     batch_size: int = setting(64, "transitions per update")
-        >>> fields(Settings)[0].metadata["help"]
-        'transitions per update'
+        ...     batch_size: int = 64
+        ...     '''transitions per update'''
+        ...     levels: tuple[str, ...] = ("train",)
+        ...     '''levels to evaluate'''
+        ...     ray: Annotated[str | None, BareValue("local")] = None
+        ...     '''a local Ray cluster, or the one at ADDRESS'''
+        >>> parsed = parse_flags({"settings": Settings}, ["--levels", "train", "color_hard", "--ray"])
+        >>> parsed.settings["settings"]
+        Settings(batch_size=64, levels=('train', 'color_hard'), ray='local')
+        >>> sorted(parsed.typed), parse_flags({"settings": Settings}, ["--batch-size", "64"]).given("settings")
+        (['levels', 'ray'], {'batch_size': 64})
     """
-    return dataclasses.field(default=default, metadata={"help": help, "choices": choices, "unset": unset,
-                                                        "metavar": metavar, "bare": bare, "positional": positional})
+    argv = list(sys.argv[1:] if argv is None else argv)
+    hints = {field.name: typing.get_type_hints(kind, include_extras=True)[field.name]
+             for kind in settings.values() for field in dataclasses.fields(kind)}
+    bare = {flag_name(name): marker.value for name, hint in hints.items() for marker in _metadata(hint) if isinstance(marker, BareValue)}
+    argv = [*_with_bare_values(argv, bare)]
+    switches = {flag: name for name, hint in hints.items() if _bare_type(hint) is bool
+                for flag in (flag_name(name), flag_name(f"no_{name}"))}
+    spellings = {**{flag_name(name): name for name in hints}, **switches}
+    for token in argv:
+        if token.split("=", 1)[0] in switches and "=" in token:  # tyro would ignore the value: --random=False is on
+            _stop(f"{token}: {token.split('=', 1)[0]} is a switch and takes no value; type it alone (or its --no- form).")
+    typed = frozenset(spellings[flag] for flag in (token.split("=", 1)[0] for token in argv) if flag in spellings)
+
+    def command(**parts: Any) -> dict[str, Any]:
+        return parts
+
+    parameters = [inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, annotation=kind) for name, kind in settings.items()]
+    command.__signature__ = inspect.Signature(parameters)  # type: ignore[attr-defined]
+    command.__annotations__ = {name: kind for name, kind in settings.items()}
+    parts = tyro.cli(command, args=argv, description=description, config=(tyro.conf.OmitArgPrefixes, tyro.conf.DisallowNone))
+    for name in sorted(typed):
+        value = next(getattr(part, name) for part in parts.values() if hasattr(part, name))
+        if typing.get_origin(_bare_type(hints[name])) is tuple and tyro.conf.Positional not in _metadata(hints[name]) \
+                and (value == () or any(item == () for item in value if isinstance(item, tuple))):
+            _stop(f"{flag_name(name)}: give one value or more after it.")
+    return Parsed(parts, typed)
 
 
-def add_flags(parser: argparse.ArgumentParser, settings: type, *, given_only: bool = False) -> None:
-    """Add one flag per :func:`setting` field of the dataclass ``settings`` to ``parser``.
-
-    ``batch_size: int`` becomes ``--batch-size`` of type ``int``; ``X | None`` takes an ``X``;
-    ``bool`` is a switch (``--compile``, and ``--no-compile``); ``tuple[str, ...]`` takes one value or more;
-    ``tuple[tuple[str, ...], ...]`` is a repeatable flag of one value or more each time
-    (``--sweep camera_rotation 0 0.1 --sweep light_color 0.5``); a ``Literal`` or the field's
-    ``choices`` restricts the values. The help ends with the default (a switch's is off). Read the
-    parsed flags back with :func:`given_flags`.
-
-    Args:
-        parser: where the flags go.
-        settings: a dataclass whose fields were made with :func:`setting`.
-        given_only: every flag defaults to ``None``, so that :func:`given_flags` tells the flags
-            typed on the command line from the defaults (the dataclass then fills in the rest).
-            A repeatable flag defaults to ``None`` either way.
-
-    Examples:
-        >>> import argparse
-        >>> from dataclasses import dataclass
-        >>> @dataclass
-        ... class Settings:
-        ...     batch_size: int = setting(64, "transitions per update")
-        ...     levels: tuple[str, ...] = setting(("train",), "levels to evaluate")
-        ...     sweep: tuple[tuple[str, ...], ...] = setting((), "a factor and its intensities; repeatable")
-        >>> parser = argparse.ArgumentParser()
-        >>> add_flags(parser, Settings, given_only=True)
-        >>> given_flags(parser.parse_args(["--levels", "train", "color_hard"]), Settings)
-        {'levels': ('train', 'color_hard')}
-        >>> Settings(**given_flags(parser.parse_args(["--sweep", "camera_fov", "0.1", "--sweep", "brightness", "1"]), Settings))
-        Settings(batch_size=64, levels=('train',), sweep=(('camera_fov', '0.1'), ('brightness', '1')))
-    """
-    hints = typing.get_type_hints(settings)
-    for field in dataclasses.fields(settings):
-        if "help" not in field.metadata:
-            continue
-        kind = _without_none(hints[field.name])
-        shown = field.metadata["unset"] if field.default is None and field.metadata["unset"] else flag_value(field.default)
-        options: dict[str, Any] = {"default": None if given_only else field.default,
-                                   "help": f"{field.metadata['help']} (default: {shown})"}
-        if kind is bool:  # --compile, and --no-compile to turn off what a recipe (or a preset) turns on
-            options.update(action=argparse.BooleanOptionalAction, help=field.metadata["help"])
-        else:
-            if typing.get_origin(kind) is tuple and typing.get_origin(typing.get_args(kind)[0]) is tuple:
-                options.update(action="append", default=None)  # argparse appends to a copy of its default
-                kind = typing.get_args(kind)[0]
-            if typing.get_origin(kind) is tuple:
-                options["nargs"] = "*" if field.metadata.get("positional") else "+"
-                kind = typing.get_args(kind)[0]
-            elif field.metadata.get("bare") is not None:
-                options.update(nargs="?", const=field.metadata["bare"])
-            if typing.get_origin(kind) is Literal:
-                options["choices"] = list(typing.get_args(kind))
-                kind = str
-            options["type"] = kind
-        if field.metadata.get("choices") is not None:
-            options["choices"] = list(field.metadata["choices"]())
-        if field.metadata.get("metavar") is not None:
-            options["metavar"] = field.metadata["metavar"]
-        if field.metadata.get("positional"):
-            parser.add_argument(field.name, **options)
-        else:
-            parser.add_argument(flag_name(field.name), **options)
-
-
-def given_flags(namespace: argparse.Namespace, settings: type) -> dict[str, Any]:
-    """The :func:`setting` fields of ``settings`` that ``namespace`` holds a value for, lists as tuples.
-
-    Parsed with ``given_only=True``: the flags typed on the command line; ``settings(**given_flags(...))``
-    is then the dataclass with the defaults filled in.
-    """
-    given = {}
-    for field in dataclasses.fields(settings):
-        value = getattr(namespace, field.name, None)
-        if "help" in field.metadata and value is not None:
-            given[field.name] = _tupled(value)
-    return given
+def unset_means(meaning: str) -> Any:
+    """``Annotated[int | None, unset_means("the suite's")]``: the help says what the field left unset (``None``) means."""
+    return tyro.conf.arg(help_behavior_hint=f"(default: {meaning})")
 
 
 def flag_name(name: str) -> str:
@@ -126,20 +120,41 @@ def flag_name(name: str) -> str:
     return f"--{name.replace('_', '-')}"
 
 
-def _tupled(value: Any) -> Any:
-    """argparse's lists as the tuples a frozen dataclass holds: ``[["a", "b"]]`` -> ``(("a", "b"),)``."""
-    return tuple(_tupled(item) for item in value) if isinstance(value, list) else value
-
-
-def _without_none(kind: Any) -> Any:
-    """``int | None`` -> ``int``."""
-    if typing.get_origin(kind) in (typing.Union, types.UnionType):
-        (kind,) = [arg for arg in typing.get_args(kind) if arg is not type(None)]
-    return kind
-
-
 def flag_value(value: Any) -> str:
     """A value as it is typed after its flag, for messages: ``("train", "color_hard")`` -> ``"train color_hard"``."""
     if isinstance(value, tuple) and value:
         return " ".join(map(str, value))
     return "none" if value is None or value == () else str(value)
+
+
+def _stop(message: str) -> None:
+    """Stop as a malformed command line does: the message on stderr, exit status 2."""
+    print(message, file=sys.stderr)
+    raise SystemExit(2)
+
+
+def _with_bare_values(argv: list[str], bare: Mapping[str, str]) -> list[str]:
+    """``argv`` with each bare-value flag typed alone given its value (``--ray`` -> ``--ray local``)."""
+    out = []
+    for index, token in enumerate(argv):
+        out.append(token)
+        if token in bare and (index + 1 == len(argv) or argv[index + 1].startswith("-")):
+            out.append(bare[token])
+    return out
+
+
+def _metadata(hint: Any) -> tuple[Any, ...]:
+    """The ``Annotated`` metadata of a field's type (tyro's markers, :class:`BareValue`), outermost first."""
+    found = ()
+    while typing.get_origin(hint) is typing.Annotated:
+        found += hint.__metadata__
+        hint = typing.get_args(hint)[0]
+    return found
+
+
+def _bare_type(hint: Any) -> Any:
+    """A field's type without ``Annotated`` and ``| None``: ``Annotated[int | None, ...]`` -> ``int``."""
+    while typing.get_origin(hint) is typing.Annotated:
+        hint = typing.get_args(hint)[0]
+    arguments = [argument for argument in typing.get_args(hint) if argument is not type(None)]
+    return arguments[0] if typing.get_origin(hint) in (typing.Union, type(int | None)) and len(arguments) == 1 else hint

@@ -21,11 +21,13 @@ import dataclasses
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass, replace
 from types import MappingProxyType
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from vigen.protocols import PROTOCOLS
-from vigen.run.cli import flag_name, flag_value, setting
-from vigen.run.recipes import TRAIN_KEYS, get_recipe
+from tyro.conf import Suppress, arg
+
+from vigen.run.cli import flag_name, flag_value, unset_means
+from vigen.run.recipes import RECIPES, TRAIN_KEYS, get_recipe
 
 DEFAULT_FRAMES = 100_000
 """A run's budget in environment frames when neither ``--frames`` nor a protocol sets it."""
@@ -36,21 +38,32 @@ PROTOCOL_KEYS = ("frames", "action_repeat", "frame_stack", "image_size", "episod
 
 
 
-def algorithm_names() -> list[str]:
-    """The algorithms' names (:data:`vigen.losses.ALGOS`), imported only when asked (the flags' choices)."""
+def _algorithm_choices() -> Any:
+    """The algorithms' names (:data:`vigen.losses.ALGOS`) as the flag's choices, imported only when the flags are
+    parsed."""
     from vigen.losses import ALGOS
 
-    return list(ALGOS)
+    return Literal[tuple(ALGOS)]
+
+
+def _preset_choices() -> Any:
+    return Literal[tuple(PRESETS)]
+
+
+def _protocol_choices() -> Any:
+    return Literal[tuple(PROTOCOLS)] | None
+
+
 
 
 @dataclass(frozen=True)
 class TrainConfig:
     """Every setting of a training run, with the ``cpu`` preset's values as defaults.
 
-    Each field with a help text is a flag of ``examples/train.py`` (``batch_size`` is
-    ``--batch-size``). Frames count environment frames (agent steps × action repeat), as in
-    DrQ-v2's curves. ``frames`` is not saved: a resumed run takes it from the flag or, failing
-    that, from its protocol. The last six fields are recorded by the run itself.
+    Each field documented below is a flag of ``examples/train.py`` (``batch_size`` is ``--batch-size``,
+    its docstring the flag's help: :func:`vigen.run.parse_flags`). Frames count environment frames
+    (agent steps × action repeat), as in DrQ-v2's curves. ``frames`` is not saved: a resumed run takes
+    it from the flag or, failing that, from its protocol. The last six fields are recorded by the run itself.
 
     Paper (the ``paper`` preset): DrQ-v2, https://arxiv.org/abs/2107.09645; RL-ViGen,
     https://arxiv.org/abs/2307.10224.
@@ -65,78 +78,109 @@ class TrainConfig:
         True
     """
 
-    algo: str = setting("drqv2", "the algorithm (vigen.losses.ALGOS)", choices=algorithm_names)
-    env: str = setting("dmc/cartpole-balance", "the task, <suite>/<task> (vigen.envs.available_envs)")
-    preset: str = setting("cpu", "the base settings: paper (DrQ-v2 / RL-ViGen's) or cpu (batch 64, a 100k buffer)",
-                          choices=lambda: PRESETS)
-    seed: int = setting(0, "seeds the networks, envs, augmentations and evaluations")
-    workers: int = setting(1, "envs collecting in parallel, one per process (local collector: >1 is a MultiSyncCollector)")
-    collector: Literal["local", "ray"] = setting(
-        "local", "local: this machine's processes; ray: TorchRL's RayCollector, one Ray actor per worker")
-    overlap: bool = setting(False, "collect the next batch in worker processes while updating on the last (local collector): "
-                                   "the same updates per agent step, the policy acting one batch of updates behind the serial "
-                                   "run; resumes exactly")
-    eval_levels: tuple[str, ...] = setting(("train",), "levels evaluated at every checkpoint")
-    logger: Literal["csv", "wandb"] = setting("csv", "csv, or wandb offline")
-    episode_length: int | None = setting(
-        None, "control steps per episode", unset="the suite's, dm_control 1000, robosuite 500, Adroit 200, pen 100")
-    encoder_weights: str | None = setting(
-        None, "pretrained encoder weights: PIE-G's ImageNet ResNet-18 (a torchvision state dict), VRL3's stage-1 checkpoint")
-    protocol: str | None = setting(
-        None, "train as a paper did: its budget, action repeat, frame stack, image size and evaluation", choices=lambda: PROTOCOLS)
-    action_repeat: int | None = setting(None, "control steps per agent step", unset="the suite's")
-    frame_stack: int | None = setting(None, "frames per observation", unset="3")
-    image_size: int | None = setting(None, "pixels per side", unset="84")
-    compile: bool = setting(False, "compile the whole update (torch.compile; on CUDA also a CUDA graph). The augmentations "
-                                   "then draw from torch's RNG seeded by --seed (torch.compile cannot trace their own generators)")
-    batch_size: int = setting(64, "transitions per gradient update (paper preset: 256)")
-    buffer_size: int = setting(100_000, "replay capacity in transitions (paper preset: 1000000)")
-    lr: float = setting(1e-4, "Adam's learning rate")
-    hidden_dim: int = setting(1024, "width of the actor's and critic's MLPs")
-    feature_dim: int = setting(50, "output size of the actor's and critic's trunk")
-    n_step: int = setting(3, "steps of the n-step return")
-    gamma: float = setting(0.99, "discount")
-    tau: float = setting(0.01, "target critic update rate")
-    seed_frames: int = setting(4000, "frames of random actions before the first update")
-    update_every: int = setting(2, "agent steps per gradient update")
-    std_duration: int | None = setting(None, "agent steps of the exploration std's linear schedule",
-                                       unset="the algorithm's, DrQ-v2 100000")
-    eval_every: int = setting(10_000, "frames between evaluations, each followed by a checkpoint")
-    eval_episodes: int = setting(5, "episodes per evaluation level (paper preset: 10)")
-    std_init: float | None = setting(None, "exploration std at the start (losses with a SAC sampler ignore it)",
-                                     unset="the algorithm's, DrQ-v2 1.0, VRL3 0.01")
-    std_final: float | None = setting(None, "exploration std at the schedule's end", unset="the algorithm's, DrQ-v2 0.1, VRL3 0.01")
-    reward_scale: float | None = setting(None, "factor on the rewards stored in the replay buffer",
-                                         unset="the algorithm's, 1; VRL3 on Adroit RL-ViGen's, door 1/20, hammer 1/100, pen 1/50")
-    frames: int = setting(DEFAULT_FRAMES, "environment frames in all, with action repeat (a protocol sets its budget)")
-    recipe: str | None = setting(None, "train as a method's original code does: its loss, networks, optimizer, update "
-                                       "schedule and protocol (vigen.run.RECIPES); --recipe list prints them", metavar="NAME")
-    seed_steps: int | None = setting(None, "agent steps of random actions before the first update (DMC-GB's init_steps); "
-                                           "overrides --seed-frames", unset="--seed-frames / action repeat")
-    seed_catch_up: bool = setting(False, "when the seed steps end, make at once the updates they would have had, then one "
-                                         "per --update-every (DMC-GB's init_steps updates at step init_steps)")
-    actor_update_every: int = setting(1, "gradient updates per step of the actor and SAC's temperature (DMC-GB's "
-                                         "actor_update_freq 2); their Adam state is untouched in between")
-    target_update_every: int = setting(1, "gradient updates per target-network update (DMC-GB's critic_target_update_freq 2)")
-    encoder_tau: float | None = setting(None, "update rate of the target encoder and the target critic's trunk (DMC-GB's "
-                                              "encoder_tau 0.05: its critic encoder is the convolutions and the projection)",
-                                        unset="--tau")
-    protocol_settings: Mapping[str, Any] | None = None
+    algo: Annotated[str, arg(constructor_factory=_algorithm_choices, help_behavior_hint="(default: drqv2)")] = "drqv2"
+    """the algorithm (vigen.losses.ALGOS)"""
+    env: str = "dmc/cartpole-balance"
+    """the task, <suite>/<task> (vigen.envs.available_envs)"""
+    preset: Annotated[str, arg(constructor_factory=_preset_choices, help_behavior_hint="(default: cpu)")] = "cpu"
+    """the base settings: paper (DrQ-v2 / RL-ViGen's) or cpu (batch 64, a 100k buffer)"""
+    seed: int = 0
+    """seeds the networks, envs, augmentations and evaluations"""
+    workers: int = 1
+    ("envs stepping in parallel, each in its own worker (a process; with Ray an actor): the local collector's "
+     "MultiSyncCollector for more than 1, Ray's actors with --ray")
+    collector: Literal["local", "ray"] = "local"
+    """local: this machine's processes; ray: TorchRL's RayCollector, one Ray actor per worker (what --ray sets)"""
+    overlap: bool = False
+    ("collect the next batch in worker processes while updating on the last (local collector): the same updates per "
+     "agent step, the policy acting one batch of updates behind the serial run; resumes exactly")
+    eval_levels: tuple[str, ...] = ("train",)
+    """levels evaluated at every checkpoint"""
+    logger: Literal["csv", "wandb"] = "csv"
+    """csv, or wandb offline"""
+    episode_length: Annotated[int | None, unset_means("the suite's, dm_control 1000, robosuite 500, Adroit 200, pen 100")] = None
+    """control steps per episode"""
+    encoder_weights: Annotated[str | None, unset_means("none")] = None
+    """pretrained encoder weights: PIE-G's ImageNet ResNet-18 (a torchvision state dict), VRL3's stage-1 checkpoint"""
+    protocol: Annotated[str | None, arg(constructor_factory=_protocol_choices, help_behavior_hint="(default: none)")] = None
+    """train as a paper did: its budget, action repeat, frame stack, image size and evaluation"""
+    action_repeat: Annotated[int | None, unset_means("the suite's")] = None
+    """control steps per agent step"""
+    frame_stack: Annotated[int | None, unset_means("3")] = None
+    """frames per observation"""
+    image_size: Annotated[int | None, unset_means("84")] = None
+    """pixels per side"""
+    compile: bool = False
+    ("compile the whole update (torch.compile; on CUDA also a CUDA graph). The augmentations then draw from torch's RNG"
+     " seeded by --seed (torch.compile cannot trace their own generators)")
+    batch_size: int = 64
+    """transitions per gradient update (paper preset: 256)"""
+    buffer_size: int = 100_000
+    """replay capacity in transitions (paper preset: 1000000)"""
+    lr: float = 1e-4
+    """Adam's learning rate"""
+    hidden_dim: int = 1024
+    """width of the actor's and critic's MLPs"""
+    feature_dim: int = 50
+    """output size of the actor's and critic's trunk"""
+    n_step: int = 3
+    """steps of the n-step return"""
+    gamma: float = 0.99
+    """discount"""
+    tau: float = 0.01
+    """target critic update rate"""
+    seed_frames: int = 4000
+    """frames of random actions before the first update"""
+    update_every: int = 2
+    """agent steps per gradient update"""
+    std_duration: Annotated[int | None, unset_means("the algorithm's, DrQ-v2 100000")] = None
+    """agent steps of the exploration std's linear schedule"""
+    eval_every: int = 10_000
+    """frames between evaluations, each followed by a checkpoint"""
+    eval_episodes: int = 5
+    """episodes per evaluation level (paper preset: 10)"""
+    std_init: Annotated[float | None, unset_means("the algorithm's, DrQ-v2 1.0, VRL3 0.01")] = None
+    """exploration std at the start (losses with a SAC sampler ignore it)"""
+    std_final: Annotated[float | None, unset_means("the algorithm's, DrQ-v2 0.1, VRL3 0.01")] = None
+    """exploration std at the schedule's end"""
+    reward_scale: Annotated[float | None, unset_means("the algorithm's, 1; VRL3 on Adroit RL-ViGen's, door 1/20, hammer "
+                                                      "1/100, pen 1/50")] = None
+    """factor on the rewards stored in the replay buffer"""
+    frames: int = DEFAULT_FRAMES
+    """environment frames in all, with action repeat (a protocol sets its budget)"""
+    recipe: Annotated[str | None, arg(metavar="NAME"), unset_means("none")] = None
+    ("train as a method's original code does: its loss, networks, optimizer, update schedule and protocol "
+     "(vigen.run.RECIPES); --recipe list prints them")
+    seed_steps: Annotated[int | None, unset_means("--seed-frames / action repeat")] = None
+    """agent steps of random actions before the first update (DMC-GB's init_steps); overrides --seed-frames"""
+    seed_catch_up: bool = False
+    ("when the seed steps end, make at once the updates they would have had, then one per --update-every (DMC-GB's "
+     "init_steps updates at step init_steps)")
+    actor_update_every: int = 1
+    ("gradient updates per step of the actor and SAC's temperature (DMC-GB's actor_update_freq 2); their Adam state is "
+     "untouched in between")
+    target_update_every: int = 1
+    """gradient updates per target-network update (DMC-GB's critic_target_update_freq 2)"""
+    encoder_tau: Annotated[float | None, unset_means("--tau")] = None
+    ("update rate of the target encoder and the target critic's trunk (DMC-GB's encoder_tau 0.05: its critic encoder is"
+     " the convolutions and the projection)")
+    protocol_settings: Suppress[Mapping[str, Any] | None] = None
     """Every value the protocol fixes on the env (:meth:`vigen.protocols.Protocol.settings`)."""
-    protocol_overrides: Mapping[str, Mapping[str, Any]] | None = None
+    protocol_overrides: Suppress[Mapping[str, Mapping[str, Any]] | None] = None
     """The protocol settings a flag changed: ``{name: {"protocol": value, "flag": value}}``."""
-    recipe_settings: Mapping[str, Any] | None = None
-    """Every setting of the recipe on the run's env (:meth:`vigen.run.recipes.Recipe.settings`), as the run was built with."""
-    recipe_overrides: Mapping[str, Mapping[str, Any]] | None = None
+    recipe_settings: Suppress[Mapping[str, Any] | None] = None
+    """Every setting of the recipe on the run's env (:meth:`vigen.run.recipes.Recipe.settings`), as the run was built
+    with."""
+    recipe_overrides: Suppress[Mapping[str, Mapping[str, Any]] | None] = None
     """The recipe settings a flag changed: ``{name: {"recipe": value, "flag": value}}``."""
-    observation_shape: tuple[int, int, int] | None = None
+    observation_shape: Suppress[tuple[int, int, int] | None] = None
     """The pixels' shape, ``(3 · frame stack, height, width)``, read from the env at the run's start."""
-    action_dim: int | None = None
+    action_dim: Suppress[int | None] = None
     """The action's size, read from the env at the run's start."""
 
     def to_json(self) -> dict[str, Any]:
-        """The run's ``config.json``: every field but ``frames``, the protocol's two only with a protocol, ``overlap``, the
-        recipe's and the update schedule's (:data:`WRITTEN_WHEN_SET`) only when set, tuples as lists."""
+        """The run's ``config.json``: every field but ``frames``, the protocol's two only with a protocol, ``overlap``,
+        the recipe's and the update schedule's (:data:`WRITTEN_WHEN_SET`) only when set, tuples as lists."""
         saved = {field.name: _plain(getattr(self, field.name)) for field in dataclasses.fields(self) if field.name != "frames"}
         if self.protocol is None:
             del saved["protocol_settings"], saved["protocol_overrides"]
@@ -158,7 +202,8 @@ class TrainConfig:
         return cls(**{field.name: _tupled(saved[field.name]) for field in dataclasses.fields(cls) if field.name in saved})
 
     def env_options(self) -> dict[str, int]:
-        """The :func:`vigen.envs.make_env` options the run sets (episode length, action repeat, frame stack, image size)."""
+        """The :func:`vigen.envs.make_env` options the run sets (episode length, action repeat, frame stack, image
+        size)."""
         names = ("episode_length", "action_repeat", "frame_stack", "image_size")
         return {name: getattr(self, name) for name in names if getattr(self, name) is not None}
 
@@ -194,9 +239,29 @@ class TrainConfig:
         return self.seed + (10_000 if offset is None else offset)
 
     def resumed_frames(self) -> int:
-        """A resumed run's budget without ``--frames``: the flag that overrode its protocol's, the protocol's, or the default."""
+        """A resumed run's budget without ``--frames``: the flag that overrode its protocol's, the protocol's, or the
+        default."""
         overridden = (self.protocol_overrides or {}).get("frames")
         return overridden["flag"] if overridden else (self.protocol_settings or {}).get("frames", DEFAULT_FRAMES)
+
+    def describe(self) -> list[str]:
+        """The recipe and the protocol the run trains by, and the flags that override them: what a run prints at its start.
+
+        Examples:
+            >>> new_config({"protocol": "dmcgb", "env": "dmc/walker-walk", "frames": 800}).describe()[-1]
+            '  overridden by a flag: frames = 800 (protocol: 2000000)'
+        """
+        lines = []
+        if self.recipe is not None:
+            lines += (RECIPES[self.recipe].describe(self.env) if self.recipe in RECIPES else
+                      [f"recipe {self.recipe} (as recorded in config.json)"])
+            lines += [f"  overridden by a flag: {key} = {values['flag']} (recipe: {values['recipe']})"
+                      for key, values in (self.recipe_overrides or {}).items()]
+        if self.protocol is not None:
+            lines += PROTOCOLS[self.protocol].describe(self.env)
+            lines += [f"  overridden by a flag: {key} = {values['flag']} (protocol: {values['protocol']})"
+                      for key, values in (self.protocol_overrides or {}).items()]
+        return lines
 
     def check(self) -> None:
         """Raise a ``ValueError`` naming the flag and the fix for any setting that cannot run, before anything is built.

@@ -1,8 +1,10 @@
 """A training run's replay buffer: memory-mapped in the run folder, optionally sampled from a copy in the device's memory.
 
-:class:`RunReplay` is what ``examples/train.py`` stores transitions in and samples batches from.
+:class:`RunReplay` is what ``examples/train.py`` stores transitions in and samples batches from. Its
+:meth:`RunReplay.store` turns the collector's batches into n-step transitions (TorchRL's
+``MultiStepTransform``), scales their rewards, and saves in the journal the slots they overwrite.
 The buffer of record is always ``disk``: a ``LazyMemmapStorage`` in the run folder, which
-checkpoints count (:func:`vigen.checkpoint.replay_state`) and :class:`vigen.checkpoint.ReplayJournal`
+checkpoints count (:func:`vigen.run.checkpoint.replay_state`) and a :class:`vigen.run.checkpoint.ReplayJournal`
 protects, so that ``--resume`` puts it back exactly. With a ``device`` (``--replay-on-device``),
 a second buffer of the same capacity, a ``LazyTensorStorage`` in the device's memory, receives
 every transition in the same slot (both write round-robin from the same cursor) and serves the
@@ -26,6 +28,9 @@ from pathlib import Path
 import torch
 from tensordict import TensorDictBase
 from torchrl.data import LazyMemmapStorage, LazyTensorStorage, TensorDictReplayBuffer
+from torchrl.envs.transforms import MultiStepTransform
+
+from vigen.run.checkpoint import ReplayJournal
 
 
 def to_device(data: TensorDictBase, device: torch.device) -> TensorDictBase:
@@ -51,6 +56,15 @@ def transition_bytes(observation_shape: tuple[int, ...]) -> int:
     return 2 * math.prod(observation_shape) + 1024
 
 
+def check_device_fits(capacity: int, observation_shape: tuple[int, ...], device: torch.device) -> None:
+    """Raise a ``ValueError`` when a device copy of ``capacity`` transitions would not fit in the GPU's free memory."""
+    needed = capacity * transition_bytes(observation_shape)
+    free, total = torch.cuda.mem_get_info(device)
+    if needed > 0.9 * free:
+        raise ValueError(f"--replay-on-device: a copy of the replay buffer needs about {needed / 2**30:.1f} GiB, and {device} "
+                         f"has {free / 2**30:.1f} of {total / 2**30:.1f} GiB free; lower --buffer-size or drop the flag.")
+
+
 class RunReplay:
     """The run's memory-mapped replay buffer (``disk``), and optionally its copy in ``device``'s memory for sampling.
 
@@ -60,6 +74,10 @@ class RunReplay:
         storage_dir: the memory map's folder in the run folder.
         device: where sampled batches go (the updates' device).
         on_device: keep the copy in ``device``'s memory and sample from it.
+        n_step: turns collector batches into n-step transitions in :meth:`store` (it holds back each
+            batch's last steps until the next one).
+        reward_scale: factor on the stored rewards (:meth:`store`).
+        journal: the folder of the undo journal (:meth:`store` protects the slots it overwrites).
 
     Examples:
         >>> import tempfile, torch
@@ -76,12 +94,32 @@ class RunReplay:
         (True, True)
     """
 
-    def __init__(self, capacity: int, batch_size: int, storage_dir: Path, device: torch.device, *, on_device: bool = False) -> None:
-        self.device = torch.device(device)
+    def __init__(self, capacity: int, batch_size: int, storage_dir: Path, device: torch.device, *, on_device: bool = False,
+                 n_step: MultiStepTransform | None = None, reward_scale: float = 1.0, journal: Path | None = None) -> None:
+        self.device, self.storage_dir = torch.device(device), Path(storage_dir)
+        self.n_step, self.reward_scale = n_step, reward_scale
         self.disk = TensorDictReplayBuffer(storage=LazyMemmapStorage(capacity, scratch_dir=storage_dir), batch_size=batch_size,
                                            pin_memory=self.device.type == "cuda" and not on_device)
         self.memory = (TensorDictReplayBuffer(storage=LazyTensorStorage(capacity, device=self.device), batch_size=batch_size)
                        if on_device else None)
+        self.journal = ReplayJournal(journal, self.disk) if journal is not None else None
+
+    def store(self, batch: TensorDictBase) -> None:
+        """A collector batch (``[time]`` or ``[workers, time]``) as n-step transitions, rewards scaled, journaled, stored.
+
+        The last ``n`` steps of each trajectory wait in the n-step transform for the next batch,
+        unless the batch ends their episode.
+        """
+        if self.n_step is None:
+            raise RuntimeError("RunReplay.store makes n-step transitions: build the replay with n_step=MultiStepTransform(...).")
+        transitions = self.n_step.inv(batch)  # with n-step rewards and next pixels
+        if transitions is None:
+            return
+        if self.reward_scale != 1:
+            transitions.set(("next", "reward"), transitions["next", "reward"] * self.reward_scale)
+        if self.journal is not None:
+            self.journal.protect(transitions.numel())
+        self.extend(transitions.reshape(-1))
 
     def extend(self, transitions: TensorDictBase) -> None:
         """Store ``transitions`` (flat ``[N]``) in the memory map and, in the same slots, in the device copy."""

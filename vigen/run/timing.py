@@ -1,6 +1,7 @@
-"""Where a training loop's time goes: wall seconds per stage (:class:`StageClock`) and the GPU's busy share (:class:`GpuBusy`).
+"""Where a training loop's time goes: wall seconds per stage (:class:`StageClock`), the GPU's busy share (:class:`GpuBusy`),
+and both logged per collector batch (:class:`StageTimes`).
 
-``examples/train.py --time-stages`` logs both, per collector batch, as ``time/*`` scalars; the
+``examples/train.py --time-stages`` logs them, per collector batch, as ``time/*`` scalars; the
 env workers' own figures (physics, rendering) come from :func:`vigen.envs.add_step_timers`.
 ``benchmarks/train_throughput.py`` reads them back.
 """
@@ -11,7 +12,7 @@ import contextlib
 import time
 import warnings
 from collections.abc import Iterable, Iterator
-from typing import Any
+from typing import Any, Protocol
 
 import torch
 
@@ -138,3 +139,90 @@ class GpuBusy:
         finally:
             self._profiler = None
         return min(busy / wall, 1.0) if wall > 0 else None
+
+
+class TimedBatches(Protocol):
+    """Batches that say how each was got (:class:`vigen.run.CollectorBatches`)."""
+
+    collect_seconds: float
+    wait_seconds: float
+    sync_seconds: float
+
+    def __iter__(self) -> Iterator[Any]: ...
+
+
+class StageTimes:
+    """``--time-stages``: one row of ``time/*`` scalars per collector batch, where its time went.
+
+    The loop times its own stages on :attr:`clock` (``store``, ``sample``, ``update``);
+    :meth:`batches` adds each batch's ``collect``, ``wait`` and ``sync`` seconds and, when enabled,
+    takes the env workers' step times out of the batch (:func:`vigen.envs.step_times`); :meth:`log`
+    writes the row after the batch's updates. On CUDA, the GPU's busy share is measured once, over
+    the whole batch that follows the first batch of updates (compilation done), collection included.
+
+    A row: ``wall_s`` (seconds since the run started, to read frames/s between two rows), the
+    batch's ``steps`` and ``updates``; the loop's seconds in this batch per stage (``collect_s``:
+    the collector's own time, in the background when overlapping; ``wait_s``: the part the loop
+    waited for; ``sync_s``, ``store_s``, ``sample_s``, ``update_s``); the env workers' mean
+    milliseconds per agent step (``env_step_ms`` and its ``env_physics_ms``, ``env_render_ms``;
+    ``env_policy_ms``, ``env_reset_ms``); ``gpu_busy`` once.
+
+    Args:
+        log_scalar: ``(name, value, step)``, e.g. a TorchRL logger's ``log_scalar``.
+        device: the updates' device (the busy share is measured on CUDA only).
+        enabled: log the rows; when off, :meth:`batches` passes the batches through and :meth:`log` writes nothing.
+
+    Examples:
+        >>> logged = {}
+        >>> times = StageTimes(lambda name, value, step: logged.setdefault(name, value), torch.device("cpu"), enabled=True)
+        >>> with times.clock("store"):
+        ...     pass
+        >>> times.log(frames=200, steps=100, updates=50)
+        >>> sorted(logged)
+        ['time/steps', 'time/store_s', 'time/updates', 'time/wall_s']
+    """
+
+    def __init__(self, log_scalar: Any, device: torch.device, *, enabled: bool) -> None:
+        self.log_scalar, self.device, self.enabled = log_scalar, torch.device(device), enabled
+        self.clock = StageClock()
+        self.started = time.perf_counter()
+        self.update_batches = 0  # collector batches after which updates were made
+        self._env_times: dict[str, float] | None = None
+        self._busy: GpuBusy | None = None
+
+    def batches(self, batches: TimedBatches) -> Iterator[Any]:
+        """The batches of ``batches``, each timed (and, enabled, without its env step times)."""
+        from vigen.envs import step_times, without_step_times
+
+        iterator = iter(batches)
+        while True:
+            busy = GpuBusy(self.device) if self.enabled and self.device.type == "cuda" and self.update_batches == 1 else None
+            if busy is not None:  # one whole batch, end to end, once the updates have started (compilation done)
+                busy.start()
+            batch = next(iterator, None)
+            if batch is None:
+                if busy is not None:
+                    busy.stop()
+                return
+            for stage in ("collect", "wait", "sync"):
+                self.clock.add(stage, getattr(batches, f"{stage}_seconds"))
+            self._env_times, self._busy = None, busy
+            if self.enabled:
+                self._env_times, batch = step_times(batch), without_step_times(batch)
+            yield batch
+
+    def log(self, frames: int, steps: int, updates: int) -> None:
+        """After a batch's updates: count them and, enabled, log the batch's row at ``frames``."""
+        self.update_batches += updates > 0
+        if not self.enabled:
+            return
+        gpu_busy = self._busy.stop() if self._busy is not None else None
+        self._busy = None
+        rows = {"wall_s": time.perf_counter() - self.started, "steps": steps, "updates": updates}
+        rows.update({f"{stage}_s": seconds for stage, seconds in self.clock.take().items()})
+        if self._env_times is not None:
+            rows.update({f"env_{name}_ms": 1000 * value for name, value in self._env_times.items() if value == value})
+        if gpu_busy is not None:
+            rows["gpu_busy"] = gpu_busy
+        for name, value in rows.items():
+            self.log_scalar(f"time/{name}", value, step=frames)

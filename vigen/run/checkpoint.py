@@ -52,7 +52,7 @@ def checkpoint_path(folder: str | Path, frames: int) -> Path:
     """Where the checkpoint at ``frames`` environment frames lives in a ``checkpoints`` folder.
 
     Examples:
-        >>> from vigen.checkpoint import checkpoint_path
+        >>> from vigen.run.checkpoint import checkpoint_path
         >>> checkpoint_path("runs/a/checkpoints", 400).name
         'frames_00000400.pt'
     """
@@ -69,7 +69,7 @@ def check_plain(state: Any, where: str = "state") -> None:
 
     Examples:
         >>> import torch
-        >>> from vigen.checkpoint import check_plain
+        >>> from vigen.run.checkpoint import check_plain
         >>> check_plain({"steps": 3, "rng": torch.zeros(2), "levels": ["train"]})
         >>> check_plain({"rng": torch.Generator()})
         Traceback (most recent call last):
@@ -100,7 +100,7 @@ def save_checkpoint(path: str | Path, state: dict[str, Any]) -> Path:
     Examples:
         >>> import tempfile, torch
         >>> from pathlib import Path
-        >>> from vigen.checkpoint import load_checkpoint, save_checkpoint
+        >>> from vigen.run.checkpoint import load_checkpoint, save_checkpoint
         >>> path = save_checkpoint(Path(tempfile.mkdtemp()) / "frames_00000010.pt", {"frames": 10, "w": torch.ones(2)})
         >>> load_checkpoint(path)["frames"]
         10
@@ -121,7 +121,7 @@ def load_checkpoint(path: str | Path) -> dict[str, Any]:
     Examples:
         >>> import pickle, tempfile
         >>> from pathlib import Path
-        >>> from vigen.checkpoint import CheckpointError, load_checkpoint
+        >>> from vigen.run.checkpoint import CheckpointError, load_checkpoint
         >>> path = Path(tempfile.mkdtemp()) / "frames_00000010.pt"
         >>> _ = path.write_bytes(pickle.dumps(Path("x"), protocol=2))  # a pickle that would import pathlib
         >>> try:
@@ -156,7 +156,7 @@ def checkpoint_files(folder: str | Path) -> list[Path]:
     Examples:
         >>> import tempfile
         >>> from pathlib import Path
-        >>> from vigen.checkpoint import checkpoint_files
+        >>> from vigen.run.checkpoint import checkpoint_files
         >>> folder = Path(tempfile.mkdtemp())
         >>> for name in ["frames_00000200.pt", "frames_00001000.pt", ".frames_00001200.pt.tmp-7"]:
         ...     _ = (folder / name).write_bytes(b"")
@@ -179,7 +179,7 @@ def newest_checkpoint(folder: str | Path) -> tuple[Path, dict[str, Any], list[tu
     Examples:
         >>> import tempfile, torch
         >>> from pathlib import Path
-        >>> from vigen.checkpoint import newest_checkpoint, save_checkpoint
+        >>> from vigen.run.checkpoint import newest_checkpoint, save_checkpoint
         >>> folder = Path(tempfile.mkdtemp())
         >>> _ = save_checkpoint(folder / "frames_00000010.pt", {"frames": 10})
         >>> _ = (folder / "frames_00000020.pt").write_bytes(b"PK\\x03\\x04 cut short")
@@ -205,7 +205,7 @@ def remove_temporary_files(folder: str | Path) -> list[Path]:
     Examples:
         >>> import tempfile
         >>> from pathlib import Path
-        >>> from vigen.checkpoint import remove_temporary_files
+        >>> from vigen.run.checkpoint import remove_temporary_files
         >>> folder = Path(tempfile.mkdtemp())
         >>> _ = (folder / ".frames_00000010.pt.tmp-123").write_bytes(b"half")
         >>> [p.name for p in remove_temporary_files(folder)], list(folder.iterdir())
@@ -228,7 +228,7 @@ def random_states() -> dict[str, Any]:
 
     Examples:
         >>> import torch
-        >>> from vigen.checkpoint import random_states, set_random_states
+        >>> from vigen.run.checkpoint import random_states, set_random_states
         >>> states = random_states()
         >>> first = torch.rand(3)
         >>> set_random_states(states)
@@ -275,7 +275,7 @@ def generator_states(module: nn.Module) -> dict[str, Tensor]:
     Examples:
         >>> import torch
         >>> from torch import nn
-        >>> from vigen.checkpoint import generator_states, set_generator_states
+        >>> from vigen.run.checkpoint import generator_states, set_generator_states
         >>> from vigen.transforms import RandomShift
         >>> model = nn.Sequential(RandomShift(seed=0))
         >>> states = generator_states(model)
@@ -328,7 +328,7 @@ def load_optimizer_state(optimizer: torch.optim.Optimizer, state: dict[str, Any]
 
     Examples:
         >>> import torch
-        >>> from vigen.checkpoint import load_optimizer_state
+        >>> from vigen.run.checkpoint import load_optimizer_state
         >>> weight = torch.nn.Parameter(torch.ones(2))
         >>> saved = torch.optim.Adam([weight], lr=0.1, fused=True)
         >>> weight.grad = torch.ones(2)
@@ -359,7 +359,7 @@ def tensordict_to_plain(data: TensorDictBase) -> dict[str, Any]:
     Examples:
         >>> import torch
         >>> from tensordict import TensorDict
-        >>> from vigen.checkpoint import tensordict_from_plain, tensordict_to_plain
+        >>> from vigen.run.checkpoint import tensordict_from_plain, tensordict_to_plain
         >>> data = TensorDict({"a": torch.ones(2), ("next", "a"): torch.zeros(2)}, batch_size=[2])
         >>> (tensordict_from_plain(tensordict_to_plain(data)) == data).all()
         True
@@ -388,7 +388,7 @@ def multistep_state(transform: MultiStepTransform) -> dict[str, Any] | None:
         >>> import torch
         >>> from tensordict import TensorDict
         >>> from torchrl.envs.transforms import MultiStepTransform
-        >>> from vigen.checkpoint import multistep_state, set_multistep_state
+        >>> from vigen.run.checkpoint import multistep_state, set_multistep_state
         >>> n_step = MultiStepTransform(2, 0.9)
         >>> steps = TensorDict({"obs": torch.arange(5.0), ("next", "obs"): torch.arange(1.0, 6.0),
         ...     ("next", "reward"): torch.ones(5, 1), ("next", "done"): torch.zeros(5, 1, dtype=torch.bool),
@@ -423,7 +423,7 @@ def replay_state(buffer: ReplayBuffer) -> dict[str, int]:
         >>> import torch
         >>> from tensordict import TensorDict
         >>> from torchrl.data import LazyTensorStorage, TensorDictReplayBuffer
-        >>> from vigen.checkpoint import replay_state
+        >>> from vigen.run.checkpoint import replay_state
         >>> buffer = TensorDictReplayBuffer(storage=LazyTensorStorage(4))
         >>> _ = buffer.extend(TensorDict({"x": torch.arange(6)}, batch_size=[6]))
         >>> replay_state(buffer)
@@ -473,7 +473,7 @@ class ReplayJournal:
         >>> from pathlib import Path
         >>> from tensordict import TensorDict
         >>> from torchrl.data import LazyTensorStorage, TensorDictReplayBuffer
-        >>> from vigen.checkpoint import ReplayJournal, replay_state
+        >>> from vigen.run.checkpoint import ReplayJournal, replay_state
         >>> buffer = TensorDictReplayBuffer(storage=LazyTensorStorage(4))
         >>> journal = ReplayJournal(Path(tempfile.mkdtemp()), buffer)
         >>> _ = buffer.extend(TensorDict({"x": torch.arange(4)}, batch_size=[4]))
@@ -563,7 +563,7 @@ def truncate_csv_logs(folder: str | Path, step: int) -> list[str]:
     Examples:
         >>> import tempfile
         >>> from pathlib import Path
-        >>> from vigen.checkpoint import truncate_csv_logs
+        >>> from vigen.run.checkpoint import truncate_csv_logs
         >>> folder = Path(tempfile.mkdtemp())
         >>> _ = (folder / "loss.csv").write_text("200,0.5\\n400,0.4\\n600,0.3\\n")
         >>> truncate_csv_logs(folder, 400)

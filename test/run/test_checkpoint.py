@@ -1,4 +1,4 @@
-"""Atomic writes, safe loading, the replay undo journal and log rewinding of vigen.checkpoint / vigen.io."""
+"""Atomic writes, safe loading, the replay undo journal and log rewinding of vigen.run.checkpoint / vigen.io."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import torch
 from tensordict import TensorDict
 from torchrl.data import LazyMemmapStorage, TensorDictReplayBuffer
 
-from vigen.checkpoint import (CheckpointError, ReplayJournal, load_checkpoint, load_optimizer_state, newest_checkpoint,
+from vigen.run.checkpoint import (CheckpointError, ReplayJournal, load_checkpoint, load_optimizer_state, newest_checkpoint,
                               replay_state, restore_replay, save_checkpoint, truncate_csv_logs)
 from vigen.io import atomic_write
 
@@ -109,7 +109,7 @@ def test_truncate_csv_logs_keeps_rows_up_to_the_step(tmp_path):
 
 
 def test_random_states_carry_every_cuda_generator_once_cuda_is_in_use():
-    from vigen.checkpoint import random_states, set_random_states
+    from vigen.run.checkpoint import random_states, set_random_states
 
     states = random_states()
     if torch.cuda.is_available() and torch.cuda.is_initialized():
@@ -127,7 +127,7 @@ def test_random_states_carry_every_cuda_generator_once_cuda_is_in_use():
 def test_generator_states_of_a_gpu_run_load_on_a_cpu_only_machine():
     from torch import nn
 
-    from vigen.checkpoint import generator_states, set_generator_states
+    from vigen.run.checkpoint import generator_states, set_generator_states
     from vigen.transforms import RandomShift
 
     model = nn.Sequential(RandomShift(seed=0))
