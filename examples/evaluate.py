@@ -37,7 +37,7 @@ from vigen.io import FolderInUse, RunFolderLock, unused_path
 from vigen.protocols import PROTOCOLS, Protocol
 from vigen.ray_cluster import ray_session
 from vigen.results import SOURCES
-from vigen.run import BareValue, TrainedAgent, enclosing_run_folder, load_agent, parse_flags, unset_means
+from vigen.run import RayAddress, TrainedAgent, enclosing_run_folder, load_agent, parse_flags, unset_means
 from vigen.run.checkpoint import CheckpointError
 
 
@@ -92,7 +92,7 @@ class EvaluationConfig:
 class Launch:
     """How this command runs the evaluation and where it writes the report; the rows do not depend on them."""
 
-    ray: Annotated[str | None, BareValue("local"), arg(metavar="[ADDRESS]"), unset_means("no Ray")] = None
+    ray: Annotated[RayAddress, unset_means("no Ray")] = None
     """run the (level, seed) jobs on Ray: a local cluster on 127.0.0.1, or the cluster at ADDRESS"""
     workers: Annotated[int | None, unset_means("the cluster's CPUs")] = None
     """envs stepping in parallel, each in its own worker (with --ray: a Ray task per (level, seed) job)"""

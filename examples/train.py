@@ -28,7 +28,6 @@ from torchrl.envs import RewardSum, TransformedEnv
 from torchrl.envs.transforms import MultiStepTransform
 from torchrl.record.loggers import get_logger
 from tqdm import tqdm
-from tyro.conf import arg
 
 from vigen.devices import resolve_device
 from vigen.envs import add_step_timers, make_env
@@ -37,7 +36,7 @@ from vigen.io import FolderInUse, RunFolderLock
 from vigen.losses import update_metrics
 from vigen.ray_cluster import ray_session
 from vigen.rendering import RenderSettings, render_on_cuda_device, renderer_name
-from vigen.run import (BareValue, RunReplay, RunSchedule, SegmentCollectors, StageTimes, TrainConfig, TrainingState,
+from vigen.run import (RayAddress, RunReplay, RunSchedule, SegmentCollectors, StageTimes, TrainConfig, TrainingState,
                        build_agent, check_device_fits, check_runnable, list_recipes, make_update, new_config,
                        new_run_folder, parse_flags, resumed_run_config, unset_means)
 from vigen.run.checkpoint import CheckpointError
@@ -56,7 +55,7 @@ class Launch:
     device: str = "auto"
     ("where the networks, optimizer, updates and policies run: auto (CUDA when present), cpu, cuda, cuda:N; envs step "
      "on the CPU. A resumed run may change it.")
-    ray: Annotated[str | None, BareValue("local"), arg(metavar="[ADDRESS]"), unset_means("no Ray")] = None
+    ray: Annotated[RayAddress, unset_means("no Ray")] = None
     """collect on Ray (--collector ray): a local cluster on 127.0.0.1, or the cluster at ADDRESS"""
     ray_address: Annotated[str | None, unset_means("start a local one on 127.0.0.1")] = None
     """with --collector ray: the cluster to join (--ray ADDRESS says both)"""

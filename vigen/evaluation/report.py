@@ -476,8 +476,8 @@ def write_report(rows: list[dict], folder: str | Path, *, swept: Sequence[str] =
 
     Examples:
         >>> import tempfile, pathlib
-        >>> rows = [{"env": "dmc/cartpole-balance", "method": "random", "run": 0, "level": level, "seed": 0, "return": r,
-        ...          "stand_in": False} for level, r in [("train", 120.0), ("color_hard", 80.0)]]
+        >>> rows = [{"env": "dmc/cartpole-balance", "method": "drqv2", "run": run, "level": level, "seed": 0, "return": r + run,
+        ...          "stand_in": False} for level, r in [("train", 120.0), ("color_hard", 80.0)] for run in (0, 1)]
         >>> report = write_report(rows, pathlib.Path(tempfile.mkdtemp()) / "report")
         >>> report.summary().splitlines()[-1]
         'wrote .../report/: episodes.csv, summary.csv, gaps.csv, report.md, levels.png, profile.png'

@@ -52,7 +52,7 @@ _HOMES = {
     "busy_seconds": "timing", "RunReplay": "replay", "check_device_fits": "replay", "to_device": "replay",
     "transition_bytes": "replay", "RunSchedule": "schedule", "Resumed": "training_state", "TrainingState": "training_state",
     "new_run_folder": "folder", "resumed_run_config": "folder", "enclosing_run_folder": "folder",
-    "BareValue": "cli", "Parsed": "cli", "flag_name": "cli", "flag_value": "cli", "parse_flags": "cli", "unset_means": "cli",
+    "BareValue": "cli", "Parsed": "cli", "RayAddress": "cli", "flag_name": "cli", "flag_value": "cli", "parse_flags": "cli", "unset_means": "cli",
     "DEFAULT_FRAMES": "config", "PRESETS": "config", "PROTOCOL_KEYS": "config", "TrainConfig": "config",
     "new_config": "config", "resumed_config": "config", "with_protocol": "config",
 }

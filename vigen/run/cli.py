@@ -25,10 +25,11 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import sys
+import types
 import typing
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Annotated, Any
 
 import tyro
 
@@ -42,6 +43,11 @@ class BareValue:
     """
 
     value: str
+
+
+RayAddress = Annotated[str | None, BareValue("local"), tyro.conf.arg(metavar="[ADDRESS]")]
+"""The type of both scripts' ``--ray`` flag, one spelling of "use Ray": alone, a local cluster (``"local"``); with an
+address, the cluster there."""
 
 
 @dataclass(frozen=True)
@@ -67,14 +73,13 @@ def parse_flags(settings: Mapping[str, type], argv: Sequence[str] | None = None,
     the flag's help, and exit status 2.
 
     Examples:
-        >>> from typing import Annotated
         >>> @dataclass(frozen=True)
         ... class Settings:
         ...     batch_size: int = 64
         ...     '''transitions per update'''
         ...     levels: tuple[str, ...] = ("train",)
         ...     '''levels to evaluate'''
-        ...     ray: Annotated[str | None, BareValue("local")] = None
+        ...     ray: RayAddress = None
         ...     '''a local Ray cluster, or the one at ADDRESS'''
         >>> parsed = parse_flags({"settings": Settings}, ["--levels", "train", "color_hard", "--ray"])
         >>> parsed.settings["settings"]
@@ -86,7 +91,7 @@ def parse_flags(settings: Mapping[str, type], argv: Sequence[str] | None = None,
     hints = {field.name: typing.get_type_hints(kind, include_extras=True)[field.name]
              for kind in settings.values() for field in dataclasses.fields(kind)}
     bare = {flag_name(name): marker.value for name, hint in hints.items() for marker in _metadata(hint) if isinstance(marker, BareValue)}
-    argv = [*_with_bare_values(argv, bare)]
+    argv = _with_bare_values(argv, bare)
     switches = {flag: name for name, hint in hints.items() if _bare_type(hint) is bool
                 for flag in (flag_name(name), flag_name(f"no_{name}"))}
     spellings = {**{flag_name(name): name for name in hints}, **switches}
@@ -128,8 +133,8 @@ def flag_value(value: Any) -> str:
 
 
 def _stop(message: str) -> None:
-    """Stop as a malformed command line does: the message on stderr, exit status 2."""
-    print(message, file=sys.stderr)
+    """Stop as a malformed command line does (as tyro and argparse do): the message on stderr, exit status 2."""
+    sys.stderr.write(f"{message}\n")
     raise SystemExit(2)
 
 
@@ -144,17 +149,12 @@ def _with_bare_values(argv: list[str], bare: Mapping[str, str]) -> list[str]:
 
 
 def _metadata(hint: Any) -> tuple[Any, ...]:
-    """The ``Annotated`` metadata of a field's type (tyro's markers, :class:`BareValue`), outermost first."""
-    found = ()
-    while typing.get_origin(hint) is typing.Annotated:
-        found += hint.__metadata__
-        hint = typing.get_args(hint)[0]
-    return found
+    """The ``Annotated`` metadata of a field's type (tyro's markers, :class:`BareValue`; nested ``Annotated`` are flat)."""
+    return getattr(hint, "__metadata__", ())
 
 
 def _bare_type(hint: Any) -> Any:
     """A field's type without ``Annotated`` and ``| None``: ``Annotated[int | None, ...]`` -> ``int``."""
-    while typing.get_origin(hint) is typing.Annotated:
-        hint = typing.get_args(hint)[0]
+    hint = typing.get_args(hint)[0] if _metadata(hint) else hint
     arguments = [argument for argument in typing.get_args(hint) if argument is not type(None)]
-    return arguments[0] if typing.get_origin(hint) in (typing.Union, type(int | None)) and len(arguments) == 1 else hint
+    return arguments[0] if typing.get_origin(hint) in (typing.Union, types.UnionType) and len(arguments) == 1 else hint

@@ -72,7 +72,7 @@ class RunSchedule:
 
         Examples:
             >>> RunSchedule(action_repeat=2, frames=300, seed_steps=20, eval_every=2500, worker_batch_steps=100).frames_note()
-            '--frames 300: training 400 frames, not 300: the collector gathers whole batches of 100 agent steps (200 frames at action repeat 2); 300 frames are 150 whole agent steps.'
+            '--frames 300: training 400 frames, not 300: the collector gathers whole batches of 100 agent steps (200 frames at action repeat 2).'
         """
         frames, total, done = self.frames, self.total_steps, steps
         while done < total:
