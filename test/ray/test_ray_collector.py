@@ -1,10 +1,10 @@
-"""examples/train.py --collector ray: TorchRL's RayCollector on perturbed dm_control envs, its batches, weights and runs."""
+"""examples/train.py --ray (--collector ray): TorchRL's RayCollector on perturbed dm_control envs (vigen.run.make_collector),
+its batches, weights and runs."""
 
 from __future__ import annotations
 
 import csv
 import dataclasses
-import importlib.util
 import json
 import math
 import subprocess
@@ -22,20 +22,17 @@ from vigen.envs import make_env
 from vigen.losses import LinearSchedule, make_loss
 from vigen.ray_cluster import import_ray
 from vigen.rendering import RenderSettings
-from vigen.run import PRESETS
+from vigen.run import PRESETS, make_collector
 
 ROOT = Path(__file__).resolve().parents[2]
-SPEC = importlib.util.spec_from_file_location("vigen_train_example", ROOT / "examples" / "train.py")
-train = sys.modules[SPEC.name] = importlib.util.module_from_spec(SPEC)
-SPEC.loader.exec_module(train)
-for module in (train, sys.modules[__name__]):  # Ray actors cannot import these by name (train.py runs as __main__)
-    import_ray().cloudpickle.register_pickle_by_value(module)
+import_ray().cloudpickle.register_pickle_by_value(sys.modules[__name__])  # Ray actors cannot import this test module by name
 
 STEPS = 50  # agent steps per worker per batch
 
 
-def perturbed_env(seed: int):
-    """dm_control's cartpole under DMC-GB's color_hard level, at 32 px: the perturbation runs inside the Ray actor."""
+def perturbed_env(seed: int, worker: int | None = None):
+    """dm_control's cartpole under DMC-GB's color_hard level, at 32 px: the perturbation runs inside the Ray actor (``worker``:
+    its index, which make_collector passes to each worker's env)."""
     env = make_env("dmc/cartpole-balance", generalization="color_hard", seed=seed, image_size=32, episode_length=100,
                    render_settings=RenderSettings.fast())
     return env.append_transform(RewardSum())
@@ -50,8 +47,8 @@ def agent():
 
 def collector(kind: str, workers: int, policy, batches: int = 1, env_seed: int = 3):
     config = dataclasses.replace(PRESETS["cpu"], workers=workers, collector=kind)
-    return train.make_collector(perturbed_env, policy, config, env_seed=env_seed, steps_per_batch=STEPS, batches=batches,
-                                random_steps=0)
+    return make_collector(perturbed_env, policy, config, env_seed=env_seed, steps_per_batch=STEPS, batches=batches,
+                          random_steps=0)
 
 
 @pytest.mark.render
@@ -141,8 +138,7 @@ def test_train_and_evaluate_on_ray_write_the_run_folder_resume_and_report(tmp_pa
     run_dir = tmp_path / "ray-run"
     tiny = ["--env", "dmc/cartpole-balance", "--seed-frames", "200", "--eval-every", "400", "--eval-episodes", "1",
             "--batch-size", "8", "--hidden-dim", "32", "--buffer-size", "2000", "--episode-length", "100"]
-    run("--frames", "400", "--out", run_dir, "--collector", "ray", "--workers", "2", "--eval-levels", "train", "color_hard",
-        *tiny)
+    run("--frames", "400", "--out", run_dir, "--ray", "--workers", "2", "--eval-levels", "train", "color_hard", *tiny)
     config = json.loads((run_dir / "config.json").read_text())
     assert (config["collector"], config["workers"]) == ("ray", 2)
     run("--resume", run_dir, "--frames", "800")

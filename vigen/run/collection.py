@@ -195,7 +195,8 @@ class SegmentCollectors:
     the batches.
 
     Args:
-        make: ``make(seed=...)`` builds one env (picklable, for worker processes).
+        make: ``make(seed=...)`` builds one env; in a worker process or Ray actor ``make(seed=..., worker=index)``
+            (picklable).
         policy: the acting policy; worker processes act with a copy, sent between batches.
         config: the run's ``workers``, ``collector``, ``overlap`` and ``seed``.
         schedule: the run's agent steps (batches, segments, seed steps).
@@ -245,8 +246,9 @@ def make_collector(make: Callable[..., Any], policy: nn.Module, config: TrainCon
     """A TorchRL collector for one segment, its env freshly reset with ``env_seed`` (of several, worker ``w``:
     ``derive_seed(env_seed, w)``), and the call that sends it the policy's current weights.
 
-    One worker of the local collector steps in this process (whose generator the run saves); more, ``--overlap``, or
-    Ray step in worker processes or actors, each seeding its torch generator (:func:`worker_env`). ``--overlap``: the
+    One worker of the local collector steps in this process (whose generator the run saves), its env built by
+    ``make(seed=...)``; more, ``--overlap``, or Ray step in worker processes or actors, each seeding its torch generator
+    and building its env by ``make(seed=..., worker=index)`` (:func:`worker_env`). ``--overlap``: the
     workers act with a copy of the policy, which only the returned call updates, so the weights never change under a
     batch being collected.
     """
