@@ -189,11 +189,11 @@ class StandInImages:
 
 @dataclass(frozen=True, repr=False)
 class FetchedData(Derived):
-    """The folder of a benchmark data set fetched with ``python -m vigen.data fetch`` (:func:`vigen.data.locate`), or ``None``.
+    """The folder of a benchmark data set fetched with ``python -m vigen.datasets fetch`` (:func:`vigen.datasets.locate`), or ``None``.
 
     A level whose source shows real data (DMC-GB's videos, DAVIS 2017) names it here: when every
     file of the data set (or ``part``) is in the cache, the transform gets its folder (plus
-    ``subfolder``); when not, it gets ``None`` (its stand-ins) and a :class:`~vigen.data.StandInDataWarning`
+    ``subfolder``); when not, it gets ``None`` (its stand-ins) and a :class:`~vigen.datasets.StandInDataWarning`
     names the command that fetches the data. A folder given in ``level_options`` replaces the rule.
 
     Examples:
