@@ -10,8 +10,9 @@ An evaluation row's ``data`` column names the data its level showed without a ma
   file shown is one of the files that fetch recorded (name and size checked when the level is
   built; ``python -m vigen.datasets verify`` hashes them);
 * ``davis2017/train: 60 of 60, not verified``: the same split recorded from a folder found in the
-  cache (not the pinned archive), or holding files the fetch did not record; and rows made before
-  vigen checked files (a folder of copies that no level hashed);
+  cache (not the pinned archive), or holding files the fetch did not record;
+* ``dmcgb-videos/video_easy: 6 of 10, not verified``: rows made before vigen checked files (a
+  folder of copies that no level hashed);
 * ``davis2017/train: 60 of 60, fetched``: rows made before vigen pinned DAVIS's archive (then the
   first fetch recorded whatever archive it got);
 * ``user folder: 7 videos``: anything else a user gave (a folder whose files are not all pinned
