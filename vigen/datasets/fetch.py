@@ -23,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import http.client
+import importlib
 import logging
 import os
 import re
@@ -37,6 +38,7 @@ import zipfile
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from types import ModuleType
 from typing import BinaryIO
 
 from vigen import __version__
@@ -508,8 +510,7 @@ def _download(url: str, target: Path, *, size: int | None, sha256: str | None, c
     the ``.part`` may have been left by another source or an older run, and the source itself is
     only blamed for a whole download.
     """
-    import pooch
-
+    pooch = _installed("pooch")
     for resume in (True, False):
         downloader = ResumingDownloader(target, size=size, check=check, expected=expected, label=label,
                                         fix=f"re-run `{command}`", report=report, resume=resume)
@@ -529,6 +530,15 @@ def _download(url: str, target: Path, *, size: int | None, sha256: str | None, c
         report("restart", 0, size, f"the file resumed at byte {downloader.resumed_at} failed its check; downloading it whole")
 
 
+def _installed(module: str) -> ModuleType:
+    """``module`` (pooch, filelock: imported when a fetch starts, not with the package), or a DataError naming the fix."""
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        raise DataError(f"fetching needs {module}, which is not installed here. Fix: pip install '{module}' (vigen's setup.py "
+                        "lists it), then re-run the fetch.") from None
+
+
 @contextlib.contextmanager
 def _pooch_quiet(pooch) -> Iterator[None]:
     """pooch logs each download to stderr; a library call of vigen reports through ``progress`` only."""
@@ -544,8 +554,8 @@ def _pooch_quiet(pooch) -> Iterator[None]:
 @contextlib.contextmanager
 def _fetch_lock(dataset: DataSet, folder: Path, emit: ProgressCallback, wait: float | None, command: str) -> Iterator[None]:
     """Hold the data set's lock (``<folder>/.fetch.lock``) while fetching; while another process holds it, wait, naming it."""
-    from filelock import FileLock, Timeout
-
+    filelock = _installed("filelock")
+    FileLock, Timeout = filelock.FileLock, filelock.Timeout
     folder.mkdir(parents=True, exist_ok=True)
     lock = FileLock(str(folder / LOCK_NAME))
     holder = folder / ".fetch.holder"
@@ -717,8 +727,7 @@ def _extract_into_place(dataset: DataSet, folder: Path, path: Path, url: str, do
                         command: str) -> None:
     """Extract the archive into ``folder/.extract-<pid>`` (pooch's Unzip), check its layout, record its manifest, and
     move both into place."""
-    import pooch
-
+    pooch = _installed("pooch")
     archive = dataset.archive
     assert archive is not None
     for leftover in folder.glob(".extract-*"):  # from a fetch that was killed: under the lock none is live
