@@ -29,7 +29,7 @@ runs, ``gaps.csv``), the probability that one method beats another per level (rl
 (``profile.png``). Tasks with a success check get the success rate (%) beside the return.
 
 Each level shows the benchmark's own data where vigen has it: DMC-GB's colour presets ship with
-vigen, and its videos and DAVIS 2017 are used once fetched (``python -m vigen.data fetch
+vigen, and its videos and DAVIS 2017 are used once fetched (``python -m vigen.datasets fetch
 dmcgb-videos``, ``... davis2017``; docs/data.md). Until then the video levels show procedural
 stand-ins and warn. ``--videos`` gives folders per level instead (a level name or a shell
 pattern before ``=``; one bare folder serves every video level). A folder given for a level
@@ -97,9 +97,9 @@ import torch
 from tensordict.nn import TensorDictModuleBase
 from tqdm import tqdm
 
-import vigen.data
+import vigen.datasets
 from vigen import pretrained
-from vigen.data.identity import not_in_full
+from vigen.datasets.identity import not_in_full
 from vigen.assets.video_source import folder_videos
 from vigen.checkpoint import CheckpointError
 from vigen.devices import resolve_device
@@ -145,7 +145,7 @@ class EvaluationConfig:
     videos: tuple[str, ...] = setting(
         (), "video folders per level: LEVEL=FOLDER, LEVEL a level or a shell pattern (video_easy=DIR video_hard=DIR "
             "'dcs_*'=DAVIS), or one FOLDER for every video level; levels without one show the data fetched with python -m "
-            "vigen.data (docs/data.md), else procedural stand-ins", metavar="[LEVEL=]FOLDER")
+            "vigen.datasets (docs/data.md), else procedural stand-ins", metavar="[LEVEL=]FOLDER")
     episode_length: int | None = setting(None, "control steps per episode", unset="the run's")
     compare: str | None = setting(
         None, "put the runs beside the published numbers of a protocol (all its sources) or of one source",
@@ -470,7 +470,7 @@ def level_data_set(env: str, level: Any) -> tuple[str, str, int] | None:
     for step in named.steps if named is not None else ():
         rule = step.params.get("videos")
         if isinstance(rule, FetchedData) and rule.part is not None:
-            dataset = vigen.data.get_dataset(rule.dataset)
+            dataset = vigen.datasets.get_dataset(rule.dataset)
             if dataset.files:
                 return dataset.name, rule.part, len(dataset.files_of(rule.part))
     return None
@@ -491,7 +491,7 @@ def check_video_counts(levels: dict[str, list[Any]], videos: list[tuple[str, Pat
                                 f"{dataset}/{part}, {count} videos")
     if problems and not allow_partial_data:
         parts = sorted({problem.split(" plays ")[1].split(",")[0] for problem in problems})
-        fetch = "; ".join(f"python -m vigen.data fetch {name.split('/')[0]} --part {name.split('/')[1]}" for name in parts)
+        fetch = "; ".join(f"python -m vigen.datasets fetch {name.split('/')[0]} --part {name.split('/')[1]}" for name in parts)
         raise SystemExit("--videos: a folder does not hold its level's data set:\n" + "\n".join(f"  - {p}" for p in problems)
                          + f"\nFetch the data set ({fetch}) and drop --videos for these levels (they find it), give a folder "
                            "holding all of it, or pass --allow-partial-data to evaluate on these videos anyway (each row "
@@ -548,7 +548,7 @@ def add_returns(report: Report, rows: list[dict]) -> None:
                     f"{markdown_table(label_stand_ins(report.lines, rows))}\n")
     if any(row["stand_in"] for row in rows):
         report.text += ("\nLevels marked (stand-in) showed vigen's stand-ins (procedural videos, statistics-matched colours), "
-                        "not the benchmark's own data; `python -m vigen.data fetch ...` gets the data (docs/data.md).\n")
+                        "not the benchmark's own data; `python -m vigen.datasets fetch ...` gets the data (docs/data.md).\n")
     if any(not_in_full(row.get("data")) for row in rows):
         report.text += ("\nLevels marked (partial data) showed less than their data set in full (fewer files than its part, "
                         "a user's folder, or files not verified against the pinned ids): their `data` column says what.\n")

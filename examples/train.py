@@ -53,7 +53,7 @@ update schedule (seed steps, actor and targets every N updates, the target encod
 and the protocol it was published under. A flag that changes a recipe setting wins and is listed under
 ``recipe_overrides`` in ``config.json`` (``recipe_settings`` holds the recipe as the run was built); what vigen still
 does differently is named by the recipe (``departures``). ``--recipe pieg-rlvigen`` loads torchvision's ImageNet
-ResNet-18 from the data cache (``python -m vigen.data fetch torchvision-resnet18``).
+ResNet-18 from the data cache (``python -m vigen.datasets fetch torchvision-resnet18``).
 
 ``--protocol dmcgb|dmcgb2|rlvigen|drqv2|planet`` (see :mod:`vigen.protocols`) trains as that paper
 did: its budget (DMC-GB's 500k *agent steps* become 2M frames at action repeat 4), its action

@@ -112,7 +112,7 @@ def dcs_level(scale: float, dynamic: bool) -> Level:
     clips = f"the first {videos} DAVIS train videos" if videos else "every DAVIS train video"
     return Level(
         f"DCS at intensity {scale}: camera pose and every material colour {motion}, background video "
-        f"({clips}, once fetched: python -m vigen.data fetch davis2017; procedural stand-ins without it; "
+        f"({clips}, once fetched: python -m vigen.datasets fetch davis2017; procedural stand-ins without it; "
         f"{'playing back and forth' if dynamic else 'one still frame'}) in the sky texture, panning with the camera as in DCS "
         "(screen-space composite with level_options={'skybox': False})",
         DCS_SOURCE + ("" if dynamic else ", static variant"),
@@ -134,7 +134,7 @@ def dmcgb_video_level(difficulty: str, floor: bool) -> Level:
         f"{'sky and floor' if floor else 'sky'} replaced by a video, new frame every step; episode k plays video (k + 1) "
         "mod n, as DMC-GB does (DMC-GB2's order, (start + 1 + k) mod n from start = RandomState(seed).randint(100), with "
         "level_options={'draw': 'dmcgb2'}; DMC-GB2's in-scene screen with {'screen': True})",
-        f"DMC-GB video_{difficulty} (its {count} videos once fetched: python -m vigen.data fetch dmcgb-videos; procedural "
+        f"DMC-GB video_{difficulty} (its {count} videos once fetched: python -m vigen.datasets fetch dmcgb-videos; procedural "
         f"stand-ins until then, or a folder given as level_options={{'videos': ...}}); DMC-GB2 video_{difficulty} (the same "
         "videos, its order and screen by level option)",
         (Step(DMCGB2VideoBackground, {"floor": floor, "draw": "dmcgb", "domain": Domain(),

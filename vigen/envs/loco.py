@@ -22,7 +22,7 @@ levels:
   ``video_hard`` keys its video on black and blacks out ``grid``, which the Unitree does not stand
   on: there both levels replace the sky only. The videos are DMC-GB's ``video_easy`` (10) /
   ``video_hard`` (100), which RL-ViGen plays (``dmcvgb/wrappers.py:291-297``), once fetched
-  (``python -m vigen.data fetch dmcgb-videos``), in RL-ViGen's order: episode ``k`` plays video
+  (``python -m vigen.datasets fetch dmcgb-videos``), in RL-ViGen's order: episode ``k`` plays video
   ``(k + 1) mod n`` (lines 282, 318-321); procedural stand-ins, labelled as such, until then;
 * ``light_position_*``, ``light_color_*``, ``moving_light_*``: RL-ViGen's light offsets and motion
   (vigen's bounce by default; RL-ViGen's drift, which never turns, with
@@ -179,7 +179,7 @@ def video(difficulty: str) -> Level:
     return Level(
         f"{where} replaced by a video, new frame every step; episode k plays video (k + 1) mod n, as RL-ViGen does",
         f"RL-ViGen video {difficulty} (dmcvgb/wrappers.py:282, 291-297, 318-321: DMC-GB's {VIDEO_COUNT[difficulty]} "
-        f"video_{difficulty} videos once fetched: python -m vigen.data fetch dmcgb-videos; procedural stand-ins until then, "
+        f"video_{difficulty} videos once fetched: python -m vigen.datasets fetch dmcgb-videos; procedural stand-ins until then, "
         "or a folder given as level_options={'videos': ...}"
         + ("; it blacks out grid, the Franka's floor only)" if difficulty == "hard" else ")"),
         (Step(VideoBackground, {"floor": False if difficulty == "easy" else VIDEO_FLOOR, "first_video": 1,

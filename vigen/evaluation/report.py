@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from vigen.data.identity import not_in_full
+from vigen.datasets.identity import not_in_full
 from vigen.evaluation.statistics import performance_profile, performance_profile_ci
 from vigen.evaluation.summary import score_matrix, summarize
 from vigen.io import atomic_write
@@ -93,7 +93,7 @@ def interval_cell(value: float, low: float, high: float, runs: int | None, spec:
 def label_stand_ins(lines: Sequence[Mapping[str, Any]], rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     """``lines`` with " (stand-in)" after each level whose rows showed vigen's stand-ins (``stand_in`` true), and
     " (partial data)" after each level whose rows showed less than a data set in full (a user's folder, fewer files
-    than the part holds, files not verified: :func:`vigen.data.identity.not_in_full`), for tables.
+    than the part holds, files not verified: :func:`vigen.datasets.identity.not_in_full`), for tables.
 
     Examples:
         >>> from vigen.evaluation.report import label_stand_ins

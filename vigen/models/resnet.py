@@ -22,8 +22,8 @@ from vigen.pixel_format import check_pixels, white_value
 
 RGB = 3
 RESNET18_URL = "https://download.pytorch.org/models/resnet18-f37072fd.pth"
-RESNET18_FETCH = "python -m vigen.data fetch torchvision-resnet18"
-"""The command that fetches torchvision's ImageNet ResNet-18 into vigen's data cache (:mod:`vigen.data`)."""
+RESNET18_FETCH = "python -m vigen.datasets fetch torchvision-resnet18"
+"""The command that fetches torchvision's ImageNet ResNet-18 into vigen's data cache (:mod:`vigen.datasets`)."""
 """torchvision's ImageNet ResNet-18 (``ResNet18_Weights.IMAGENET1K_V1``), a plain state dict."""
 _WIDTHS = (64, 128, 256, 512)
 _BATCH_NORM_COUNTER = "num_batches_tracked"
@@ -323,7 +323,7 @@ def _read_state_dict(path: str | os.PathLike, name: str) -> dict[str, Tensor]:
     if not os.path.isfile(path):
         raise FileNotFoundError(
             f"{name}: no ResNet-18 weights at {os.fspath(path)!r}. Fetch them into vigen's data cache, checked by their "
-            f"sha256, with `{RESNET18_FETCH}` (then `python -m vigen.data path torchvision-resnet18` prints the folder), "
+            f"sha256, with `{RESNET18_FETCH}` (then `python -m vigen.datasets path torchvision-resnet18` prints the folder), "
             f"or download {RESNET18_URL} (or save torchvision.models.resnet18(weights='IMAGENET1K_V1').state_dict() "
             "with torch.save) and pass its path; weights=None starts from random weights."
         )

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from vigen.data.identity import not_in_full
+from vigen.datasets.identity import not_in_full
 from vigen.protocols import Protocol, get_protocol
 from vigen.results.published import PublishedScore, published
 from vigen.results.sources import SOURCES
@@ -62,7 +62,7 @@ class StandInRows(ValueError):
         >>> print(StandInRows([("video_hard", "procedural stand-in videos (10)")]))  # doctest: +ELLIPSIS
         cannot set these rows beside published numbers: they showed vigen's stand-ins, not the benchmark's data:
           - video_hard: procedural stand-in videos (10)
-        Fetch the data (python -m vigen.data fetch ...) and evaluate again, or pass allow_stand_ins=True ...
+        Fetch the data (python -m vigen.datasets fetch ...) and evaluate again, or pass allow_stand_ins=True ...
     """
 
     def __init__(self, levels: Sequence[tuple[str, str]]) -> None:
@@ -70,7 +70,7 @@ class StandInRows(ValueError):
         super().__init__(
             "cannot set these rows beside published numbers: they showed vigen's stand-ins, not the benchmark's data:\n"
             + "\n".join(f"  - {level}: {data}" for level, data in self.levels)
-            + "\nFetch the data (python -m vigen.data fetch ...) and evaluate again, or pass allow_stand_ins=True "
+            + "\nFetch the data (python -m vigen.datasets fetch ...) and evaluate again, or pass allow_stand_ins=True "
               "(--allow-stand-ins) to show them anyway, each line saying so.")
 
 
@@ -82,7 +82,7 @@ class PartialData(ValueError):
         >>> print(PartialData([("video_easy", "dmcgb-videos/video_easy: 6 of 10, verified")]))  # doctest: +ELLIPSIS
         cannot set these rows beside published numbers: their level did not show the published data set in full:
           - video_easy: dmcgb-videos/video_easy: 6 of 10, verified
-        Evaluate on the whole data set (python -m vigen.data fetch ..., without --videos), or pass allow_partial_data=True ...
+        Evaluate on the whole data set (python -m vigen.datasets fetch ..., without --videos), or pass allow_partial_data=True ...
     """
 
     def __init__(self, levels: Sequence[tuple[str, str]]) -> None:
@@ -90,15 +90,15 @@ class PartialData(ValueError):
         super().__init__(
             "cannot set these rows beside published numbers: their level did not show the published data set in full:\n"
             + "\n".join(f"  - {level}: {data}" for level, data in self.levels)
-            + "\nEvaluate on the whole data set (python -m vigen.data fetch ..., without --videos), or pass "
+            + "\nEvaluate on the whole data set (python -m vigen.datasets fetch ..., without --videos), or pass "
               "allow_partial_data=True (--allow-partial-data) to show them anyway, each line saying what was shown.")
 
 
 def partial_data(label: Any) -> list[str]:
-    """The parts of a row's ``data`` label that are not a data set shown in full (:func:`vigen.data.identity.not_in_full`).
+    """The parts of a row's ``data`` label that are not a data set shown in full (:func:`vigen.datasets.identity.not_in_full`).
 
     A part is in full where it names a data set part, every one of its files, ``verified`` against
-    the pinned ids or ``shipped`` with vigen (:class:`vigen.data.identity.DataIdentity`). A user's
+    the pinned ids or ``shipped`` with vigen (:class:`vigen.datasets.identity.DataIdentity`). A user's
     folder or file, fewer files than the part holds, unverified files, and a label that names no
     data set (e.g. a machine path, as rows had before vigen named data by identity) are not;
     stand-ins are left to the ``stand_in`` column.

@@ -20,7 +20,7 @@ from torchrl.modules import AdditiveGaussianModule
 from torchrl.objectives import SoftUpdate
 
 from vigen.checkpoint import CheckpointError, load_checkpoint, newest_checkpoint
-from vigen.data import fetch_command, get_dataset, locate
+from vigen.datasets import fetch_command, get_dataset, locate
 from vigen.envs import available_envs, make_env
 from vigen.envs.levels import resolve_levels
 from vigen.losses import ALGOS, ActorCriticLoss, LinearSchedule, SplitSoftUpdate, UpdateStep, make_loss
@@ -207,7 +207,7 @@ def recipe_loss_options(config: TrainConfig) -> dict[str, Any]:
 
 
 def recipe_weights(config: TrainConfig) -> Path | None:
-    """The pretrained encoder file a recipe loads (``network.weights``, a data set of :mod:`vigen.data`), from the cache.
+    """The pretrained encoder file a recipe loads (``network.weights``, a data set of :mod:`vigen.datasets`), from the cache.
 
     ``None`` when the run gives ``--encoder-weights`` or its recipe loads none.
 

@@ -1,14 +1,15 @@
-"""``python -m vigen.data``: list, fetch, verify and locate the benchmarks' named data sets.
+"""``python -m vigen.datasets``: list, fetch, verify and locate the benchmarks' named data sets.
 
 Commands (each takes ``--root`` to use another cache folder than ``$VIGEN_DATA`` / ``~/.cache/vigen``)::
 
-    python -m vigen.data list                         name, what, files, size, license, fetched or not and where
-    python -m vigen.data fetch NAME [--part P] [--mirror M] [--sha256 H]
-    python -m vigen.data verify [NAME]                hash every fetched file; exit 1 on any mismatch
-    python -m vigen.data path NAME [--part P]         print the folder; exit 1 when it is not fetched
+    python -m vigen.datasets list                     name, what, files, size, license, fetched or not and where
+    python -m vigen.datasets fetch NAME [--part P] [--mirror M] [--wait S]
+    python -m vigen.datasets verify [NAME]            hash every fetched file; exit 1 on any mismatch
+    python -m vigen.datasets path NAME [--part P]     print the folder; exit 1 when it is not fetched
 
 Progress goes to stderr; results (list, verify reports, paths) to stdout. Exit status: 0 done,
-1 a data error (named on stderr), 2 a usage error (unknown data set or part).
+1 a data error (one ``error:`` message on stderr that ends with the fix), 2 a usage error (unknown
+data set or part), 130 interrupted (a fetch resumes where it stopped).
 """
 
 from __future__ import annotations
@@ -20,13 +21,9 @@ import time
 from collections.abc import Sequence
 from typing import TextIO
 
-from vigen.data.catalog import DATASETS, get_dataset
-from vigen.data.errors import DataError, UnknownDataSetError
-from vigen.data.fetch import fetch, fetch_command
-from vigen.data.locate import locate, status
-from vigen.data.progress import Progress
-from vigen.data.records import DataSet
-from vigen.data.verify import verify
+from vigen.datasets.fetch import Progress, fetch, fetch_command
+from vigen.datasets.records import DATASETS, DataError, DataSet, UnknownDataSetError, cache_root, get_dataset
+from vigen.datasets.verify import locate, status, verify
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -34,7 +31,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     Examples:
         >>> import tempfile
-        >>> from vigen.data.__main__ import main
+        >>> from vigen.datasets.__main__ import main
         >>> main(["path", "dmcgb-videos", "--part", "video_hard", "--root", tempfile.mkdtemp()])  # not fetched there
         1
     """
@@ -45,16 +42,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # the reader of stdout went away (e.g. `| head`): stop quietly
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
+    except KeyboardInterrupt:
+        print("error: interrupted. Fix: re-run the same command; a fetch resumes the files it had begun (their .part "
+              "files are kept).", file=sys.stderr)
+        return 130
     except UnknownDataSetError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
     except DataError as error:
         print(f"error: {error}", file=sys.stderr)
         return 1
+    except OSError as error:  # the file system under --root, outside a fetch (which names its own errors)
+        root = cache_root(getattr(args, "root", None))
+        print(f"error: cannot read the data cache {root}: {error}. Fix: give a folder you can read and write with --root DIR "
+              "(or $VIGEN_DATA).", file=sys.stderr)
+        return 1
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m vigen.data", description=__doc__.split("\n\n")[0],
+    parser = argparse.ArgumentParser(prog="python -m vigen.datasets", description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter,
                                      epilog=f"data sets: {', '.join(DATASETS)}. See docs/data.md.")
     commands = parser.add_subparsers(dest="command", required=True, metavar="{list,fetch,verify,path}")
@@ -70,7 +76,8 @@ def _parser() -> argparse.ArgumentParser:
     sub.add_argument("name")
     sub.add_argument("--part", help="fetch only this part (e.g. video_hard)")
     sub.add_argument("--mirror", help="http(s) URL or folder laid out as <mirror>/<name>/<file> (default: $VIGEN_DATA_MIRROR)")
-    sub.add_argument("--sha256", help="expected sha256 of an archive data set's archive, checked before extraction")
+    sub.add_argument("--wait", type=float, metavar="SECONDS",
+                     help="while another process fetches this data set, wait at most this long (default: until it ends)")
     sub = command("verify", _verify, "hash every fetched file and compare with its pinned or recorded id")
     sub.add_argument("name", nargs="?", help="one data set (default: all)")
     sub = command("path", _path, "print the folder of a fetched data set or part (exit 1 when not fetched)")
@@ -98,7 +105,7 @@ def _fetch(args: argparse.Namespace) -> int:
     printer = _ProgressPrinter(sys.stderr)
     start = time.monotonic()
     try:
-        folder = fetch(args.name, part=args.part, root=args.root, mirror=args.mirror, progress=printer, sha256=args.sha256)
+        folder = fetch(args.name, part=args.part, root=args.root, mirror=args.mirror, progress=printer, wait=args.wait)
     finally:
         printer.close()
     print(f"fetched {args.name}{f' part {args.part}' if args.part else ''} in {time.monotonic() - start:.1f} s "
@@ -109,11 +116,15 @@ def _fetch(args: argparse.Namespace) -> int:
 
 def _verify(args: argparse.Namespace) -> int:
     names = [get_dataset(args.name).name] if args.name else list(DATASETS)
-    failed = False
+    failed = []
     for name in names:
         report = verify(name, args.root)
         print(report)
-        failed |= not report.ok
+        if not report.ok:
+            failed.append(name)
+    if failed:
+        print(f"error: {', '.join(failed)}: files that are not the pinned ones (MISMATCH above). Fix: move them aside, then "
+              f"re-run {' and '.join(f'`{fetch_command(name, root=args.root)}`' for name in failed)}.", file=sys.stderr)
     return 1 if failed else 0
 
 
@@ -133,8 +144,7 @@ def _path(args: argparse.Namespace) -> int:
 
 def _files_and_size(dataset: DataSet) -> str:
     if dataset.archive is not None:
-        size = f"{dataset.archive.size / 1e6:.1f} MB" if dataset.archive.size else "size recorded at first fetch"
-        return f"1 zip archive ({size}), extracted"
+        return f"1 zip archive ({dataset.archive.size / 1e6:.1f} MB, sha256 pinned), extracted"
     sizes = [pinned.size for pinned in dataset.files if pinned.size is not None]
     unknown = len(dataset.files) - len(sizes)
     text = f"{len(dataset.files)} files, {sum(sizes) / 1e6:.1f} MB"
@@ -153,6 +163,9 @@ class _ProgressPrinter:
         self._open_line = False
 
     def __call__(self, event: Progress) -> None:
+        if event.stage == "wait":
+            self._write(f"{event.dataset}: {event.message}")
+            return
         prefix = f"[{event.index:>{len(str(event.count))}}/{event.count}] {event.dataset}/{event.file}"
         if event.stage in ("download", "resume"):
             if event.message:
@@ -164,10 +177,10 @@ class _ProgressPrinter:
             return
         if event.stage == "present":
             self.present += 1
-            text = "already present, checked"
+            text = f"already present, checked{f' ({event.message})' if event.message else ''}"
         elif event.stage == "done":
             self.downloaded += 1
-            text = f"downloaded and checked ({event.total / 1e6:.2f} MB)" if event.total else "in place, checked"
+            text = event.message or f"downloaded and checked ({(event.total or 0) / 1e6:.2f} MB)"
         elif event.stage == "failed":
             text = "FAILED: " + event.message.partition(" Fix: ")[0]
         else:

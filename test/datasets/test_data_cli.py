@@ -1,4 +1,4 @@
-"""``python -m vigen.data`` through its ``main(argv)``, and the cache folder's rules."""
+"""``python -m vigen.datasets`` through its ``main(argv)``, the cache folder's rules, and the old name's one line."""
 
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ from pathlib import Path
 
 import pytest
 
-import vigen.data
-from vigen.data import cache_root
-from vigen.data.__main__ import main
+import vigen.datasets
+from vigen.datasets import cache_root
+from vigen.datasets.__main__ import main
 
 CLIP = b"clip bytes " * 100
 
@@ -19,7 +19,7 @@ CLIP = b"clip bytes " * 100
 def toy(server, make_toy, monkeypatch):
     """A test-made data set registered under the name 'toy', served by the test server."""
     record = make_toy(server.folder, {"easy/a.bin": CLIP, "hard/b.bin": CLIP[::-1], "hard/c.bin": b"c"})
-    monkeypatch.setitem(vigen.data.DATASETS, "toy", record)
+    monkeypatch.setitem(vigen.datasets.DATASETS, "toy", record)
     return record
 
 
@@ -27,7 +27,7 @@ def test_fetch_path_list_verify(server, toy, isolated_cache, capsys):
     assert main(["path", "toy", "--part", "hard"]) == 1
     err = capsys.readouterr().err
     assert "toy part hard is not (fully) fetched" in err and "hard 0/2 files present" in err
-    assert "Fetch it with: python -m vigen.data fetch toy --part hard" in err
+    assert "Fetch it with: python -m vigen.datasets fetch toy --part hard" in err
 
     assert main(["fetch", "toy", "--part", "hard", "--mirror", server.url]) == 0
     out, err = capsys.readouterr()
@@ -81,13 +81,22 @@ def test_cache_root_order(tmp_path, monkeypatch):
     assert cache_root() == tmp_path / "home/.cache/vigen"
 
 
-def test_importing_vigen_data_imports_no_torch_and_ships_its_pinned_list():
-    code = ("import sys, vigen.data; assert 'torch' not in sys.modules, 'torch'; "
-            "bad = [m for m in sys.modules if m.startswith(('vigen.envs', 'vigen.transforms', 'vigen.losses'))]; "
-            "assert not bad, bad; print(len(vigen.data.DATASETS['dmcgb-videos'].files))")
+def test_importing_vigen_datasets_imports_no_torch_nor_pooch_and_ships_its_pinned_list():
+    code = ("import sys, vigen.datasets; bad = [m for m in ('torch', 'pooch', 'filelock', 'requests') if m in sys.modules]; "
+            "bad += [m for m in sys.modules if m.startswith(('vigen.envs', 'vigen.transforms', 'vigen.losses'))]; "
+            "assert not bad, bad; print(len(vigen.datasets.DATASETS['dmcgb-videos'].files))")
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60,
                             cwd=Path(__file__).parents[2])
     assert result.returncode == 0, result.stderr
     assert result.stdout.strip() == "110"
     setup = (Path(__file__).parents[2] / "setup.py").read_text()
-    assert '"vigen.data": ["*.tsv"]' in setup  # the pinned list is package data, so wheels carry it
+    assert '"vigen.datasets": ["*.tsv"]' in setup  # the pinned list is package data, so wheels carry it
+    assert '"pooch>=' in setup and '"filelock>=' in setup
+
+
+def test_the_old_name_exits_2_with_one_line_naming_the_new_command():
+    result = subprocess.run([sys.executable, "-m", "vigen.data", "fetch", "dmcgb-videos", "--part", "video_hard"],
+                            capture_output=True, text=True, timeout=60, cwd=Path(__file__).parents[2])
+    assert result.returncode == 2 and result.stdout == ""
+    assert result.stderr == ("error: vigen.data is now vigen.datasets: run "
+                             "`python -m vigen.datasets fetch dmcgb-videos --part video_hard`.\n")

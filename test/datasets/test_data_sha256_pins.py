@@ -9,14 +9,14 @@ import hashlib
 
 import pytest
 
-from vigen.data import DATASETS, CorruptFileError, DataSet, FetchError, PinnedFile, fetch, locate, verify
-from vigen.data.__main__ import main
+from vigen.datasets import DATASETS, CorruptFileError, DataSet, FetchError, PinnedFile, fetch, locate, verify
+from vigen.datasets.__main__ import main
 
 WEIGHTS = bytes(range(256)) * 64  # a made-up "resnet18-xxxxxxxx.pth"
 
 
 def weights_dataset(url: str, data: bytes = WEIGHTS, name: str = "weights") -> DataSet:
-    sha256 = hashlib.sha256(data).hexdigest()  # computed here on its own, not through vigen.data
+    sha256 = hashlib.sha256(data).hexdigest()  # computed here on its own, not through vigen.datasets
     return DataSet(name, "a made-up weights file", license="CC0", source="this test",
                    files=(PinnedFile(f"resnet18-{sha256[:8]}.pth", None, len(data), sha256=sha256),),
                    url_template=f"{url}/models/{{path}}")
@@ -48,7 +48,24 @@ def test_other_bytes_under_the_pinned_name_are_refused_and_not_kept(server, isol
         fetch(dataset)
     (error,) = caught.value.failures
     assert isinstance(error, CorruptFileError) and f"expected sha256 {pinned.sha256}" in str(error)
+    assert error.got == f"sha256 {hashlib.sha256(bytes(byte ^ 0xFF for byte in WEIGHTS)).hexdigest()}"
     assert not (isolated_cache / "weights" / pinned.path).exists() and locate(dataset) is None
+    assert sorted(p.name for p in (isolated_cache / "weights").iterdir()) == [".fetch.lock"], "no .part, no pooch temporary"
+
+
+def test_a_stale_part_of_a_sha256_pinned_file_is_downloaded_whole_once_more(server, isolated_cache):
+    """pooch checks the sha256 of what the resumed download gave; it fails, and the file comes whole from byte 0."""
+    dataset = weights_dataset(server.url)
+    pinned = dataset.files[0]
+    (server.folder / "models").mkdir()
+    (server.folder / "models" / pinned.path).write_bytes(WEIGHTS)
+    (isolated_cache / "weights").mkdir(parents=True)
+    (isolated_cache / "weights" / (pinned.path + ".part")).write_bytes(WEIGHTS[::-1][:1000])
+    events = []
+    assert fetch(dataset, progress=events.append) == isolated_cache / "weights"
+    assert (isolated_cache / "weights" / pinned.path).read_bytes() == WEIGHTS
+    assert [header for _, header in server.requests] == ["bytes=1000-", None]
+    assert [event.stage for event in events if event.stage in ("restart", "done", "failed")] == ["restart", "done"]
 
 
 def test_torchvisions_resnet18_is_pinned_by_its_sha256_whose_prefix_its_name_carries():

@@ -1,4 +1,4 @@
-"""Fetching pinned files over HTTP: checks, resume, restart, faults, offline, and what is left on disk."""
+"""Fetching pinned files over HTTP: checks, resume, restart, stale partial files, faults, offline, and what is left on disk."""
 
 from __future__ import annotations
 
@@ -7,15 +7,16 @@ from pathlib import Path
 
 import pytest
 
-from vigen.data import (CorruptFileError, FetchError, IncompleteDownloadError, MissingFileError, SourceUnreachableError,
-                        UnknownDataSetError, fetch, locate, status, verify)
+from vigen.datasets import (CorruptFileError, DataError, DownloadError, FetchError, UnknownDataSetError, fetch, locate, status,
+                            verify)
 
 CLIP = bytes(range(256)) * 40  # 10240 bytes
 OTHER = b"other clip " * 300
 
 
 def _files(root: Path) -> list[str]:
-    return sorted(p.relative_to(root).as_posix() for p in root.rglob("*") if p.is_file())
+    """The files under ``root`` (each data set's lock file aside)."""
+    return sorted(p.relative_to(root).as_posix() for p in root.rglob("*") if p.is_file() and p.name != ".fetch.lock")
 
 
 def test_fetch_checks_each_file_and_does_not_download_present_ones_again(server, isolated_cache, make_toy):
@@ -42,7 +43,7 @@ def test_a_cut_connection_keeps_the_part_and_the_next_fetch_resumes_with_the_rig
     with pytest.raises(FetchError) as caught:
         fetch(toy, mirror=server.url)
     (error,) = caught.value.failures
-    assert isinstance(error, IncompleteDownloadError)
+    assert isinstance(error, DownloadError) and error.reason == "incomplete"
     assert "5120 of 10240 bytes" in str(error) and "hard/a.bin" in str(error) and "resume" in str(error)
     target = isolated_cache / "toy/hard/a.bin"
     assert not target.exists() and Path(str(target) + ".part").read_bytes() == CLIP[:5120]
@@ -76,7 +77,9 @@ def test_wrong_bytes_raise_a_corrupt_error_and_leave_no_file(server, isolated_ca
     assert isinstance(error, CorruptFileError)
     got = git_blob(bytes(byte ^ 0xFF for byte in CLIP))
     assert error.expected == f"git blob {git_blob(CLIP)} (10240 bytes)" and error.got == f"git blob {got} (10240 bytes)"
-    for text in ("toy/hard/a.bin", git_blob(CLIP), got, f"{server.url}/toy/hard/a.bin", "Fix: re-run `python -m vigen.data fetch toy"):
+    for text in ("toy/hard/a.bin", git_blob(CLIP), got, f"{server.url}/toy/hard/a.bin", "Nothing was kept",
+                 f"Fix: the source or mirror holds another file under this name; check {server.url}/toy/hard/a.bin, then re-run "
+                 "`python -m vigen.datasets fetch toy"):
         assert text in str(caught.value)
     assert _files(isolated_cache) == ["toy/hard/b.bin"]  # the good file stays, no .part of the bad one
 
@@ -87,7 +90,7 @@ def test_a_missing_file_is_named_with_its_url_and_the_others_are_kept(server, is
     with pytest.raises(FetchError) as caught:
         fetch(toy, "hard", mirror=server.url)
     (error,) = caught.value.failures
-    assert isinstance(error, MissingFileError) and error.url == f"{server.url}/toy/hard/b.bin"
+    assert isinstance(error, DownloadError) and error.reason == "missing" and error.url == f"{server.url}/toy/hard/b.bin"
     message = str(caught.value)
     assert "1 of the 2 files of toy part hard could not be fetched" in message
     assert f"hard/b.bin: toy/hard/b.bin is not at {server.url}/toy/hard/b.bin (HTTP 404)" in message
@@ -100,7 +103,8 @@ def test_a_wrong_size_announced_by_the_server_is_refused_before_downloading(serv
     (server.folder / "toy/hard/a.bin").write_bytes(CLIP + b"extra")
     with pytest.raises(FetchError) as caught:
         fetch(toy, mirror=server.url)
-    assert "serves 10245 bytes, expected 10240" in str(caught.value) and _files(isolated_cache) == []
+    assert f"serves 10245 bytes, expected git blob {toy.files[0].git_blob} (10240 bytes)" in str(caught.value)
+    assert _files(isolated_cache) == []
 
 
 def test_offline_names_the_url_and_the_fix(isolated_cache, make_toy):
@@ -108,8 +112,9 @@ def test_offline_names_the_url_and_the_fix(isolated_cache, make_toy):
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]
     toy = make_toy(isolated_cache.parent / "unused", {"hard/a.bin": CLIP, "hard/b.bin": OTHER})
-    with pytest.raises(SourceUnreachableError) as caught:
+    with pytest.raises(DownloadError) as caught:
         fetch(toy, mirror=f"http://127.0.0.1:{port}")
+    assert caught.value.reason == "unreachable"
     message = str(caught.value)
     assert f"cannot reach http://127.0.0.1:{port}/toy/hard/a.bin" in message
     assert "--mirror / $VIGEN_DATA_MIRROR" in message and f"copy the file to {isolated_cache / 'toy/hard/a.bin'}" in message
@@ -149,8 +154,8 @@ def test_clear_errors_before_any_work(tmp_path, isolated_cache, make_toy):
         fetch(toy, mirror=tmp_path / "nowhere")
     with pytest.raises(Exception, match="not ftp://"):
         fetch(toy, mirror="ftp://example.org/data")
-    with pytest.raises(Exception, match="--sha256 is for archive data sets"):
-        fetch(toy, mirror=tmp_path / "mirror", sha256="0" * 64)
+    with pytest.raises(DataError, match="wait is seconds to wait"):
+        fetch(toy, mirror=tmp_path / "mirror", wait=-1)
     assert not isolated_cache.exists()
 
 
@@ -163,3 +168,35 @@ def test_verify_names_a_changed_file(server, isolated_cache, make_toy, git_blob)
     assert str(report.mismatched[0]) == (f"hard/a.bin: expected git blob {git_blob(CLIP)} (10240 bytes), "
                                          f"got git blob {git_blob(CLIP[::-1])} (10240 bytes)")
     assert locate(toy, "hard") == isolated_cache / "toy/hard"  # locate is cheap: sizes only
+
+
+@pytest.mark.parametrize("stale", ["whole", "half"])
+def test_a_stale_part_with_other_bytes_does_not_make_a_good_mirror_file_corrupt(server, isolated_cache, make_toy, stale):
+    """A ``.part`` left by another source or an older run (here: other bytes) is resumed, fails its check, and the file is
+    then downloaded whole, once, from byte 0: the mirror's good file is not called corrupt."""
+    toy = make_toy(server.folder, {"hard/a.bin": CLIP})
+    part = isolated_cache / "toy/hard/a.bin.part"
+    part.parent.mkdir(parents=True)
+    stale_bytes = CLIP[::-1] if stale == "whole" else CLIP[::-1][:len(CLIP) // 2]
+    part.write_bytes(stale_bytes)
+    events = []
+    assert fetch(toy, mirror=server.url, progress=events.append) == isolated_cache / "toy"
+    assert (isolated_cache / "toy/hard/a.bin").read_bytes() == CLIP and not part.exists()
+    ranges = [header for path, header in server.requests]
+    assert ranges == ([None] if stale == "whole" else [f"bytes={len(CLIP) // 2}-", None])  # a whole .part is only checked
+    (restart,) = [event for event in events if event.stage == "restart"]
+    assert restart.message == f"the file resumed at byte {len(stale_bytes)} failed its check; downloading it whole"
+    assert [event.stage for event in events][-1] == "done" and not [event for event in events if event.stage == "failed"]
+
+
+def test_a_file_that_fails_again_when_downloaded_whole_is_corrupt(server, isolated_cache, make_toy, git_blob):
+    toy = make_toy(server.folder, {"hard/a.bin": CLIP})
+    part = isolated_cache / "toy/hard/a.bin.part"
+    part.parent.mkdir(parents=True)
+    part.write_bytes(CLIP[:100])
+    server.faults["/toy/hard/a.bin"] = "wrong"
+    with pytest.raises(FetchError) as caught:
+        fetch(toy, mirror=server.url)
+    (error,) = caught.value.failures
+    assert isinstance(error, CorruptFileError) and [h for _, h in server.requests] == ["bytes=100-", None]
+    assert not part.exists() and _files(isolated_cache) == []

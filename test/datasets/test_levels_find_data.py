@@ -1,4 +1,4 @@
-"""The levels find fetched data by themselves: ``python -m vigen.data fetch`` against a server on 127.0.0.1, then a level
+"""The levels find fetched data by themselves: ``python -m vigen.datasets fetch`` against a server on 127.0.0.1, then a level
 that plays the fetched videos with no ``level_options``, in DMC-GB's order, and says so."""
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ import cv2
 import numpy as np
 import pytest
 
-import vigen.data
-from vigen.data import StandInDataWarning
-from vigen.data.__main__ import main
+import vigen.datasets
+from vigen.datasets import StandInDataWarning
+from vigen.datasets.__main__ import main
 from vigen.envs import make_env
 from vigen.rendering import RenderSettings
 
@@ -36,7 +36,7 @@ def fetched_videos(server, make_toy, tmp_path, monkeypatch, capsys) -> Path:
     made.mkdir()
     files = {f"video_hard/video{i}.mp4": clip_bytes(made, f"video{i}.mp4", 40 + 80 * i) for i in range(3)}
     record = make_toy(server.folder, files, name="dmcgb-videos")
-    monkeypatch.setitem(vigen.data.DATASETS, "dmcgb-videos", record)
+    monkeypatch.setitem(vigen.datasets.DATASETS, "dmcgb-videos", record)
     assert main(["fetch", "dmcgb-videos", "--part", "video_hard", "--mirror", server.url]) == 0
     return Path(capsys.readouterr().out.strip())
 
@@ -58,7 +58,7 @@ def test_video_hard_plays_the_fetched_videos_in_dmcgb_order(fetched_videos, isol
 
 
 def test_without_the_data_the_level_warns_and_says_it_shows_stand_ins(isolated_cache):
-    with pytest.warns(StandInDataWarning, match=r"python -m vigen.data fetch dmcgb-videos --part video_hard"):
+    with pytest.warns(StandInDataWarning, match=r"python -m vigen.datasets fetch dmcgb-videos --part video_hard"):
         env = make_env("dmc/walker-walk", generalization="video_hard", seed=5, image_size=32, frame_stack=1)
     assert env.level.uses_stand_in and env.level.data_source == "procedural stand-in videos (10)"
 
@@ -81,7 +81,7 @@ def fetched_easy_videos(server, make_toy, tmp_path, monkeypatch, capsys) -> Path
     made.mkdir()
     files = {f"video_easy/video{i}.mp4": clip_bytes(made, f"video{i}.mp4", 30 + 50 * i) for i in range(4)}
     record = make_toy(server.folder, files, name="dmcgb-videos")
-    monkeypatch.setitem(vigen.data.DATASETS, "dmcgb-videos", record)
+    monkeypatch.setitem(vigen.datasets.DATASETS, "dmcgb-videos", record)
     assert main(["fetch", "dmcgb-videos", "--part", "video_easy", "--mirror", server.url]) == 0
     return Path(capsys.readouterr().out.strip())
 

@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 from vigen.assets.video_source import VideoSource
-from vigen.data import get_dataset
-from vigen.data.identity import DataIdentity, identify_files, parse_identity
+from vigen.datasets import get_dataset
+from vigen.datasets.identity import DataIdentity, identify_files, parse_identity
 from vigen.transforms import RandomSceneColors
 
 SAMPLE = Path(__file__).parents[2] / ".." / "shared" / "data" / "dmcgb"
@@ -48,7 +48,8 @@ def test_dmcgb_preset_files_are_verified_and_the_shipped_presets_named_as_shippe
 @pytest.mark.parametrize("label", ["dmcgb-videos/video_hard: 100 of 100, verified", "user folder: 7 videos",
                                    "dmcgb-colors/color_easy: 100 of 100, shipped, cycled as DMC-GB2 does",
                                    "dmcgb-videos/video_easy: 6 of 10, not verified, given as a folder",
-                                   "davis2017/train: 60 of 60, fetched", "user file: 1 preset"])
+                                   "davis2017/train: 60 of 60, fetched", "davis2017/train: 60 of 60, verified",
+                                   "davis2017/train: 2 of 60, not verified", "user file: 1 preset"])
 def test_labels_read_back_as_they_were_written(label):
     assert str(parse_identity(label)) == label
 
@@ -64,22 +65,45 @@ def test_only_a_whole_part_verified_or_shipped_is_full():
         DataIdentity("dmcgb-videos", "video_hard", 1, 100, "trusted")
 
 
-def test_the_fetched_davis_split_is_named_as_fetched_and_any_other_davis_folder_as_the_users(tmp_path, monkeypatch):
+def davis_frames(videos: dict[str, list[str]]) -> dict[str, bytes]:
+    """Members of a made-up DAVIS 2017 archive whose frames decode (one black 8x8 JPEG per frame): split -> video names."""
     import cv2
     import numpy as np
 
-    import vigen.data
+    frame = cv2.imencode(".jpg", np.zeros((8, 8, 3), np.uint8))[1].tobytes()
+    members = {f"DAVIS/ImageSets/2017/{split}.txt": "".join(f"{name}\n" for name in names).encode()
+               for split, names in videos.items()}
+    members.update({f"DAVIS/JPEGImages/480p/{name}/00000.jpg": frame for names in videos.values() for name in names})
+    return members
 
-    davis = tmp_path / "davis2017" / "DAVIS"
-    (davis / "ImageSets" / "2017").mkdir(parents=True)
-    (davis / "ImageSets" / "2017" / "train.txt").write_text("bear\nboat\n")
-    for name in ("bear", "boat"):
-        (davis / "JPEGImages" / "480p" / name).mkdir(parents=True)
-        cv2.imwrite(str(davis / "JPEGImages" / "480p" / name / "00000.jpg"), np.zeros((8, 8, 3), np.uint8))
-    monkeypatch.setattr(vigen.data, "locate", lambda name, part=None, root=None: tmp_path / "davis2017")  # "fetched here"
-    assert str(VideoSource.from_folder(davis, split="train").identity) == "davis2017/train: 2 of 2, fetched"
-    assert not parse_identity("davis2017/train: 2 of 2, fetched").full, "DAVIS publishes no ids to verify against"
+
+def test_the_fetched_davis_split_is_verified_when_extracted_from_the_pinned_archive(server, served_davis, isolated_cache,
+                                                                                  tmp_path):
+    from vigen.datasets import fetch
+
+    served_davis(davis_frames({"train": ["bear", "boat"], "val": ["dog"]}))  # the test's archive, and its pin
+    folder = fetch("davis2017", mirror=server.url)
+    davis = folder / "DAVIS"
+    label = str(VideoSource.from_folder(davis, split="train").identity)
+    assert label == "davis2017/train: 2 of 2, verified" and parse_identity(label).full
+    assert str(VideoSource.from_folder(davis / "JPEGImages" / "480p", split="val").identity) == "davis2017/val: 1 of 1, verified"
+
+    (davis / "JPEGImages" / "480p" / "bear" / "00001.jpg").write_bytes(b"a frame the fetch did not record")
+    assert str(VideoSource.from_folder(davis, split="train").identity) == "davis2017/train: 2 of 2, not verified"
+
     elsewhere = tmp_path / "mine"
     shutil.copytree(davis, elsewhere / "DAVIS")
     assert str(VideoSource.from_folder(elsewhere / "DAVIS", split="train").identity) == \
         "user folder: 2 videos, DAVIS 2017 layout, train split"
+
+
+def test_a_davis_folder_placed_in_the_cache_by_hand_is_not_verified(server, isolated_cache, tmp_path):
+    from vigen.datasets import fetch
+
+    for name, data in davis_frames({"train": ["bear", "boat"], "val": ["dog"]}).items():
+        (isolated_cache / "davis2017" / name).parent.mkdir(parents=True, exist_ok=True)
+        (isolated_cache / "davis2017" / name).write_bytes(data)
+    folder = fetch("davis2017", mirror=server.url)  # records it, downloads nothing
+    label = str(VideoSource.from_folder(folder / "DAVIS", split="train").identity)
+    assert label == "davis2017/train: 2 of 2, not verified" and not parse_identity(label).full
+    assert not parse_identity("davis2017/train: 60 of 60, fetched").full, "older rows: the archive was not pinned then"

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from vigen.data import FetchError, MissingFileError, get_dataset, locate, status, verify, fetch
+from vigen.datasets import DownloadError, FetchError, fetch, get_dataset, locate, status, verify
 
 SAMPLE = Path(__file__).parents[2] / ".." / "shared" / "data" / "dmcgb"
 SAMPLE_FILES = ["video_easy/video0.mp4", "video_easy/video1.mp4", "video_hard/video0.mp4", "video_hard/video1.mp4",
@@ -28,7 +28,7 @@ def test_the_real_sample_videos_fetch_and_check_against_the_pinned_blob_ids(serv
     (server.folder / "dmcgb-videos").symlink_to(SAMPLE.resolve())
     with pytest.raises(FetchError) as caught:
         fetch("dmcgb-videos", part="video_hard", mirror=server.url)
-    missing = [error for error in caught.value.failures if isinstance(error, MissingFileError)]
+    missing = [error for error in caught.value.failures if isinstance(error, DownloadError) and error.reason == "missing"]
     assert len(missing) == len(caught.value.failures) == 97  # the sample holds video0-2 of video_hard's 100
     assert "  - video_hard/video99.mp4: dmcgb-videos/video_hard/video99.mp4 is not at" in str(caught.value)
     with pytest.raises(FetchError):

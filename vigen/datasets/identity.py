@@ -5,10 +5,16 @@ An evaluation row's ``data`` column names the data its level showed without a ma
 * ``dmcgb-videos/video_easy: 10 of 10, verified``: every file shown is a pinned file of the data
   set's part (its git blob id and its name checked), and 10 of the part's 10 files were there;
 * ``dmcgb-colors/color_hard: 100 of 100, shipped``: values that ship inside vigen;
-* ``davis2017/train: 60 of 60, fetched``: files fetched into the cache by ``python -m vigen.data``
-  whose source pins no ids (checked only against what the first fetch recorded);
+* ``davis2017/train: 60 of 60, verified``: an archive data set's split in the cache, extracted by
+  ``python -m vigen.datasets fetch`` from the archive whose sha256 matched the record's pin; every
+  file shown is one of the files that fetch recorded (name and size checked when the level is
+  built; ``python -m vigen.datasets verify`` hashes them);
+* ``davis2017/train: 60 of 60, not verified``: the same split recorded from a folder found in the
+  cache (not the pinned archive), or holding files the fetch did not record;
 * ``dmcgb-videos/video_easy: 6 of 10, not verified``: rows made before vigen checked files (a
   folder of copies that no level hashed);
+* ``davis2017/train: 60 of 60, fetched``: rows made before vigen pinned DAVIS's archive (then the
+  first fetch recorded whatever archive it got);
 * ``user folder: 7 videos``: anything else a user gave (a folder whose files are not all pinned
   files of one part, or a file of their own).
 
@@ -17,7 +23,7 @@ A label may end with ``, <note>`` (``..., shipped, cycled as DMC-GB2 does``). On
 published data set in full; :func:`vigen.results.compare` refuses other rows unless asked.
 
 Examples:
-    >>> from vigen.data.identity import DataIdentity, parse_identity
+    >>> from vigen.datasets.identity import DataIdentity, parse_identity
     >>> label = str(DataIdentity("dmcgb-videos", "video_easy", 6, 10, "verified"))
     >>> label
     'dmcgb-videos/video_easy: 6 of 10, verified'
@@ -35,12 +41,13 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from vigen.data.checksums import git_blob_id
-from vigen.data.records import DataSet, PinnedFile
+from vigen.datasets.records import DataSet, PinnedFile
+from vigen.datasets.verify import archive_origin, git_blob_id, locate, read_manifest
 
 CHECKS = ("verified", "shipped", "fetched", "not verified", "user")
 """How the files shown were checked: against the pinned ids (``verified``), values shipped in vigen (``shipped``),
-fetched with no pinned ids (``fetched``), not checked (``not verified``: older rows), a user's own (``user``)."""
+fetched before the archive was pinned (``fetched``: older rows), not checked against a pin (``not verified``), a
+user's own (``user``)."""
 FULL_CHECKS = ("verified", "shipped")
 """The checks under which a data set shown in full counts as the published one."""
 DEFINED_BY_LEVEL = ("random colours",)
@@ -66,7 +73,7 @@ class DataIdentity:
         note: a few words more (``"cycled as DMC-GB2 does"``), after a comma.
 
     Examples:
-        >>> from vigen.data.identity import DataIdentity
+        >>> from vigen.datasets.identity import DataIdentity
         >>> DataIdentity("dmcgb-colors", "color_hard", 100, 100, "shipped").full
         True
         >>> str(DataIdentity(None, None, 1, None, "user", kind="presets", where="file"))
@@ -107,7 +114,7 @@ def parse_identity(label: str) -> DataIdentity | None:
     """The :class:`DataIdentity` a ``data`` label names, or ``None`` where the label names none (stand-ins, old path labels).
 
     Examples:
-        >>> from vigen.data.identity import parse_identity
+        >>> from vigen.datasets.identity import parse_identity
         >>> parse_identity("dmcgb-colors/color_easy: 100 of 100, shipped, cycled as DMC-GB2 does").note
         'cycled as DMC-GB2 does'
         >>> parse_identity("procedural stand-in videos (10)") is None
@@ -150,7 +157,7 @@ def not_in_full(label: object) -> list[str]:
     defines by itself (:data:`DEFINED_BY_LEVEL`) show no data set.
 
     Examples:
-        >>> from vigen.data.identity import not_in_full
+        >>> from vigen.datasets.identity import not_in_full
         >>> not_in_full("dmcgb-colors/color_easy: 100 of 100, shipped; dmcgb-videos/video_easy: 6 of 10, verified")
         ['dmcgb-videos/video_easy: 6 of 10, verified']
         >>> not_in_full("user folder: 7 videos"), not_in_full(""), not_in_full("procedural stand-in videos (10)")
@@ -176,8 +183,8 @@ def identify_files(paths: Sequence[str | os.PathLike], datasets: Iterable[DataSe
     Examples:
         >>> import tempfile
         >>> from pathlib import Path
-        >>> from vigen.data.identity import identify_files
-        >>> from vigen.data.records import DataSet, PinnedFile
+        >>> from vigen.datasets.identity import identify_files
+        >>> from vigen.datasets.records import DataSet, PinnedFile
         >>> folder = Path(tempfile.mkdtemp())
         >>> _ = (folder / "a.bin").write_bytes(b"")
         >>> toy = DataSet("toy", "toy", "CC0", "here", files=(PinnedFile("part/a.bin", "e69de29bb2d1d6434b8b29ae775ad8c2e48c5391", 0),
@@ -222,3 +229,37 @@ def _pinned_match(path: Path, pinned_by_size: dict[int | None, list[tuple[DataSe
         return None
     blob = git_blob_id(path)
     return next(((dataset.name, pinned.part, pinned.path) for dataset, pinned in candidates if pinned.git_blob == blob), None)
+
+
+def identify_fetched_split(paths: Sequence[str | os.PathLike], dataset: DataSet, split: str,
+                           root: str | os.PathLike | None = None) -> DataIdentity | None:
+    """An archive data set's split as the cache holds it (``davis2017/train: 60 of 60, verified``), or ``None``.
+
+    ``paths`` are the split's folders (e.g. DAVIS's ``JPEGImages/480p/<video>``, one per video the
+    split lists). They are the fetched data set when it is in the cache (:func:`~vigen.datasets.locate`:
+    every recorded file there with its size) and every path lies inside it; ``None`` otherwise (a
+    user's own folder). The check is ``verified`` when the files were extracted from the archive
+    whose sha256 matched the record's pin and every file under ``paths`` is one the fetch recorded,
+    else ``not verified``.
+
+    Examples:
+        >>> import tempfile
+        >>> from vigen.datasets import get_dataset
+        >>> from vigen.datasets.identity import identify_fetched_split
+        >>> identify_fetched_split(["/elsewhere/DAVIS/JPEGImages/480p/bear"], get_dataset("davis2017"), "train",
+        ...                        root=tempfile.mkdtemp()) is None  # not fetched there
+        True
+    """
+    folder = locate(dataset, root=root)
+    if folder is None:
+        return None
+    folder = folder.resolve()
+    shown = [Path(path).resolve() for path in paths]
+    if not shown or not all(path.is_relative_to(folder) for path in shown):
+        return None
+    manifest = read_manifest(folder) or {"files": {}}
+    recorded = manifest["files"]
+    files = [file for path in shown for file in (path.rglob("*") if path.is_dir() else [path]) if file.is_file()]
+    from_fetch = all(file.relative_to(folder).as_posix() in recorded for file in files)
+    check = "verified" if archive_origin(dataset, manifest) == "pinned" and from_fetch else "not verified"
+    return DataIdentity(dataset.name, split, len(shown), len(shown), check)

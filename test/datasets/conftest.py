@@ -1,16 +1,20 @@
-"""An HTTP server on 127.0.0.1 that serves a test-made folder, honours Range requests and injects faults on demand."""
+"""An HTTP server on 127.0.0.1 that serves a test-made folder, honours Range requests and injects faults on demand; made-up
+records (pinned files, a DAVIS-like archive with its pin injected) for the data set tests."""
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import http.server
 import threading
+import time
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
 
-from vigen.data.records import DataSet, PinnedFile
+from vigen.datasets import DATASETS, DataSet, PinnedFile
 
 
 @dataclass
@@ -19,7 +23,7 @@ class Served:
 
     url: str
     folder: Path
-    faults: dict[str, str] = field(default_factory=dict)  # URL path -> "cut" | "cut_once" | "wrong" | "ignore_range"
+    faults: dict[str, str] = field(default_factory=dict)  # URL path -> "cut" | "cut_once" | "wrong" | "ignore_range" | "slow"
     requests: list[tuple[str, str | None]] = field(default_factory=list)  # (URL path, Range header)
 
 
@@ -58,6 +62,12 @@ def _handler(served: Served) -> type[http.server.BaseHTTPRequestHandler]:
                 self.wfile.write(body[: len(body) // 2])  # then the connection closes (HTTP/1.0)
                 self.wfile.flush()
                 return
+            if fault == "slow":  # in 8 pieces, 25 ms apart: a second fetch starts while the first is writing
+                for piece in range(8):
+                    self.wfile.write(body[piece * len(body) // 8:(piece + 1) * len(body) // 8])
+                    self.wfile.flush()
+                    time.sleep(0.025)
+                return
             self.wfile.write(body)
 
     return Handler
@@ -89,7 +99,7 @@ def isolated_cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
 
 
 def git_blob_of(data: bytes) -> str:
-    """The git blob id of ``data``, computed here on its own (not through vigen.data)."""
+    """The git blob id of ``data``, computed here on its own (not through vigen.datasets)."""
     return hashlib.sha1(b"blob %d\0" % len(data) + data).hexdigest()
 
 
@@ -114,3 +124,52 @@ def git_blob():
 def make_toy():
     """``make_toy(mirror_folder, {relative path: bytes}, name="toy")``: write the files under a mirror, return their record."""
     return make_toy_dataset
+
+
+DAVIS_ZIP = "DAVIS-2017-trainval-480p.zip"
+DAVIS_LAYOUT = {
+    "DAVIS/ImageSets/2017/train.txt": b"bear\ncamel\n",
+    "DAVIS/ImageSets/2017/val.txt": b"dog\n",
+    "DAVIS/JPEGImages/480p/bear/00000.jpg": b"\xff\xd8bear0",
+    "DAVIS/JPEGImages/480p/bear/00001.jpg": b"\xff\xd8bear1",
+    "DAVIS/JPEGImages/480p/camel/00000.jpg": b"\xff\xd8camel0",
+    "DAVIS/JPEGImages/480p/dog/00000.jpg": b"\xff\xd8dog0",
+    "DAVIS/Annotations/480p/dog/00000.png": b"\x89PNGdog0",
+    "DAVIS/README.md": b"synthetic DAVIS for tests\n",
+}
+"""A made-up archive in DAVIS 2017's layout (two train videos, one val video)."""
+
+
+def write_zip(path: Path, members: dict[str, bytes]) -> bytes:
+    """Write a zip of ``members`` at ``path`` and return its bytes."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with zipfile.ZipFile(path, "w") as archive:
+        for name, data in members.items():
+            archive.writestr(name, data)
+    return path.read_bytes()
+
+
+def davis_pinned_to(archive: bytes) -> DataSet:
+    """davis2017's record with its archive pin replaced by ``archive``'s sha256 and size (computed here, on its own)."""
+    davis = DATASETS["davis2017"]
+    return dataclasses.replace(davis, archive=dataclasses.replace(
+        davis.archive, sha256=hashlib.sha256(archive).hexdigest(), size=len(archive), pinned_by="this test"))
+
+
+@pytest.fixture
+def served_davis(server, monkeypatch):
+    """``served_davis(members=DAVIS_LAYOUT, pin=True)``: serve a made-up DAVIS zip; with ``pin``, davis2017's record pins
+    it (the test's own pin, injected), else the record keeps the real pin (TensorFlow Datasets')."""
+    def serve(members: dict[str, bytes] = DAVIS_LAYOUT, pin: bool = True) -> bytes:
+        archive = write_zip(server.folder / "davis2017" / DAVIS_ZIP, members)
+        if pin:
+            monkeypatch.setitem(DATASETS, "davis2017", davis_pinned_to(archive))
+        return archive
+
+    return serve
+
+
+@pytest.fixture
+def davis_layout() -> dict[str, bytes]:
+    """:data:`DAVIS_LAYOUT`: a made-up archive's members in DAVIS 2017's layout."""
+    return dict(DAVIS_LAYOUT)
