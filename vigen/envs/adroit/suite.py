@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 
-from vigen.envs.adroit_env import TASKS, AdroitPixelEnv
+from vigen.envs.adroit.env import TASKS, AdroitPixelEnv
 from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
 from vigen.envs.level_types import Factor, Level, Scaled, StandInImages, Step
 from vigen.envs.suite import Suite

@@ -1,10 +1,10 @@
 """The ``dmc`` suite: dm_control tasks as pixel envs (DrQ-v2's setup), with DMC-GB's, RL-ViGen's and ImageNet-C's levels.
 
-The suite record :data:`DMC` holds the task names, the builder (:mod:`vigen.envs.dmc_env`, which
+The suite record :data:`DMC` holds the task names, the builder (:mod:`vigen.envs.dmc.env`, which
 imports dm_control when the first env is built), the level table, groups and factors.
 
 Examples:
-    >>> from vigen.envs.dmc import DMC
+    >>> from vigen.envs.dmc.suite import DMC
     >>> DMC.levels["color_hard"].steps
     (RandomSceneColors(palette='color_hard', scale=0.2, rebuild_textures=True, dmcgb2_file='color_hard.pt'),)
 """
@@ -293,14 +293,14 @@ DMC-GB's presets instead (RL-ViGen's definition), so they are not points on it."
 
 def dmc_tasks() -> list[str]:
     """The ``"<domain>-<task>"`` names of every dm_control suite task (imports dm_control)."""
-    from vigen.envs.dmc_env import task_names
+    from vigen.envs.dmc.env import task_names
 
     return task_names()
 
 
 def build_dmc_base(task: str, *, seed: int | None = None, **options: Any) -> EnvBase:
-    """The raw-frame base env of ``"dmc/<domain>-<task>"``: a :class:`~vigen.envs.dmc_env.DMCPixelEnv` (imports dm_control)."""
-    from vigen.envs.dmc_env import DMCPixelEnv
+    """The raw-frame base env of ``"dmc/<domain>-<task>"``: a :class:`~vigen.envs.dmc.env.DMCPixelEnv` (imports dm_control)."""
+    from vigen.envs.dmc.env import DMCPixelEnv
 
     domain, _, name = task.partition("-")
     return DMCPixelEnv(domain, name, seed=seed, **options)
