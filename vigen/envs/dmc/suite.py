@@ -11,7 +11,6 @@ Examples:
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -20,7 +19,6 @@ from torchrl.envs import DoubleToFloat, EnvBase
 
 from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
 from vigen.envs.level_types import Derived, Factor, FetchedData, Level, LevelContext, Scaled, Step
-from vigen.envs.pixels import PixelEnv
 from vigen.envs.suite import Suite
 from vigen.transforms import (
     DistractingCamera,
@@ -321,18 +319,3 @@ DMC = Suite(
 )
 """The dm_control suite record."""
 
-
-def make_dmc_env(domain: str, task: str, **kwargs: Any) -> PixelEnv:
-    """Deprecated: ``make_env(f"dmc/{domain}-{task}", **kwargs)``, the one builder of every suite, does the same.
-
-    Examples:
-        >>> import warnings
-        >>> with warnings.catch_warnings(record=True) as caught:
-        ...     warnings.simplefilter("always")
-        ...     env = make_dmc_env("walker", "walk", seed=0, image_size=32)
-        >>> caught[0].category.__name__, env.reset()["pixels"].shape
-        ('DeprecationWarning', torch.Size([9, 32, 32]))
-    """
-    warnings.warn(f'make_dmc_env is deprecated; use vigen.envs.make_env("dmc/{domain}-{task}", ...), which takes the same '
-                  "arguments.", DeprecationWarning, stacklevel=2)
-    return DMC.make(f"{domain}-{task}", **kwargs)

@@ -77,8 +77,6 @@ from vigen.transforms.scene.rlvigen_draws import RLViGenDraws
 TASKS = ("unitree-stand", "unitree-walk", "franka-reach", "franka-push")
 """RL-ViGen's ``unitree_stand``, ``unitree_walk``, ``franka_reach`` and ``franka_push``."""
 
-SOURCE = "RL-ViGen DMCVGB (gemcollector/RL-ViGen, envs/DMCVGB/cfg/config.yaml and dmcvgb/wrappers.py)"
-
 ROBOT_PARTS = ("robot",)
 """Name prefix of the robot's materials (every visible robot geom has one, see :mod:`vigen.envs.loco.scene`)."""
 

@@ -20,10 +20,8 @@ from tensordict import TensorDictBase
 from vigen.transforms.scene.base import Defaults, SceneHandle, SceneParams, ScenePerturbation
 from vigen.transforms.scene.schedule import action_repeat_of, check_update_every, updates_due
 
-# distracting_control/suite_utils.py: DIFFICULTY_SCALE and DIFFICULTY_NUM_VIDEOS (None: every video of the split)
-DCS_DIFFICULTY_SCALE = MappingProxyType({"easy": 0.1, "medium": 0.2, "hard": 0.3})
-DCS_DIFFICULTY_NUM_VIDEOS = MappingProxyType({"easy": 4, "medium": 8, "hard": None})
 # DMC-GB's src/env/distracting_control/suite_utils.py: its intensities (the scale itself) and videos per intensity
+# (None: every video of the split)
 DCS_SCALES = (0.025, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5)
 DCS_NUM_VIDEOS = MappingProxyType({0.025: 2, 0.05: 2, 0.1: 4, 0.15: 6, 0.2: 8, 0.3: None, 0.4: None, 0.5: None})
 # suite_utils.get_background_kwargs: the floor grid's alpha per domain (every other domain: 0.3)
