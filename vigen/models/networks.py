@@ -20,7 +20,7 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from vigen.pixel_format import check_pixels, white_value
+from vigen.pixel_format import check_max_value, check_pixels, white_value
 
 
 ACTOR_RENAMES: Mapping[str, str] = MappingProxyType({"policy": "action_head"})
@@ -133,7 +133,7 @@ class DrQv2Encoder(_PixelEncoder):
     ) -> None:
         super().__init__()
         self.chunk_size = chunk_size
-        self.max_value = _positive_or_none(max_value, type(self).__name__)
+        self.max_value = check_max_value(type(self).__name__, max_value)
         layers: list[nn.Module] = [nn.Conv2d(in_channels, channels, 3, stride=2), nn.ReLU()]
         for _ in range(3):
             layers += [nn.Conv2d(channels, channels, 3, stride=1), nn.ReLU()]
@@ -172,7 +172,7 @@ class SharedCNN(_PixelEncoder):
         super().__init__()
         self.centered = bool(centered)
         self.chunk_size = chunk_size
-        self.max_value = _positive_or_none(max_value, type(self).__name__)
+        self.max_value = check_max_value(type(self).__name__, max_value)
         layers: list[nn.Module] = [nn.Conv2d(in_channels, channels, 3, stride=2)]
         for _ in range(num_layers - 1):
             layers += [nn.ReLU(), nn.Conv2d(channels, channels, 3, stride=1)]
@@ -209,7 +209,7 @@ class ProjectedEncoder(_PixelEncoder):
         super().__init__()
         base = DrQv2Encoder(in_channels, chunk_size=chunk_size)
         self.chunk_size = chunk_size
-        self.max_value = _positive_or_none(max_value, type(self).__name__)
+        self.max_value = check_max_value(type(self).__name__, max_value)
         self.convnet = base.convnet
         self.projection = nn.Linear(base.output_dim(in_channels, image_size, image_size), out_dim)
         self.apply(weight_init)
@@ -236,13 +236,6 @@ def chunks_pay(x: Tensor, chunk_size: int | None) -> bool:
 def _as_float(pixels: Tensor) -> Tensor:
     """Floating pixels as they are (float32 or float64), integer pixels as float32."""
     return pixels if pixels.is_floating_point() else pixels.float()
-
-
-def _positive_or_none(max_value: float | None, name: str) -> float | None:
-    if max_value is not None and not max_value > 0:
-        raise ValueError(f"{name}: max_value is the white of float pixels and must be positive (or None for 1.0), "
-                         f"got {max_value!r}; use 255 for float pixels on the 0–255 scale.")
-    return None if max_value is None else float(max_value)
 
 
 def _trunk(repr_dim: int, feature_dim: int) -> nn.Sequential:

@@ -17,8 +17,9 @@ from typing import Literal
 import torch
 from torch import Tensor, nn
 
+from vigen.models.checks import check_sizes
 from vigen.models.vrl3 import IMAGENET_MEAN, IMAGENET_STD
-from vigen.pixel_format import check_pixels, white_value
+from vigen.pixel_format import check_max_value, check_pixels, white_value
 
 RGB = 3
 RESNET18_URL = "https://download.pytorch.org/models/resnet18-f37072fd.pth"
@@ -201,8 +202,7 @@ class PIEGEncoder(nn.Module):
         weights: a file with torchvision's ResNet-18 state dict; ``None`` for random weights.
         normalization: ``"centered"`` (``x / white − 0.5``, RL-ViGen) or ``"imagenet"``
             (``(x / white − mean) / std`` per RGB channel).
-        max_value: the white of float pixels; ``None`` for 1.0 (TorchRL's ``ToTensorImage()``),
-            255 for float pixels on the 0–255 scale. uint8 pixels are always 0–255.
+        max_value: the white of float pixels, as in :class:`~vigen.models.DrQv2Encoder`.
 
     Examples:
         >>> import torch, warnings
@@ -231,9 +231,7 @@ class PIEGEncoder(nn.Module):
     ) -> None:
         super().__init__()
         name = type(self).__name__
-        for arg, value in (("in_channels", in_channels), ("image_size", image_size), ("out_dim", out_dim)):
-            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
-                raise ValueError(f"{name}: {arg} must be a positive int, got {value!r}.")
+        check_sizes(name, ("in_channels", in_channels, 1), ("image_size", image_size, 1), ("out_dim", out_dim, 1))
         if in_channels % RGB or in_channels < 2 * RGB:
             raise ValueError(
                 f"{name}: in_channels={in_channels} is not a stack of at least two RGB frames. PIE-G runs the ResNet on "
@@ -243,13 +241,10 @@ class PIEGEncoder(nn.Module):
         if normalization not in ("centered", "imagenet"):
             raise ValueError(f"{name}: normalization must be 'centered' (x / white - 0.5, RL-ViGen) or 'imagenet', "
                              f"got {normalization!r}.")
-        if max_value is not None and not (isinstance(max_value, numbers.Real) and max_value > 0):
-            raise ValueError(f"{name}: max_value is the white of float pixels and must be positive (or None for 1.0), "
-                             f"got {max_value!r}; use 255 for float pixels on the 0–255 scale.")
         self.in_channels, self.image_size, self.out_dim = int(in_channels), int(image_size), int(out_dim)
         self.frames = self.in_channels // RGB
         self.normalization = normalization
-        self.max_value: float | None = None if max_value is None else float(max_value)
+        self.max_value = check_max_value(name, max_value)
         self.resnet = ResNet18Features(depth)
         channels, height, width = self.resnet.output_shape(self.image_size, self.image_size)
         self.conv_dim = 2 * (self.frames - 1) * channels * height * width

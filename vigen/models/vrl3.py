@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import numbers
 import os
 import warnings
 
@@ -10,7 +9,8 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from vigen.pixel_format import check_pixels, white_value
+from vigen.models.checks import check_sizes
+from vigen.pixel_format import check_max_value, check_pixels, white_value
 
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
 """Per-channel mean of ImageNet's RGB images, which VRL3 subtracts from every frame of the stack."""
@@ -57,8 +57,7 @@ class VRL3Encoder(nn.Module):
         blocks: residual blocks per stage; 0 is VRL3's shallow ``resnet6``.
         stage1_weights: a stage-1 checkpoint file (VRL3's ``<model>_checkpoint.pth.tar``, or a
             plain state dict); ``None`` starts from random weights, as RL-ViGen does.
-        max_value: the white of float pixels; ``None`` for 1.0 (TorchRL's ``ToTensorImage()``),
-            255 for float pixels on the 0–255 scale. uint8 pixels are always 0–255.
+        max_value: the white of float pixels, as in :class:`~vigen.models.DrQv2Encoder`.
 
     Examples:
         >>> import torch, warnings
@@ -83,18 +82,13 @@ class VRL3Encoder(nn.Module):
     ) -> None:
         super().__init__()
         name = type(self).__name__
-        for arg, value, low in (("in_channels", in_channels, 1), ("channels", channels, 1), ("blocks", blocks, 0)):
-            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < low:
-                raise ValueError(f"{name}: {arg} must be an int >= {low}, got {value!r}.")
+        check_sizes(name, ("in_channels", in_channels, 1), ("channels", channels, 1), ("blocks", blocks, 0))
         if in_channels % RGB:
             raise ValueError(f"{name}: in_channels={in_channels} is not a stack of RGB frames; VRL3 normalises each "
                              "frame with ImageNet's RGB statistics, so pass in_channels = 3·frames (9 for three frames).")
-        if max_value is not None and not (isinstance(max_value, numbers.Real) and max_value > 0):
-            raise ValueError(f"{name}: max_value is the white of float pixels and must be positive (or None for 1.0), "
-                             f"got {max_value!r}; use 255 for float pixels on the 0–255 scale.")
         self.in_channels, self.channels, self.blocks = int(in_channels), int(channels), int(blocks)
         self.frames = self.in_channels // RGB
-        self.max_value: float | None = None if max_value is None else float(max_value)
+        self.max_value = check_max_value(name, max_value)
         self.conv1 = nn.Conv2d(in_channels, channels, 3, stride=2)
         self.bn1 = nn.BatchNorm2d(channels)
         width = channels

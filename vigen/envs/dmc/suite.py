@@ -17,7 +17,7 @@ from typing import Any
 
 from torchrl.envs import DoubleToFloat, EnvBase
 
-from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
+from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, NO_LIGHT_SHIFT, pixel_corruption_factors
 from vigen.envs.level_types import Derived, Factor, FetchedData, Level, LevelContext, Scaled, Step
 from vigen.envs.suite import Suite
 from vigen.transforms import (
@@ -264,9 +264,6 @@ GROUPS: dict[str, list[str]] = {
     "corruptions": [f"{c}_{s}" for c in SEVERITIES for s in range(1, 6)],
     "all": list(LEVELS),
 }
-
-NO_LIGHT_SHIFT = {"position_offset": None, "diffuse_offset": None}
-"""RandomLighting parameters that leave position and colour alone (each lighting factor sets one thing)."""
 
 FACTORS: dict[str, Factor] = {
     "background_color": Factor((Step(RandomSceneColors, {"scale": Scaled(1.0), "parts": ("grid", "skybox")}),)),

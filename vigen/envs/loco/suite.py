@@ -58,7 +58,7 @@ from typing import Any
 
 from torchrl.envs import DoubleToFloat, EnvBase
 
-from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
+from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, NO_LIGHT_SHIFT, pixel_corruption_factors
 from vigen.envs.level_types import ByTask, Choice, Derived, Factor, FetchedData, Level, LevelContext, Scaled, StandInImages, Step
 from vigen.envs.loco.scene import FLOOR_MATERIAL, MAX_MESH_FACES, WHITE_MATERIAL
 from vigen.envs.suite import Suite
@@ -96,8 +96,6 @@ VIDEO_COUNT = {"easy": 10, "hard": 100}
 
 CAMERA_POSITION = {"easy": 0.08, "hard": 0.15}
 """RL-ViGen's ``cam_pos``: U(±0.08) or U(±0.15) per coordinate of the world position (``dmc2gym/wrappers.py:98–106``)."""
-
-NO_LIGHT_SHIFT = {"position_offset": None, "diffuse_offset": None}
 
 
 @dataclass(frozen=True, repr=False)

@@ -20,7 +20,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
+from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, NO_LIGHT_SHIFT, pixel_corruption_factors
 from vigen.envs.level_types import ByTask, Choice, Factor, Level, Scaled, SceneIndex, Step
 from vigen.envs.robosuite.env import ROBOTS, TASKS, RobosuitePixelEnv
 from vigen.envs.suite import Suite
@@ -147,8 +147,6 @@ GROUPS: dict[str, list[str]] = {
     "embodiment": [f"robot_{robot.lower()}" for robot in ROBOTS[1:]],
     "all": list(LEVELS),
 }
-
-NO_LIGHT_SHIFT = {"position_offset": None, "diffuse_offset": None}
 
 FACTORS: dict[str, Factor] = {
     "background_color": Factor((Step(RandomMaterialColors, {"mix": Scaled(1.0), "include": ("floor", "wall")}),)),

@@ -273,9 +273,7 @@ class DistractingCamera(DistractionWalk):
         dynamic: drift the camera every step.
         camera: camera id or name (DCS: the render camera, 0; quadruped 2).
         limit_to_upper_quadrant: keep the camera above the ground and on the -y side (DCS: every domain but reacher).
-        walk_steps: random-walk steps per env step (dynamic only, with ``update_every=None``).
-        update_every: control steps per walk step (DMC-GB: 2, the original: 1), or ``None``.
-        seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
+        walk_steps, update_every, seed: see :class:`DistractionWalk`.
 
     Examples:
         >>> from vigen.envs import make_env
@@ -397,16 +395,15 @@ class DistractingColors(DistractionWalk):
         scale: the suite's scale ``s`` in [0, 1] (the colour box half-width).
         dynamic: walk the colours every step.
         parts: name prefixes of the materials to recolour; ``None`` (DCS) recolours every material.
-        walk_steps: random-walk steps per env step (dynamic only, with ``update_every=None``).
-        update_every: control steps per walk step (DMC-GB: 2, the original: 1), or ``None``.
-        seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
+        walk_steps, update_every, seed: see :class:`DistractionWalk`.
 
     Examples:
         >>> from vigen.envs import make_env
         >>> from vigen.transforms import DistractingColors
-        >>> env = make_env("dmc/walker-walk", generalization=[DistractingColors(0.3, dynamic=True, seed=0)], image_size=32)
-        >>> env.rollout(3)["pixels"].shape
-        torch.Size([3, 9, 32, 32])
+        >>> plain = make_env("dmc/walker-walk", image_size=32, seed=0).reset()["pixels"]
+        >>> env = make_env("dmc/walker-walk", generalization=[DistractingColors(0.3, seed=0)], image_size=32, seed=0)
+        >>> bool((env.reset()["pixels"] != plain).any())  # the same start, recoloured
+        True
     """
 
     def __init__(
