@@ -6,9 +6,9 @@ from __future__ import annotations
 import torch
 from torch import Tensor, nn
 
-from vigen.models.checks import check_sizes
+from vigen.models.checks import check_sizes, check_stack
 from vigen.models.networks import chunks_pay, weight_init
-from vigen.pixel_format import check_max_value, check_pixels, white_value
+from vigen.pixel_format import check_max_value, white_value
 
 
 class PerFrameEncoder(nn.Module):
@@ -50,8 +50,6 @@ class PerFrameEncoder(nn.Module):
         torch.Size([2, 14112])
         >>> encoder.output_dim(9, 84, 84)
         14112
-        >>> torch.allclose(encoder(pixels.float() / 255), encoder(pixels), atol=1e-6)  # ToTensorImage's floats
-        True
     """
 
     def __init__(
@@ -93,11 +91,7 @@ class PerFrameEncoder(nn.Module):
         self.apply(weight_init)
 
     def forward(self, pixels: Tensor) -> Tensor:
-        name = type(self).__name__
-        check_pixels(pixels.detach(), name=name, max_value=self.max_value)
-        if pixels.shape[-3] != self.in_channels:
-            raise ValueError(f"{name} was built for stacks of {self.in_channels} channels, got shape "
-                             f"{tuple(pixels.shape)}; build it with in_channels={pixels.shape[-3]}.")
+        check_stack(type(self).__name__, pixels, self.in_channels, self.max_value)
         white = white_value(pixels, self.max_value)
         batch, image = pixels.shape[:-3], pixels.shape[-3:]
         x = pixels.reshape(-1, *image)

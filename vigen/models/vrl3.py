@@ -9,8 +9,9 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from vigen.models.checks import check_sizes
-from vigen.pixel_format import check_max_value, check_pixels, white_value
+from vigen.models.checks import check_sizes, check_stack
+from vigen.models.networks import resnet_init
+from vigen.pixel_format import check_max_value, white_value
 
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
 """Per-channel mean of ImageNet's RGB images, which VRL3 subtracts from every frame of the stack."""
@@ -67,8 +68,6 @@ class VRL3Encoder(nn.Module):
         >>> pixels = torch.randint(0, 256, (4, 9, 84, 84), dtype=torch.uint8)
         >>> encoder(pixels).shape, encoder.output_dim(9, 84, 84)
         (torch.Size([4, 256]), 256)
-        >>> torch.allclose(encoder(pixels.float() / 255), encoder(pixels), atol=1e-5)  # ToTensorImage's floats
-        True
     """
 
     def __init__(
@@ -102,12 +101,7 @@ class VRL3Encoder(nn.Module):
                 layers += [_ResidualBlock(channels * multiple, channels * multiple, 1) for _ in range(blocks - 1)]
             setattr(self, f"layer{index + 1}", nn.Sequential(*layers))
             width = channels * multiple
-        for module in self.modules():
-            if isinstance(module, nn.Conv2d):
-                nn.init.kaiming_normal_(module.weight, mode="fan_out", nonlinearity="relu")
-            elif isinstance(module, nn.BatchNorm2d):
-                nn.init.ones_(module.weight)
-                nn.init.zeros_(module.bias)
+        self.apply(resnet_init)
         if stage1_weights is None:
             warnings.warn(
                 f"{name} starts from random weights, as RL-ViGen runs VRL3 on Adroit (stage1_use_pretrain=False). "
@@ -126,11 +120,7 @@ class VRL3Encoder(nn.Module):
         return 8 * self.channels
 
     def forward(self, pixels: Tensor) -> Tensor:
-        name = type(self).__name__
-        check_pixels(pixels.detach(), name=name, max_value=self.max_value)
-        if pixels.shape[-3] != self.in_channels:
-            raise ValueError(f"{name} was built for stacks of {self.in_channels} channels, got shape "
-                             f"{tuple(pixels.shape)}; build it with in_channels={pixels.shape[-3]}.")
+        check_stack(type(self).__name__, pixels, self.in_channels, self.max_value)
         white = white_value(pixels, self.max_value)
         batch, image = pixels.shape[:-3], pixels.shape[-3:]
         x = pixels.reshape(-1, *image)
