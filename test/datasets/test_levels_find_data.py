@@ -90,7 +90,7 @@ def fetched_easy_videos(server, make_toy, tmp_path, monkeypatch, capsys) -> Path
 def test_loco_video_levels_play_the_fetched_dmcgb_videos_in_rlvigens_order(fetched_easy_videos, task):
     """RL-ViGen's VideoWrapper (envs/DMCVGB/dmcvgb/wrappers.py:282, 291-297, 318-321) plays DMC-GB's video_{easy,hard}
     files; ``_index`` starts at 0 and moves on before each episode's video is loaded: episode k plays (k + 1) mod n."""
-    from vigen.envs.loco import LOCO
+    from vigen.envs.loco.suite import LOCO
 
     with warnings.catch_warnings():
         warnings.simplefilter("error", StandInDataWarning)
@@ -105,7 +105,7 @@ def test_loco_video_levels_play_the_fetched_dmcgb_videos_in_rlvigens_order(fetch
 
 
 def test_loco_video_levels_without_the_data_warn_and_say_they_show_stand_ins(isolated_cache):
-    from vigen.envs.loco import LOCO
+    from vigen.envs.loco.suite import LOCO
 
     for level, part in (("video_easy", "video_easy"), ("video_hard", "video_hard")):
         with pytest.warns(StandInDataWarning, match=rf"loco/unitree-walk shows stand-ins: .*fetch dmcgb-videos --part {part}"):

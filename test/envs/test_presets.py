@@ -10,7 +10,7 @@ from __future__ import annotations
 import pytest
 
 from vigen.envs import make_env
-from vigen.envs.dmc import DMC
+from vigen.envs.dmc.suite import DMC
 from vigen.rendering import RenderSettings
 from vigen.transforms import DistractingCamera, DistractingColors, DMCGB2Camera, RandomSceneColors, VideoBackground
 from vigen.transforms.scene.dmcgb2_camera import rotate_presets

@@ -20,7 +20,7 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from vigen.pixel_format import check_pixels, white_value
+from vigen.pixel_format import check_max_value, check_pixels, white_value
 
 
 ACTOR_RENAMES: Mapping[str, str] = MappingProxyType({"policy": "action_head"})
@@ -64,6 +64,15 @@ def weight_init(module: nn.Module) -> None:
             module.bias.data.fill_(0.0)
 
 
+def resnet_init(module: nn.Module) -> None:
+    """torchvision's ResNet initialisation, for ``model.apply``: Kaiming-normal convs (``fan_out``), BatchNorm weight 1, bias 0."""
+    if isinstance(module, nn.Conv2d):
+        nn.init.kaiming_normal_(module.weight, mode="fan_out", nonlinearity="relu")
+    elif isinstance(module, nn.BatchNorm2d):
+        nn.init.ones_(module.weight)
+        nn.init.zeros_(module.bias)
+
+
 class _PixelEncoder(nn.Module):
     """Check and scale pixels, run ``self.convnet`` ``chunk_size`` samples at a time, flatten, ``project``.
 
@@ -76,9 +85,12 @@ class _PixelEncoder(nn.Module):
     """
 
     convnet: nn.Module
-    chunk_size: int | None
-    max_value: float | None
-    centered: bool = True  # x / white − 0.5 (DrQ-v2, RL-ViGen); False: x / white (DMC-GB)
+
+    def __init__(self, chunk_size: int | None, max_value: float | None, centered: bool = True) -> None:
+        super().__init__()
+        self.chunk_size = chunk_size
+        self.max_value = check_max_value(type(self).__name__, max_value)
+        self.centered = bool(centered)  # x / white − 0.5 (DrQ-v2, RL-ViGen); False: x / white (DMC-GB)
 
     def forward(self, pixels: Tensor) -> Tensor:
         check_pixels(pixels.detach(), name=type(self).__name__, max_value=self.max_value)
@@ -131,9 +143,7 @@ class DrQv2Encoder(_PixelEncoder):
     def __init__(
         self, in_channels: int = 9, channels: int = 32, chunk_size: int | None = 64, *, max_value: float | None = None
     ) -> None:
-        super().__init__()
-        self.chunk_size = chunk_size
-        self.max_value = _positive_or_none(max_value, type(self).__name__)
+        super().__init__(chunk_size, max_value)
         layers: list[nn.Module] = [nn.Conv2d(in_channels, channels, 3, stride=2), nn.ReLU()]
         for _ in range(3):
             layers += [nn.Conv2d(channels, channels, 3, stride=1), nn.ReLU()]
@@ -169,10 +179,7 @@ class SharedCNN(_PixelEncoder):
         max_value: float | None = None,
         centered: bool = True,
     ) -> None:
-        super().__init__()
-        self.centered = bool(centered)
-        self.chunk_size = chunk_size
-        self.max_value = _positive_or_none(max_value, type(self).__name__)
+        super().__init__(chunk_size, max_value, centered)
         layers: list[nn.Module] = [nn.Conv2d(in_channels, channels, 3, stride=2)]
         for _ in range(num_layers - 1):
             layers += [nn.ReLU(), nn.Conv2d(channels, channels, 3, stride=1)]
@@ -206,10 +213,8 @@ class ProjectedEncoder(_PixelEncoder):
         *,
         max_value: float | None = None,
     ) -> None:
-        super().__init__()
+        super().__init__(chunk_size, max_value)
         base = DrQv2Encoder(in_channels, chunk_size=chunk_size)
-        self.chunk_size = chunk_size
-        self.max_value = _positive_or_none(max_value, type(self).__name__)
         self.convnet = base.convnet
         self.projection = nn.Linear(base.output_dim(in_channels, image_size, image_size), out_dim)
         self.apply(weight_init)
@@ -236,13 +241,6 @@ def chunks_pay(x: Tensor, chunk_size: int | None) -> bool:
 def _as_float(pixels: Tensor) -> Tensor:
     """Floating pixels as they are (float32 or float64), integer pixels as float32."""
     return pixels if pixels.is_floating_point() else pixels.float()
-
-
-def _positive_or_none(max_value: float | None, name: str) -> float | None:
-    if max_value is not None and not max_value > 0:
-        raise ValueError(f"{name}: max_value is the white of float pixels and must be positive (or None for 1.0), "
-                         f"got {max_value!r}; use 255 for float pixels on the 0–255 scale.")
-    return None if max_value is None else float(max_value)
 
 
 def _trunk(repr_dim: int, feature_dim: int) -> nn.Sequential:

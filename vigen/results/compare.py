@@ -38,6 +38,19 @@ LOCO_PROTOCOL: Mapping[str, str] = MappingProxyType({"rlvigen": "rlvigen_loco"})
 """Source -> the protocol its ``loco/`` rows follow (:data:`vigen.protocols.PROTOCOLS`), named on every ``loco/`` line."""
 
 
+def refusal(reason: str, items: Iterable[str], fix: str = "") -> str:
+    """The message of a refused comparison: ``reason``, one ``  - item`` line per item, then ``fix``.
+
+    Examples:
+        >>> print(refusal("cannot compare", ["a differs", "b differs"], "Fix a and b."))
+        cannot compare:
+          - a differs
+          - b differs
+        Fix a and b.
+    """
+    return "\n".join([f"{reason}:", *(f"  - {item}" for item in items), *([fix] if fix else [])])
+
+
 class ProtocolMismatch(ValueError):
     """The run and the published numbers were not produced under the same protocol; ``differences`` lists how.
 
@@ -50,8 +63,7 @@ class ProtocolMismatch(ValueError):
 
     def __init__(self, differences: Sequence[str], hint: str = "") -> None:
         self.differences = list(differences)
-        super().__init__("cannot compare with the published numbers; what differs:\n" +
-                         "\n".join(f"  - {difference}" for difference in self.differences) + (f"\n{hint}" if hint else ""))
+        super().__init__(refusal("cannot compare with the published numbers; what differs", self.differences, hint))
 
 
 class StandInRows(ValueError):
@@ -67,11 +79,11 @@ class StandInRows(ValueError):
 
     def __init__(self, levels: Sequence[tuple[str, str]]) -> None:
         self.levels = list(levels)
-        super().__init__(
-            "cannot set these rows beside published numbers: they showed vigen's stand-ins, not the benchmark's data:\n"
-            + "\n".join(f"  - {level}: {data}" for level, data in self.levels)
-            + "\nFetch the data (python -m vigen.datasets fetch ...) and evaluate again, or pass allow_stand_ins=True "
-              "(--allow-stand-ins) to show them anyway, each line saying so.")
+        super().__init__(refusal(
+            "cannot set these rows beside published numbers: they showed vigen's stand-ins, not the benchmark's data",
+            (f"{level}: {data}" for level, data in self.levels),
+            "Fetch the data (python -m vigen.datasets fetch ...) and evaluate again, or pass allow_stand_ins=True "
+            "(--allow-stand-ins) to show them anyway, each line saying so."))
 
 
 class PartialData(ValueError):
@@ -87,11 +99,11 @@ class PartialData(ValueError):
 
     def __init__(self, levels: Sequence[tuple[str, str]]) -> None:
         self.levels = list(levels)
-        super().__init__(
-            "cannot set these rows beside published numbers: their level did not show the published data set in full:\n"
-            + "\n".join(f"  - {level}: {data}" for level, data in self.levels)
-            + "\nEvaluate on the whole data set (python -m vigen.datasets fetch ..., without --videos), or pass "
-              "allow_partial_data=True (--allow-partial-data) to show them anyway, each line saying what was shown.")
+        super().__init__(refusal(
+            "cannot set these rows beside published numbers: their level did not show the published data set in full",
+            (f"{level}: {data}" for level, data in self.levels),
+            "Evaluate on the whole data set (python -m vigen.datasets fetch ..., without --videos), or pass "
+            "allow_partial_data=True (--allow-partial-data) to show them anyway, each line saying what was shown."))
 
 
 def partial_data(label: Any) -> list[str]:
@@ -129,11 +141,11 @@ class RecipeMismatch(ValueError):
 
     def __init__(self, differences: Sequence[str]) -> None:
         self.differences = list(differences)
-        super().__init__(
-            "cannot set the run beside these published numbers: it was not trained by the recipe behind them:\n"
-            + "\n".join(f"  - {difference}" for difference in self.differences)
-            + "\nTrain with the published row's recipe (examples/train.py --recipe NAME; --recipe list), or pass "
-              "allow_recipe_mismatch=True (--allow-recipe-mismatch) to show it anyway, each line saying what differs.")
+        super().__init__(refusal(
+            "cannot set the run beside these published numbers: it was not trained by the recipe behind them",
+            self.differences,
+            "Train with the published row's recipe (examples/train.py --recipe NAME; --recipe list), or pass "
+            "allow_recipe_mismatch=True (--allow-recipe-mismatch) to show it anyway, each line saying what differs."))
 
 
 def run_recipe(rows: Sequence[Mapping[str, Any]]) -> tuple[str | None, dict[str, Any]]:

@@ -4,7 +4,7 @@ RL-ViGen's robosuite setting: a Panda arm under the ``OSC_POSE`` controller, the
 camera at 84×84, shaped rewards, 20 Hz control, 500-step episodes (a time-limit truncation),
 action repeat 1. TorchRL has no robosuite wrapper; :class:`RobosuitePixelEnv` is one, following
 TorchRL's wrapper conventions (specs, seeding, ``_reset``/``_step``). robosuite itself is imported
-when the first env is built. :mod:`vigen.envs.robosuite` (the suite record) adds the levels,
+when the first env is built. :mod:`vigen.envs.robosuite.suite` (the suite record) adds the levels,
 channel-first frames and the frame stack.
 """
 
@@ -34,7 +34,7 @@ class RobosuiteScene:
     """The :class:`~vigen.transforms.scene.SceneHandle` of a robosuite env's ``MjSim``.
 
     Examples:
-        >>> from vigen.envs.robosuite_env import RobosuitePixelEnv
+        >>> from vigen.envs.robosuite.env import RobosuitePixelEnv
         >>> scene = RobosuitePixelEnv("lift", image_size=32).scene  # doctest: +SKIP
         >>> scene.segmentation().shape  # doctest: +SKIP
         (32, 32, 2)
@@ -93,7 +93,7 @@ class RobosuitePixelEnv(_EnvWrapper):
     Reference: RL-ViGen, https://arxiv.org/abs/2307.10224; robosuite, https://robosuite.ai.
 
     Examples:
-        >>> from vigen.envs.robosuite_env import RobosuitePixelEnv
+        >>> from vigen.envs.robosuite.env import RobosuitePixelEnv
         >>> env = RobosuitePixelEnv("lift", seed=0)  # doctest: +SKIP
         >>> env.rollout(3)["next", "pixels"].shape  # doctest: +SKIP
         torch.Size([3, 84, 84, 3])

@@ -11,7 +11,7 @@ first:
 * :class:`DMCPixelEnv` (a TorchRL ``DMControlWrapper``): specs, seeding, ``terminated`` /
   ``truncated`` from the discount, and the live ``physics``.
 
-:mod:`vigen.envs.dmc` (the suite record) adds the levels, channel-first frames and the frame stack.
+:mod:`vigen.envs.dmc.suite` (the suite record) adds the levels, channel-first frames and the frame stack.
 """
 
 from __future__ import annotations
@@ -194,7 +194,7 @@ class DMCPixelEnv(DMControlWrapper):
     Reference: DrQ-v2, https://arxiv.org/abs/2107.09645 (its ``dmc.py`` sets up the same env).
 
     Examples:
-        >>> from vigen.envs.dmc_env import DMCPixelEnv
+        >>> from vigen.envs.dmc.env import DMCPixelEnv
         >>> env = DMCPixelEnv("walker", "walk", seed=0)
         >>> env
         DMCPixelEnv(walker-walk, camera_id=0, image_size=84, action_repeat=2, episode_length=1000)
@@ -275,7 +275,7 @@ class DMCPixelEnv(DMControlWrapper):
         :class:`vigen.envs.SimulatorTimes` turns them into per-step figures.
 
         Examples:
-            >>> from vigen.envs.dmc_env import DMCPixelEnv
+            >>> from vigen.envs.dmc.env import DMCPixelEnv
             >>> env = DMCPixelEnv("cartpole", "balance", image_size=16, seed=0)
             >>> _ = env.rollout(3)
             >>> {name: seconds > 0 for name, seconds in env.simulator_seconds.items()}

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import pytest
 import torch
 from torch import nn
 
-from vigen.models import AttributionDecoder, Actor, Critic, CURLHead, DrQv2Encoder, ProjectedEncoder, SharedCNN
+from vigen.models import (AttributionDecoder, Actor, Critic, CURLHead, DrQv2Encoder, PerFrameEncoder, PIEGEncoder,
+                          ProjectedEncoder, SharedCNN, VRL3Encoder)
 
 
 @pytest.mark.parametrize(
@@ -40,19 +42,34 @@ def test_pixels_are_scaled_like_drqv2():
     assert torch.allclose(encoder(x.float() / 255), expected, atol=1e-6)
 
 
-@pytest.mark.parametrize("make", [lambda **kw: DrQv2Encoder(3, **kw), lambda **kw: SharedCNN(3, **kw),
-                                  lambda **kw: ProjectedEncoder(3, image_size=44, **kw)])
+def _pieg(**kw) -> PIEGEncoder:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # no ImageNet weights here: random ResNet weights
+        return PIEGEncoder(6, image_size=44, out_dim=32, **kw)
+
+
+def _vrl3(**kw) -> VRL3Encoder:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # no stage-1 weights here: random initialisation
+        return VRL3Encoder(6, **kw)
+
+
+@pytest.mark.parametrize("make", [lambda **kw: DrQv2Encoder(6, **kw), lambda **kw: SharedCNN(6, **kw),
+                                  lambda **kw: ProjectedEncoder(6, image_size=44, **kw), lambda **kw: PerFrameEncoder(6, **kw),
+                                  _vrl3, _pieg], ids=["drqv2", "shared_cnn", "projected", "per_frame", "vrl3", "pieg"])
 def test_encoders_take_the_pixel_contract(make):
-    """Float pixels are 0–max_value (1.0 unless declared): a wrong scale or layout raises instead of encoding."""
-    x = torch.randint(0, 256, (2, 3, 44, 44), dtype=torch.uint8)
+    """Every encoder: float pixels are 0–max_value (1.0 unless declared, TorchRL's ToTensorImage scale), uint8 is 0–255;
+    a wrong scale or layout raises instead of encoding. (MaDi's masker, whose output is pixels: test/losses/test_madi.py.)"""
+    x = torch.randint(0, 256, (2, 6, 44, 44), dtype=torch.uint8)
     encoder = make()
+    assert torch.allclose(encoder(x.float() / 255), encoder(x), atol=1e-5), "ToTensorImage's 0–1 floats"
     with pytest.raises(ValueError, match="max_value=255"):
         encoder(x.float())  # 0–255 floats without saying so would be scaled 255 times too bright
     with pytest.raises(ValueError, match="channels-first"):
-        encoder(torch.rand(2, 44, 44, 3))
+        encoder(torch.rand(2, 44, 44, 6))
     declared = make(max_value=255)
     declared.load_state_dict(encoder.state_dict())
-    assert torch.allclose(declared(x.float()), encoder(x), atol=1e-6)
+    assert torch.allclose(declared(x.float()), encoder(x), atol=1e-5)
     assert torch.equal(declared(x), encoder(x)), "uint8 is 0–255 whatever max_value says"
     with pytest.raises(ValueError, match="max_value"):
         make(max_value=0)

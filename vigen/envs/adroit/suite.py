@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import math
 
-from vigen.envs.adroit_env import TASKS, AdroitPixelEnv
-from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
+from vigen.envs.adroit.env import TASKS, AdroitPixelEnv
+from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, NO_LIGHT_SHIFT, pixel_corruption_factors
 from vigen.envs.level_types import Factor, Level, Scaled, StandInImages, Step
 from vigen.envs.suite import Suite
 from vigen.transforms import (
@@ -98,8 +98,6 @@ FLOOR_PARTS = ("groundplane", "MatGnd", "ground", "MatPlane")
 
 OBJECT_PARTS = ("object", "MatFoil", "MatWood", "MatSquare", "board", "handle", "head", "neck", "pen", "top", "bot", "cli")
 """Name prefixes of the door, hammer, nail board and pen materials and geoms."""
-
-NO_LIGHT_SHIFT = {"position_offset": None, "diffuse_offset": None}
 
 FACTORS: dict[str, Factor] = {
     "background_color": Factor((Step(RandomMaterialColors, {"mix": Scaled(1.0), "include": FLOOR_PARTS}),)),

@@ -8,7 +8,7 @@ Menagerie checkout, the same names load Menagerie's files instead, and ``a1`` (R
 robot, which no installable package carries) becomes available.
 
 Nothing here copies a model file: the paths are resolved in the installed package or the user's
-folder, and :mod:`vigen.envs.loco_scene` builds the scene around them in memory.
+folder, and :mod:`vigen.envs.loco.scene` builds the scene around them in memory.
 
 Examples:
     >>> ROBOT_MODELS["go1"].kind, ROBOT_MODELS["go1"].menagerie

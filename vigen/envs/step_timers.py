@@ -4,7 +4,7 @@
 
 * :class:`SimulatorTimes` writes ``time_physics`` and ``time_render``: the seconds of this step
   spent in the simulator and in rendering, read from a base env that counts them (vigen's
-  dm_control and loco envs, :attr:`vigen.envs.dmc_env.DMCPixelEnv.simulator_seconds`); NaN for
+  dm_control and loco envs, :attr:`vigen.envs.dmc.env.DMCPixelEnv.simulator_seconds`); NaN for
   a base env that does not;
 * TorchRL's ``Timer`` writes ``time_step`` (the whole step, every transform included),
   ``time_policy`` (from the end of one step to the start of the next: the policy, and the
@@ -33,13 +33,13 @@ class SimulatorTimes(Transform):
     """Writes the seconds each step spent in the simulator's physics and in rendering (``time_physics``, ``time_render``).
 
     The base env must count them in a ``simulator_seconds`` property (``{"physics": s, "render":
-    s}``, summed since it was built; :class:`vigen.envs.dmc_env.DMCPixelEnv` does); each step gets
+    s}``, summed since it was built; :class:`vigen.envs.dmc.env.DMCPixelEnv` does); each step gets
     the increase since the previous one. Resets write 0 (their time is TorchRL ``Timer``'s
     ``time_reset``). A base env that does not count them gets NaN.
 
     Examples:
         >>> from vigen.envs import make_env
-        >>> from vigen.envs.timing import SimulatorTimes
+        >>> from vigen.envs.step_timers import SimulatorTimes
         >>> env = make_env("dmc/cartpole-balance", image_size=16, seed=0).append_transform(SimulatorTimes())
         >>> steps = env.rollout(3)
         >>> bool((steps["next", "time_render"] > 0).all()), steps["time_physics"][0].item()
@@ -91,7 +91,7 @@ def add_step_timers(env: EnvBase) -> EnvBase:
 
     Examples:
         >>> from vigen.envs import make_env
-        >>> from vigen.envs.timing import add_step_timers, step_times
+        >>> from vigen.envs.step_timers import add_step_timers, step_times
         >>> env = add_step_timers(make_env("dmc/cartpole-balance", image_size=16, seed=0))
         >>> times = step_times(env.rollout(4))
         >>> sorted(times), times["step"] >= times["render"] > 0

@@ -2,7 +2,7 @@
 
 RL-ViGen adds four tasks to its dm_control copy, on MuJoCo Menagerie's Unitree A1 and Franka Panda,
 each with its own reward (``envs/DMCVGB``). vigen builds them from installable models (the Go1 for
-the A1, see :mod:`vigen.envs.robot_models`; ``model_dir=`` loads Menagerie's), with RL-ViGen's
+the A1, see :mod:`vigen.envs.loco.robot_models`; ``model_dir=`` loads Menagerie's), with RL-ViGen's
 frames (84×84, a stack of 3, action repeat 2, 10 s episodes) and its generalization knobs as
 levels:
 
@@ -14,7 +14,7 @@ levels:
 * ``objects_color_*``: the robot shifted by one preset's ``self_rgb − (0.7, 0.5, 0.3)``, drawn the same
   way (``wrappers.py:53-56``), as RL-ViGen's ``self_rgb`` edits of its shared materials
   (``suite/common/settings.py:51-70``): the Unitree's every material, the Franka's shared ``white`` only
-  (:data:`~vigen.envs.loco_scene.WHITE_MATERIAL`), unclipped as RL-ViGen writes them. On
+  (:data:`~vigen.envs.loco.scene.WHITE_MATERIAL`), unclipped as RL-ViGen writes them. On
   ``franka-push`` RL-ViGen also recolours the box's material, which the box's own ``rgba`` overrides
   (``scene_push.xml``): its box never changes colour, and vigen's does not either (the
   ``object_color`` factor recolours it);
@@ -44,7 +44,7 @@ levels:
   Unitree quadruped with the same 12 joints in the same order.
 
 Examples:
-    >>> from vigen.envs.loco import LOCO
+    >>> from vigen.envs.loco.suite import LOCO
     >>> LOCO.env_names()
     ['loco/unitree-stand', 'loco/unitree-walk', 'loco/franka-reach', 'loco/franka-push']
     >>> LOCO.groups["rlvigen"]
@@ -58,9 +58,9 @@ from typing import Any
 
 from torchrl.envs import DoubleToFloat, EnvBase
 
-from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
+from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, NO_LIGHT_SHIFT, pixel_corruption_factors
 from vigen.envs.level_types import ByTask, Choice, Derived, Factor, FetchedData, Level, LevelContext, Scaled, StandInImages, Step
-from vigen.envs.loco_scene import FLOOR_MATERIAL, MAX_MESH_FACES, WHITE_MATERIAL
+from vigen.envs.loco.scene import FLOOR_MATERIAL, MAX_MESH_FACES, WHITE_MATERIAL
 from vigen.envs.suite import Suite
 from vigen.transforms import (
     DistractingCamera,
@@ -77,10 +77,8 @@ from vigen.transforms.scene.rlvigen_draws import RLViGenDraws
 TASKS = ("unitree-stand", "unitree-walk", "franka-reach", "franka-push")
 """RL-ViGen's ``unitree_stand``, ``unitree_walk``, ``franka_reach`` and ``franka_push``."""
 
-SOURCE = "RL-ViGen DMCVGB (gemcollector/RL-ViGen, envs/DMCVGB/cfg/config.yaml and dmcvgb/wrappers.py)"
-
 ROBOT_PARTS = ("robot",)
-"""Name prefix of the robot's materials (every visible robot geom has one, see :mod:`vigen.envs.loco_scene`)."""
+"""Name prefix of the robot's materials (every visible robot geom has one, see :mod:`vigen.envs.loco.scene`)."""
 
 RECOLOURED_PARTS = {task: ("robot",) if task.startswith("unitree") else (WHITE_MATERIAL,) for task in TASKS}
 """What RL-ViGen's ``objects_color`` recolours per task: the Unitree's materials (``dark`` and ``carbonfibre``, its
@@ -98,8 +96,6 @@ VIDEO_COUNT = {"easy": 10, "hard": 100}
 
 CAMERA_POSITION = {"easy": 0.08, "hard": 0.15}
 """RL-ViGen's ``cam_pos``: U(±0.08) or U(±0.15) per coordinate of the world position (``dmc2gym/wrappers.py:98–106``)."""
-
-NO_LIGHT_SHIFT = {"position_offset": None, "diffuse_offset": None}
 
 
 @dataclass(frozen=True, repr=False)
@@ -320,8 +316,8 @@ frame once per episode (a trunk camera follows the robot). So those levels are n
 
 
 def build_loco_base(task: str, *, seed: int | None = None, **options: Any) -> EnvBase:
-    """The raw-frame base env of ``"loco/<task>"``: a :class:`~vigen.envs.loco_env.LocoPixelEnv` (imports dm_control)."""
-    from vigen.envs.loco_env import LocoPixelEnv
+    """The raw-frame base env of ``"loco/<task>"``: a :class:`~vigen.envs.loco.env.LocoPixelEnv` (imports dm_control)."""
+    from vigen.envs.loco.env import LocoPixelEnv
 
     return LocoPixelEnv(task, seed=seed, **options)
 

@@ -51,7 +51,7 @@ from dm_control.suite import base
 from dm_control.utils import rewards
 from dm_env import specs
 
-from vigen.envs.loco_scene import LEGS, LEG_JOINTS, LocoScene
+from vigen.envs.loco.scene import LEGS, LEG_JOINTS, LocoScene
 
 ACTION_MAPPINGS = ("scaled", "rlvigen_train")
 """How an action in [-1, 1] becomes the servo targets: scaled onto the control ranges, or RL-ViGen's training path (raw, clipped)."""
@@ -169,7 +169,7 @@ def pinned_camera_positions(scene: LocoScene, offset: float, seed: int | None) -
     and added to ``cam_xpos`` as the env is made (its bodies in the start pose).
 
     Examples:
-        >>> from vigen.envs.loco_scene import build_scene
+        >>> from vigen.envs.loco.scene import build_scene
         >>> scene = build_scene("franka-reach")
         >>> start = pinned_camera_positions(scene, 0.0, seed=0)
         >>> moved = pinned_camera_positions(scene, 0.08, seed=0)
@@ -240,7 +240,7 @@ class QuadrupedTask(ScaledActionTask):
     """RL-ViGen's ``unitree_stand`` (``walk=False``: rise from a folded pose) and ``unitree_walk`` (1 m/s along x).
 
     Examples:
-        >>> from vigen.envs.loco_scene import build_scene
+        >>> from vigen.envs.loco.scene import build_scene
         >>> env = make_control_env(build_scene("unitree-stand"), seed=0)
         >>> time_step = env.reset()
         >>> round(env.task.readings(env.physics)["height"], 3), env.action_spec().shape
@@ -279,7 +279,7 @@ class FrankaTask(ScaledActionTask):
     """RL-ViGen's ``franka_reach`` (fingers to a target ball) and ``franka_push`` (a box onto a goal square).
 
     Examples:
-        >>> from vigen.envs.loco_scene import build_scene
+        >>> from vigen.envs.loco.scene import build_scene
         >>> env = make_control_env(build_scene("franka-push"), seed=0)
         >>> time_step = env.reset()
         >>> sorted(env.task.readings(env.physics)), env.action_spec().shape

@@ -1,10 +1,10 @@
 """The ``loco`` suite's tasks as TorchRL base envs: the scene, RL-ViGen's task, and the dm_control pixel chain of ``dmc/``.
 
-A :class:`LocoPixelEnv` is a :class:`~vigen.envs.dmc_env.DMCPixelEnv` whose dm_control
-environment comes from :func:`~vigen.envs.loco_scene.build_scene` and
-:func:`~vigen.envs.loco_tasks.make_control_env` instead of ``suite.load``: the same action
+A :class:`LocoPixelEnv` is a :class:`~vigen.envs.dmc.env.DMCPixelEnv` whose dm_control
+environment comes from :func:`~vigen.envs.loco.scene.build_scene` and
+:func:`~vigen.envs.loco.tasks.make_control_env` instead of ``suite.load``: the same action
 repeat (2), 84×84 frames, episodes of 1000 control steps (10 s) ending as truncations, seeding,
-and :class:`~vigen.envs.dmc_env.DMCScene` handle for the scene perturbations.
+and :class:`~vigen.envs.dmc.env.DMCScene` handle for the scene perturbations.
 
 Where RL-ViGen's training differs from that, an option reproduces it: ``action_mapping="rlvigen_train"``
 (raw actions, clipped by the simulator), ``time_limit_as="terminated"`` (its ``Gym2DMC`` gives discount 0
@@ -20,9 +20,9 @@ from typing import Any
 import dm_env
 import torch
 
-from vigen.envs.dmc_env import ActionRepeat, DMCPixelEnv
-from vigen.envs.loco_scene import MAX_MESH_FACES, build_scene
-from vigen.envs.loco_tasks import ACTION_MAPPINGS, make_control_env, pinned_camera_positions
+from vigen.envs.dmc.env import ActionRepeat, DMCPixelEnv
+from vigen.envs.loco.scene import MAX_MESH_FACES, build_scene
+from vigen.envs.loco.tasks import ACTION_MAPPINGS, make_control_env, pinned_camera_positions
 from vigen.envs.pixels import check_env_arguments
 from vigen.rendering import RenderSettings
 
@@ -35,11 +35,11 @@ class TerminalTimeLimit(ActionRepeat):
 
     RL-ViGen's ``Gym2DMC`` (``wrappers/loco_wrapper.py:37–39``) turns every ``done``, the 10 s time
     limit included, into discount 0, so its agents never bootstrap past the last step. TorchRL reads
-    discount 0 as ``terminated``. (An :class:`~vigen.envs.dmc_env.ActionRepeat` of one step whose last
+    discount 0 as ``terminated``. (An :class:`~vigen.envs.dmc.env.ActionRepeat` of one step whose last
     step has discount 0.)
 
     Examples:
-        >>> from vigen.envs.loco_scene import build_scene
+        >>> from vigen.envs.loco.scene import build_scene
         >>> env = TerminalTimeLimit(make_control_env(build_scene("franka-reach"), seed=0), episode_length=2)
         >>> _ = env.reset()
         >>> [(step.last(), step.discount) for step in (env.step([0.0] * 8), env.step([0.0] * 8))]
@@ -73,12 +73,12 @@ class LocoPixelEnv(DMCPixelEnv):
         render_settings: MuJoCo render quality; ``None`` keeps dm_control's defaults.
         action_mapping: ``"scaled"`` ([-1, 1] mapped onto the servo ranges, RL-ViGen's evaluator) or
             ``"rlvigen_train"`` (RL-ViGen's training: raw actions, clipped to the ranges); see
-            :func:`~vigen.envs.loco_tasks.source_command`.
+            :func:`~vigen.envs.loco.tasks.source_command`.
         time_limit_as: ``"truncated"`` (discount 1 at ``episode_length``: agents bootstrap) or ``"terminated"``
             (RL-ViGen's training: discount 0).
         camera_offset: RL-ViGen's ``cam_pos`` level, 0 (off), 0.08 (easy) or 0.15 (hard): every camera's world
             position pinned at its start plus U(±offset) per axis, drawn once per seed
-            (:func:`~vigen.envs.loco_tasks.pinned_camera_positions`).
+            (:func:`~vigen.envs.loco.tasks.pinned_camera_positions`).
         start_clearance: quadrupeds: metres from the lowest collision geom to the floor at the start;
             ``None``: 5 mm (stand) or 1 cm (walk); ``-0.02`` is RL-ViGen's sunk ``stand`` start; ``"rlvigen"`` is
             RL-ViGen's start of each task (stand −2 cm, walk 1 cm; the Franka tasks ignore it).

@@ -1,6 +1,6 @@
 """Adroit dexterous-hand tasks (gymnasium-robotics) as TorchRL base envs (the simulator side of the ``adroit`` suite).
 
-gymnasium-robotics is imported when the first env is built. :mod:`vigen.envs.adroit` (the suite
+gymnasium-robotics is imported when the first env is built. :mod:`vigen.envs.adroit.suite` (the suite
 record) adds the levels, channel-first frames and the frame stack.
 """
 
@@ -87,7 +87,7 @@ class AdroitPixelEnv(_EnvWrapper):
     Reference: RL-ViGen, https://arxiv.org/abs/2307.10224; Adroit (DAPG), https://arxiv.org/abs/1709.10087.
 
     Examples:
-        >>> from vigen.envs.adroit_env import AdroitPixelEnv
+        >>> from vigen.envs.adroit.env import AdroitPixelEnv
         >>> env = AdroitPixelEnv("door", seed=0)  # doctest: +SKIP
         >>> env.rollout(3)["next", "pixels"].shape  # doctest: +SKIP
         torch.Size([3, 84, 84, 3])

@@ -1,26 +1,24 @@
 """The ``dmc`` suite: dm_control tasks as pixel envs (DrQ-v2's setup), with DMC-GB's, RL-ViGen's and ImageNet-C's levels.
 
-The suite record :data:`DMC` holds the task names, the builder (:mod:`vigen.envs.dmc_env`, which
+The suite record :data:`DMC` holds the task names, the builder (:mod:`vigen.envs.dmc.env`, which
 imports dm_control when the first env is built), the level table, groups and factors.
 
 Examples:
-    >>> from vigen.envs.dmc import DMC
+    >>> from vigen.envs.dmc.suite import DMC
     >>> DMC.levels["color_hard"].steps
     (RandomSceneColors(palette='color_hard', scale=0.2, rebuild_textures=True, dmcgb2_file='color_hard.pt'),)
 """
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 from torchrl.envs import DoubleToFloat, EnvBase
 
-from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
+from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, NO_LIGHT_SHIFT, pixel_corruption_factors
 from vigen.envs.level_types import Derived, Factor, FetchedData, Level, LevelContext, Scaled, Step
-from vigen.envs.pixels import PixelEnv
 from vigen.envs.suite import Suite
 from vigen.transforms import (
     DistractingCamera,
@@ -267,9 +265,6 @@ GROUPS: dict[str, list[str]] = {
     "all": list(LEVELS),
 }
 
-NO_LIGHT_SHIFT = {"position_offset": None, "diffuse_offset": None}
-"""RandomLighting parameters that leave position and colour alone (each lighting factor sets one thing)."""
-
 FACTORS: dict[str, Factor] = {
     "background_color": Factor((Step(RandomSceneColors, {"scale": Scaled(1.0), "parts": ("grid", "skybox")}),)),
     "object_color": Factor((Step(RandomSceneColors, {"scale": Scaled(1.0), "parts": ("self",)}),)),
@@ -293,14 +288,14 @@ DMC-GB's presets instead (RL-ViGen's definition), so they are not points on it."
 
 def dmc_tasks() -> list[str]:
     """The ``"<domain>-<task>"`` names of every dm_control suite task (imports dm_control)."""
-    from vigen.envs.dmc_env import task_names
+    from vigen.envs.dmc.env import task_names
 
     return task_names()
 
 
 def build_dmc_base(task: str, *, seed: int | None = None, **options: Any) -> EnvBase:
-    """The raw-frame base env of ``"dmc/<domain>-<task>"``: a :class:`~vigen.envs.dmc_env.DMCPixelEnv` (imports dm_control)."""
-    from vigen.envs.dmc_env import DMCPixelEnv
+    """The raw-frame base env of ``"dmc/<domain>-<task>"``: a :class:`~vigen.envs.dmc.env.DMCPixelEnv` (imports dm_control)."""
+    from vigen.envs.dmc.env import DMCPixelEnv
 
     domain, _, name = task.partition("-")
     return DMCPixelEnv(domain, name, seed=seed, **options)
@@ -321,18 +316,3 @@ DMC = Suite(
 )
 """The dm_control suite record."""
 
-
-def make_dmc_env(domain: str, task: str, **kwargs: Any) -> PixelEnv:
-    """Deprecated: ``make_env(f"dmc/{domain}-{task}", **kwargs)``, the one builder of every suite, does the same.
-
-    Examples:
-        >>> import warnings
-        >>> with warnings.catch_warnings(record=True) as caught:
-        ...     warnings.simplefilter("always")
-        ...     env = make_dmc_env("walker", "walk", seed=0, image_size=32)
-        >>> caught[0].category.__name__, env.reset()["pixels"].shape
-        ('DeprecationWarning', torch.Size([9, 32, 32]))
-    """
-    warnings.warn(f'make_dmc_env is deprecated; use vigen.envs.make_env("dmc/{domain}-{task}", ...), which takes the same '
-                  "arguments.", DeprecationWarning, stacklevel=2)
-    return DMC.make(f"{domain}-{task}", **kwargs)

@@ -2,14 +2,14 @@
 
 RL-ViGen's levels (its ``eval-easy``/``medium``/``hard`` scene presets from SECANT, its camera
 ranges and its cross-embodiment robots) are made of vigen's scene transforms, the same classes as
-for dm_control, acting on the live model through :class:`~vigen.envs.robosuite_env.RobosuiteScene`.
+for dm_control, acting on the live model through :class:`~vigen.envs.robosuite.env.RobosuiteScene`.
 A level shows one of 10 scenes (RL-ViGen's ``scene_id``): the texture draw and the ``hard`` video
 follow the scene id (:class:`~vigen.envs.level_types.SceneIndex`). robosuite's own modders are not
 used: on mujoco 3 they write to renamed texture fields, do not re-upload textures to an existing
 render context, and save their defaults against a stale sim after a hard reset.
 
 Examples:
-    >>> from vigen.envs.robosuite import ROBOSUITE
+    >>> from vigen.envs.robosuite.suite import ROBOSUITE
     >>> ROBOSUITE.groups["rlvigen"]
     ['easy', 'medium', 'hard']
 """
@@ -20,9 +20,9 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, pixel_corruption_factors
+from vigen.envs.factors import CAMERA_FOV, CAMERA_ROTATION, DYNAMIC_COLOR, LIGHT_COLOR, NO_LIGHT_SHIFT, pixel_corruption_factors
 from vigen.envs.level_types import ByTask, Choice, Factor, Level, Scaled, SceneIndex, Step
-from vigen.envs.robosuite_env import ROBOTS, TASKS, RobosuitePixelEnv
+from vigen.envs.robosuite.env import ROBOTS, TASKS, RobosuitePixelEnv
 from vigen.envs.suite import Suite
 from vigen.transforms import (
     DistractingCamera,
@@ -147,8 +147,6 @@ GROUPS: dict[str, list[str]] = {
     "embodiment": [f"robot_{robot.lower()}" for robot in ROBOTS[1:]],
     "all": list(LEVELS),
 }
-
-NO_LIGHT_SHIFT = {"position_offset": None, "diffuse_offset": None}
 
 FACTORS: dict[str, Factor] = {
     "background_color": Factor((Step(RandomMaterialColors, {"mix": Scaled(1.0), "include": ("floor", "wall")}),)),

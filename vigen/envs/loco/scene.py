@@ -6,7 +6,7 @@ dm_control-style world (its skybox, ``grid`` floor material and visual settings,
 installed dm_control), RL-ViGen's light, cameras, table and task objects, the Unitree's own floor
 (RL-ViGen's ``groundplane`` material, :data:`GROUNDPLANE_XML`; the Franka stands on dm_control's ``grid``,
 as in RL-ViGen), and the robot attached
-from :func:`~vigen.envs.robot_models.robot_model_path`. Then the robot is given RL-ViGen's
+from :func:`~vigen.envs.loco.robot_models.robot_model_path`. Then the robot is given RL-ViGen's
 actuation, whatever its source file had:
 
 * quadrupeds: one position servo per leg joint (kp 100, as Menagerie's A1), in the order FR, FL,
@@ -42,7 +42,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from vigen.envs.robot_models import ROBOT_MODELS, gripper_model_path, robot_model, robot_model_path
+from vigen.envs.loco.robot_models import ROBOT_MODELS, gripper_model_path, robot_model, robot_model_path
 
 TASK_ROBOT_KIND = {"unitree-stand": "quadruped", "unitree-walk": "quadruped", "franka-reach": "arm", "franka-push": "arm"}
 """Task -> the kind of robot it takes."""
