@@ -41,7 +41,32 @@ class TwoViewCritic:
         return self.q1[self.features.shape[0]:].detach().mean()
 
 
-def svea_critic(loss: ActorCriticLoss, tensordict: TensorDictBase, batch: Batch, *, augment_next: bool = True,
+class TwoViewLoss(ActorCriticLoss):
+    """What a loss with SVEA's critic (:func:`svea_critic`) is built with: its strong view and whether the next view is shifted.
+
+    It holds the options only; each loss on it writes its own ``forward`` (:class:`SVEALoss`,
+    :class:`~vigen.losses.SADALoss`, :class:`~vigen.losses.PIEGLoss`).
+
+    Args:
+        encoder, actor, critic: the networks (see :class:`~vigen.losses.ActorCriticLoss`).
+        strong_augmentation: applied on top of the weak view (SVEA: ``RandomOverlay(alpha=0.5)``);
+            ``None`` makes the strong view the weak one.
+        weak_weight, strong_weight: w and w̃, the weights of the two views' TD errors (buffers,
+            schedulable: ``loss.strong_weight = 0.3``).
+        augment_next: shift the next observation too (RL-ViGen, SimGRL); ``False`` leaves it as
+            stored (MaDi's fork of DMC-GB).
+        **options: ``sampler``, ``augmentation`` (the weak view) and the rest of
+            :class:`~vigen.losses.ActorCriticLoss`'s.
+    """
+
+    def __init__(self, encoder: nn.Module, actor: nn.Module, critic: nn.Module, *, strong_augmentation: Augmentations,
+                 weak_weight: float, strong_weight: float, augment_next: bool, **options: Any) -> None:
+        super().__init__(encoder, actor, critic, **options)
+        self.add_strong_view(strong_augmentation, weak_weight, strong_weight)
+        self.augment_next = bool(augment_next)
+
+
+def svea_critic(loss: TwoViewLoss, tensordict: TensorDictBase, batch: Batch, *, augment_next: bool = True,
                 one_encoder_pass: bool = True) -> TwoViewCritic:
     """SVEA's critic: the weak view ``s = shift(obs)``, the strong view ``s̃ = strong(s)``, both scored against one target.
 
@@ -74,31 +99,6 @@ def svea_critic(loss: ActorCriticLoss, tensordict: TensorDictBase, batch: Batch,
     q1, q2 = loss.q_values(torch.cat([features, strong_features]), batch.action.repeat(2, 1))
     td = weighted_td_errors(q1, q2, target, [loss.weak_weight, loss.strong_weight])
     return TwoViewCritic(target, features, strong_features, q1, q2, td)
-
-
-class TwoViewLoss(ActorCriticLoss):
-    """What a loss with SVEA's critic (:func:`svea_critic`) is built with: its strong view and whether the next view is shifted.
-
-    It holds the options only; each loss on it writes its own ``forward`` (:class:`SVEALoss`,
-    :class:`~vigen.losses.SADALoss`, :class:`~vigen.losses.PIEGLoss`).
-
-    Args:
-        encoder, actor, critic: the networks (see :class:`~vigen.losses.ActorCriticLoss`).
-        strong_augmentation: applied on top of the weak view (SVEA: ``RandomOverlay(alpha=0.5)``);
-            ``None`` makes the strong view the weak one.
-        weak_weight, strong_weight: w and w̃, the weights of the two views' TD errors (buffers,
-            schedulable: ``loss.strong_weight = 0.3``).
-        augment_next: shift the next observation too (RL-ViGen, SimGRL); ``False`` leaves it as
-            stored (MaDi's fork of DMC-GB).
-        **options: ``sampler``, ``augmentation`` (the weak view) and the rest of
-            :class:`~vigen.losses.ActorCriticLoss`'s.
-    """
-
-    def __init__(self, encoder: nn.Module, actor: nn.Module, critic: nn.Module, *, strong_augmentation: Augmentations,
-                 weak_weight: float, strong_weight: float, augment_next: bool, **options: Any) -> None:
-        super().__init__(encoder, actor, critic, **options)
-        self.add_strong_view(strong_augmentation, weak_weight, strong_weight)
-        self.augment_next = bool(augment_next)
 
 
 class SVEALoss(TwoViewLoss):
