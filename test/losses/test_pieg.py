@@ -33,7 +33,7 @@ class Invert(ImageAugmentation):
 
 
 def _deterministic(**kwargs) -> PIEGLoss:
-    return make_loss("pieg", augmentation=None, strong_augmentation=Invert(), std=0.0, **kwargs)
+    return make_loss("pieg", augmentation=None, strong_augmentation=Invert(), std_schedule=0.0, **kwargs)
 
 
 def _resnet_state(loss: PIEGLoss) -> dict[str, torch.Tensor]:

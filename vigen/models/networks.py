@@ -12,46 +12,11 @@ zero biases.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from types import MappingProxyType
-from typing import Any
-
 import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
 from vigen.pixel_format import check_max_value, check_pixels, white_value
-
-
-ACTOR_RENAMES: Mapping[str, str] = MappingProxyType({"policy": "action_head"})
-"""Submodules of :class:`Actor` and :class:`GaussianActor` renamed since vigen first wrote checkpoints: old name → today's.
-
-``policy`` (DrQ-v2's name for the MLP after the trunk) was one more meaning of "policy", which in
-vigen names the acting module only (issue 42); it is ``action_head``. A state dict with an old name
-loads bit for bit: the actors rename it when they load (:func:`rename_actor_keys`), the losses for
-their ``actor_params``. The shipped agents' weights (:mod:`vigen.pretrained`) keep the old names."""
-
-
-def rename_actor_keys(state_dict: dict[str, Any], prefix: str = "") -> None:
-    """Rename, in place, the keys of an actor's state dict under ``prefix`` from their old names (:data:`ACTOR_RENAMES`).
-
-    A key already under its new name wins: the old one is then left for ``load_state_dict`` to report.
-
-    Examples:
-        >>> state = {"actor.trunk.0.weight": 1, "actor.policy.0.weight": 2}
-        >>> rename_actor_keys(state, "actor.")
-        >>> sorted(state)
-        ['actor.action_head.0.weight', 'actor.trunk.0.weight']
-    """
-    for old, new in ACTOR_RENAMES.items():
-        for key in [key for key in state_dict if key.startswith(f"{prefix}{old}.")]:
-            renamed = f"{prefix}{new}{key[len(prefix) + len(old):]}"
-            if renamed not in state_dict:
-                state_dict[renamed] = state_dict.pop(key)
-
-
-def _load_old_names(module: nn.Module, state_dict: dict[str, Any], prefix: str, *args: Any) -> None:
-    rename_actor_keys(state_dict, prefix)
 
 
 def weight_init(module: nn.Module) -> None:
@@ -259,8 +224,8 @@ class Actor(nn.Module):
     """DrQ-v2's deterministic actor head: ``trunk`` Linear → LayerNorm → Tanh, then an MLP (``action_head``) and ``tanh``.
 
     Returns the action mean μ in [-1, 1]; the exploration noise (a clipped normal with scheduled
-    std) is added by the loss or the exploration module. DrQ-v2 calls the MLP ``policy``; a state
-    dict with that name loads (:data:`ACTOR_RENAMES`).
+    std) is added by the loss or the exploration module. (DrQ-v2 calls the MLP ``policy``; in vigen
+    "policy" names the acting module only.)
 
     Paper: DrQ-v2, https://arxiv.org/abs/2107.09645.
 
@@ -275,7 +240,6 @@ class Actor(nn.Module):
         self.trunk = _trunk(repr_dim, feature_dim)
         self.action_head = _mlp(feature_dim, hidden_dim, action_dim)
         self.apply(weight_init)
-        self.register_load_state_dict_pre_hook(_load_old_names)
 
     def forward(self, hidden: Tensor) -> Tensor:
         return torch.tanh(self.action_head(self.trunk(hidden)))
@@ -318,7 +282,6 @@ class GaussianActor(nn.Module):
         self.action_head = nn.Sequential(*layers)
         self.log_std_bounds = log_std_bounds
         self.apply(weight_init)
-        self.register_load_state_dict_pre_hook(_load_old_names)
 
     def forward(self, hidden: Tensor) -> tuple[Tensor, Tensor]:
         mean, log_std = self.action_head(self.trunk(hidden)).chunk(2, dim=-1)
