@@ -60,7 +60,7 @@ CI_SAMPLE: dict[str, tuple[str, ...]] = {
 
 def pytest_configure(config: pytest.Config) -> None:
     """Each xdist worker gets its share of the cores for torch's intra-op threads (two 2-thread workers on 2 cores crawl),
-    and an empty data cache: levels that find fetched data (``vigen.data``) show their stand-ins in tests, whatever the
+    and an empty data cache: levels that find fetched data (``vigen.datasets``) show their stand-ins in tests, whatever the
     user's own cache holds (the data tests point ``VIGEN_DATA`` at their own folders)."""
     os.environ["VIGEN_DATA"] = tempfile.mkdtemp(prefix="vigen-test-data-")
     workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))

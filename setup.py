@@ -43,6 +43,9 @@ install_requires = [
     "matplotlib>=3.7,<4",
     "tqdm>=4.60",
     "tyro>=1.0,<1.1",  # the example scripts' flags, from vigen.run's settings dataclasses (vigen.run.cli)
+    # vigen.datasets: pooch downloads, checks sha256 pins and unzips; filelock keeps two fetches of a data set apart
+    "pooch>=1.8,<2",
+    "filelock>=3.12,<5",
 ]
 
 extras_require = {
@@ -72,7 +75,7 @@ setup(
         "vigen.results": ["data/*.csv"],
         "vigen.pretrained": ["agents/*.pt", "agents/*.json"],
         "vigen.assets": ["data/*.json"],  # DMC-GB's colour presets (plain JSON, with their MIT notice)
-        "vigen.data": ["*.tsv"],  # the pinned file lists of the fetched data sets
+        "vigen.datasets": ["*.tsv"],  # the pinned file lists of the fetched data sets
     },
     python_requires=">=3.10",
     install_requires=install_requires,

@@ -31,8 +31,8 @@ from pathlib import Path
 import numpy as np
 
 import vigen  # noqa: F401  (selects the EGL backend before mujoco is imported)
-from vigen.envs.loco_scene import build_scene
-from vigen.envs.loco_tasks import make_control_env
+from vigen.envs.loco.scene import build_scene
+from vigen.envs.loco.tasks import make_control_env
 
 ACTION_REPEAT = 2
 RAMP_STEPS = 100

@@ -465,7 +465,7 @@ class Vigen:
             for name in ("encoder", "decoder"):
                 if name in nets:
                     nets[name].to(memory_format=torch.channels_last)
-        sampler = {"std": STD} if VIGEN_ALGOS[algo].takes_std else {}
+        sampler = {"std_schedule": STD} if VIGEN_ALGOS[algo].takes_std else {}
         self.loss: ActorCriticLoss = build_loss(algo, *nets.values(), **sampler, **views.get(algo, {}), channels_last=channels_last)
         self.loss.to(device)
         self.loss.make_value_estimator(gamma=GAMMA)

@@ -64,7 +64,7 @@ def transitions(count: int, shape: tuple[int, int, int], generator: torch.Genera
 def losses_py_update(shape: tuple[int, int, int], hidden: int, feature: int, device: torch.device) -> UpdateStep:
     """A: as benchmarks/losses.py builds vigen's side (make_networks, not channels-last weights; std 0.2; global RNG)."""
     nets = make_networks("drqv2", shape, ACTIONS, hidden_dim=hidden, feature_dim=feature)
-    loss = build_loss("drqv2", *nets.values(), std=0.2).to(device).make_value_estimator(gamma=GAMMA)
+    loss = build_loss("drqv2", *nets.values(), std_schedule=0.2).to(device).make_value_estimator(gamma=GAMMA)
     return UpdateStep(loss, torch.optim.Adam(loss.optimizer_groups(LR), fused=True), SoftUpdate(loss, tau=TAU))
 
 

@@ -70,7 +70,7 @@ class EvaluationConfig:
     videos: Annotated[tuple[str, ...], arg(metavar="[LEVEL=]FOLDER")] = ()
     ("video folders per level: LEVEL=FOLDER, LEVEL a level or a shell pattern (video_easy=DIR video_hard=DIR "
      "'dcs_*'=DAVIS), or one FOLDER for every video level; levels without one show the data fetched with python -m "
-     "vigen.data (docs/data.md), else procedural stand-ins")
+     "vigen.datasets (docs/data.md), else procedural stand-ins")
     episode_length: Annotated[int | None, unset_means("the run's")] = None
     """control steps per episode"""
     compare: Annotated[str | None, arg(constructor_factory=_comparisons), unset_means("none")] = None

@@ -5,9 +5,9 @@ render settings, and played for two short episodes (reset, 2 zero-action steps; 
 The newest frames of the observations are kept as their SHA-256 (exact) and the per-frame,
 per-channel means (for a readable report when the hash changes).
 
-    python scripts/golden_frames.py --out test/data/golden_frames.json               # every suite
+    python scripts/golden_frames.py --out test/envs/golden_frames.json               # every suite
     python scripts/golden_frames.py --out /tmp/after.json --frames /tmp/after.npz    # also the full frames
-    python scripts/golden_frames.py --out test/data/golden_frames.json --only 'dmc/*:color_*'  # re-record these, keep the rest
+    python scripts/golden_frames.py --out test/envs/golden_frames.json --only 'dmc/*:color_*'  # re-record these, keep the rest
 
 ``test/envs/test_golden_frames.py`` renders the same frames and compares them with the file, so
 a change of any level's pixels is caught. Regenerate it only when a level is meant to change.

@@ -43,7 +43,7 @@ from packaging.markers import Marker
 from packaging.requirements import Requirement
 from packaging.utils import canonicalize_name
 
-from vigen.data.checksums import sha256_file
+from vigen.datasets.verify import sha256_file
 
 ROOT = Path(__file__).resolve().parents[1]
 TRAVEL_LIMIT = 64 * 2**20  # what one device call may send: the working tree and the carried paths

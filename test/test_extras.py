@@ -67,7 +67,7 @@ def test_loco_models_come_from_the_installed_packages():
     pytest.importorskip("fast_simplification", reason="the loco extra is not installed: pip install -e '.[loco]'")
     import mujoco
 
-    from vigen.envs.robot_models import ROBOT_MODELS, robot_model_path
+    from vigen.envs.loco.robot_models import ROBOT_MODELS, robot_model_path
 
     for name, record in ROBOT_MODELS.items():
         if record.package is not None:  # every robot an installed package ships compiles under the pinned mujoco

@@ -2,7 +2,7 @@
 
 Rows, reports and shipped files are read on other machines; a path such as ``/work/vigen-data/...`` says nothing
 there and leaks the machine that made them. Checked: every file under ``docs/results/``, the data files of
-``vigen/**/data/`` and ``vigen/data/`` (not its code), everything under ``vigen/pretrained/`` but its code, and
+``vigen/**/data/`` and ``vigen/datasets/`` (not its code), everything under ``vigen/pretrained/`` but its code, and
 every csv / json / md / txt / tsv file under ``docs/``.
 """
 
@@ -24,15 +24,15 @@ def checked_files() -> list[Path]:
     files = {path for path in (docs / "results").rglob("*") if path.is_file()}
     files |= {path for path in docs.rglob("*") if path.suffix in TEXT_SUFFIXES}
     files |= {path for path in (ROOT / "vigen" / "pretrained").rglob("*") if path.suffix != ".py"}
-    files |= {path for folder in (ROOT / "vigen").rglob("data") if folder.is_dir() for path in folder.rglob("*")
-              if path.suffix != ".py"}
+    files |= {path for folder in [*(ROOT / "vigen").rglob("data"), ROOT / "vigen" / "datasets"] if folder.is_dir()
+              for path in folder.rglob("*") if path.suffix != ".py"}
     return sorted(path for path in files if path.is_file() and "__pycache__" not in path.parts)
 
 
 def test_the_checked_files_include_the_results_and_the_shipped_agents():
     names = {path.relative_to(ROOT).as_posix() for path in checked_files()}
     assert {"docs/results/cartpole-balance-benchmark-data/episodes.csv", "vigen/pretrained/agents/svea-cartpole-balance.json",
-            "vigen/data/dmcgb_videos.tsv", "vigen/results/data/madi.csv", "docs/testing.md"} <= names
+            "vigen/datasets/dmcgb_videos.tsv", "vigen/results/data/madi.csv", "docs/testing.md"} <= names
 
 
 @pytest.mark.parametrize("path", checked_files(), ids=lambda path: path.relative_to(ROOT).as_posix())

@@ -124,16 +124,16 @@ def test_each_shipped_agent_loads_and_acts_within_its_bounds(name):
 @pytest.mark.parametrize("name", SHIPPED)
 def test_each_shipped_agent_is_its_runs_agent_with_the_files_weights_bit_for_bit(name):
     stored = torch.load(policy_file(name), weights_only=True)["parts"]
-    assert any(key.startswith("policy.") for key in stored["actor"]), "the shipped files keep the actor's old MLP name"
+    assert not any(key.startswith("policy.") for key in stored["actor"]), "re-exported with today's names (issue 47)"
     shipped = load_agent(name)
     assert shipped.config == TrainConfig.from_json(info(name)["config"]) and shipped.frames == info(name)["frames"]
     assert type(shipped.agent.loss).__name__ == {"drqv2": "DrQv2Loss", "svea": "SVEALoss"}[shipped.config.algo]
     assert shipped.agent.exploration_noise.sigma == 0, "built with the run's config, acting without noise"
     for part, tensors in stored.items():
         state = getattr(shipped.agent.loss, part).state_dict()
+        assert set(state) == set(tensors), f"{part}: the file holds the module's keys, no more, no fewer"
         for key, value in tensors.items():
-            today = "action_head." + key.removeprefix("policy.") if part == "actor" and key.startswith("policy.") else key
-            assert state[today].dtype == torch.float32 and torch.equal(state[today], value.float()), f"{part}.{key}"
+            assert state[key].dtype == torch.float32 and torch.equal(state[key], value.float()), f"{part}.{key}"
 
 
 def policy_file(name):

@@ -154,8 +154,8 @@ def test_unit_words_name_control_steps():
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[1]
-    for path in ("vigen/envs/dmc_env.py", "vigen/envs/pixels.py", "vigen/envs/loco_env.py", "vigen/run/config.py",
-                 "vigen/protocols.py", "vigen/envs/adroit_env.py"):
+    for path in ("vigen/envs/dmc/env.py", "vigen/envs/pixels.py", "vigen/envs/loco/env.py", "vigen/run/config.py",
+                 "vigen/protocols.py", "vigen/envs/adroit/env.py"):
         assert "simulator step" not in (root / path).read_text().lower(), path
     from vigen.envs.pixels import POSITIVE_ARGUMENTS
 

@@ -17,7 +17,7 @@ BLOCKS = {name: re.findall(r"```python\n(.*?)```", text, re.S) for name, text in
 EXAMPLES = {
     "pipeline": ("README.md", "collector = Collector(env, policy=None"),
     "replay_buffer": ("docs/augmentations.md", "buffer.append_transform(RandomShift"),
-    "loss": ("docs/losses.md", "loss = SVEALoss(encoder"),
+    "loss": ("docs/losses.md", 'loss = build_loss("svea", encoder'),
     "levels": ("docs/generalization.md", 'for level in resolve_levels(["train", "dmcgb"])'),
     "sweep": ("docs/generalization.md", 'plot_intensity(summarize(rows, reps=100), "camera_rotation.png"'),
     "evaluation": ("docs/evaluation.md", "print(markdown_table(summarize(rows)))"),

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vigen.data.identity import label_parts, parse_identity
+from vigen.datasets.identity import label_parts, parse_identity
 from vigen.results import published
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -24,6 +24,7 @@ is refused on every scale.
 from __future__ import annotations
 
 import math
+import numbers
 
 import torch
 from torch import Tensor
@@ -36,6 +37,27 @@ RGB_CHANNELS = 3
 SCALE_TOLERANCE = 1e-3
 # the largest last dim still taken for a channel count when judging a layout
 MAX_CHANNELS_LAST = 16
+
+
+def check_max_value(owner: str, max_value: object) -> float | None:
+    """``max_value`` (the white of float pixels) as a float, after checking it; ``None`` stays ``None`` (1.0).
+
+    Every transform, encoder and loss that takes ``max_value`` checks it here, before any work.
+
+    Examples:
+        >>> check_max_value("Demo", 255), check_max_value("Demo", None)
+        (255.0, None)
+        >>> check_max_value("Demo", 0)
+        Traceback (most recent call last):
+        ...
+        ValueError: Demo: max_value is the white of float pixels and must be a positive number (or None for 1.0), got 0; use 255 for float pixels on the 0–255 scale.
+    """
+    if max_value is None:
+        return None
+    if isinstance(max_value, bool) or not isinstance(max_value, numbers.Real) or not (math.isfinite(max_value) and max_value > 0):
+        raise ValueError(f"{owner}: max_value is the white of float pixels and must be a positive number (or None for 1.0), "
+                         f"got {max_value!r}; use 255 for float pixels on the 0–255 scale.")
+    return float(max_value)
 
 
 def white_value(images: Tensor, max_value: float | None = None) -> float:

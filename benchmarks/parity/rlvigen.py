@@ -63,7 +63,7 @@ def actor_and_critic(setup: Setup, repr_dim: int) -> tuple[nn.Module, nn.Module]
 def ddpg_options() -> dict[str, Any]:
     from vigen.losses import LinearSchedule, NoisyDeterministic
 
-    return dict(sampler=NoisyDeterministic(LinearSchedule(1.0, 0.1, 100_000), clip=0.3))
+    return dict(sampler=NoisyDeterministic(std_schedule=LinearSchedule(1.0, 0.1, 100_000), clip=0.3))
 
 
 def finish(loss: Any, setup: Setup) -> Any:
@@ -73,7 +73,7 @@ def finish(loss: Any, setup: Setup) -> Any:
 
 
 def build_drqv2(reference: Path, setup: Setup) -> Case:
-    from vigen.losses import DrQv2Loss
+    from vigen.losses import build_loss
     from vigen.models import DrQv2Encoder
 
     ref = _rlvigen(reference, ["utils", "drqv2"])
@@ -81,14 +81,14 @@ def build_drqv2(reference: Path, setup: Setup) -> Case:
     batch = Batch.draw(setup, setup.nstep)
     views = Views(batch, setup)
     encoder = DrQv2Encoder(setup.channels, max_value=255)
-    loss = DrQv2Loss(encoder, *actor_and_critic(setup, 32 * 35 * 35), augmentation=replay_augmentation(views.weak(), "shift"),
-                     **ddpg_options())
+    loss = build_loss("drqv2", encoder, *actor_and_critic(setup, 32 * 35 * 35),
+                      augmentation=replay_augmentation(views.weak(), "shift"), **ddpg_options())
     return Case("drqv2", agent, finish(loss, setup), [ModuleMap("encoder", "encoder"), *CRITIC_MODULES], CRITIC_STEPS,
                 {"aug": views.weak()}, [], [ref.modules["utils"]], DDPG_METRICS, [DDPG_DEPARTURE], ref, batch, setup)
 
 
 def _svea_like(reference: Path, setup: Setup, name: str) -> Case:
-    from vigen.losses import SVEALoss
+    from vigen.losses import build_loss
     from vigen.models import SharedCNN
 
     ref = _rlvigen(reference, ["utils", "svea", "srm"])
@@ -113,8 +113,8 @@ def _svea_like(reference: Path, setup: Setup, name: str) -> Case:
         departures.append("RL-ViGen's frequency mask is not clamped to [0, 255] and applies with p=0.5 per batch; the "
                           "replayed view is vigen's RandomFrequencyMask(p=1) draw (clamped), given to both sides.")
     encoder = SharedCNN(setup.channels, max_value=255)
-    loss = SVEALoss(encoder, *actor_and_critic(setup, 32 * 21 * 21), augmentation=replay_augmentation(views.weak(), "shift"),
-               strong_augmentation=strong, **ddpg_options())
+    loss = build_loss(name, encoder, *actor_and_critic(setup, 32 * 21 * 21),
+                      augmentation=replay_augmentation(views.weak(), "shift"), strong_augmentation=strong, **ddpg_options())
     modules = [ModuleMap("encoder", "encoder", (("layers", "convnet"),)), *CRITIC_MODULES]
     return Case(name, agent, finish(loss, setup), modules, CRITIC_STEPS, {"aug": views.weak()}, module_views,
                 [ref.modules["utils"]], DDPG_METRICS, departures, ref, batch, setup)
@@ -129,7 +129,7 @@ def build_srm(reference: Path, setup: Setup) -> Case:
 
 
 def build_curl(reference: Path, setup: Setup) -> Case:
-    from vigen.losses import CURLLoss
+    from vigen.losses import build_loss
     from vigen.models import CURLHead, ProjectedEncoder
 
     ref = _rlvigen(reference, ["utils", "drqv2", "drq", "curl"])
@@ -140,8 +140,9 @@ def build_curl(reference: Path, setup: Setup) -> Case:
     contrastive: Pairs = [(batch.pixels, anchor), (batch.pixels, positive)]
     original_order = views.weak() + contrastive  # obs, next_obs, anchor, positive: the order of CURLAgent.update
     encoder = ProjectedEncoder(setup.channels, image_size=setup.image_size, max_value=255)
-    loss = CURLLoss(encoder, *actor_and_critic(setup, 512), CURLHead(512), augmentation=replay_augmentation(views.weak(), "shift"),
-                    contrastive_augmentation=replay_augmentation(contrastive, "contrastive shift"), **ddpg_options())
+    loss = build_loss("curl", encoder, *actor_and_critic(setup, 512), CURLHead(512),
+                      augmentation=replay_augmentation(views.weak(), "shift"),
+                      contrastive_augmentation=replay_augmentation(contrastive, "contrastive shift"), **ddpg_options())
     modules = [ModuleMap("encoder", "encoder", (("projector", "projection"),)), ModuleMap("curl_head", "head"), *CRITIC_MODULES]
     steps = CRITIC_STEPS + [StepMap("curl", "loss_curl", (("curl_optimizer", 0), ("encoder_opt", 1)))]
     departures = [
@@ -157,7 +158,7 @@ def build_curl(reference: Path, setup: Setup) -> Case:
 
 
 def build_sgqn(reference: Path, setup: Setup) -> Case:
-    from vigen.losses import SGQNLoss
+    from vigen.losses import build_loss
     from vigen.models import AttributionDecoder, ProjectedEncoder
 
     ref = _rlvigen(reference, ["utils", "rl_utils", "drqv2", "sgqn"], captum=True)
@@ -168,9 +169,9 @@ def build_sgqn(reference: Path, setup: Setup) -> Case:
     overlay_pairs: Pairs = [(views.obs, views.overlay(0, views.obs))]
     encoder = ProjectedEncoder(setup.channels, image_size=setup.image_size, max_value=255)
     decoder = AttributionDecoder(setup.action_dim, embedding_dim=512, image_size=setup.image_size)
-    loss = SGQNLoss(encoder, *actor_and_critic(setup, 512), decoder, quantile=0.93, consistency_weight=0.9,
-                    augmentation=replay_augmentation(views.weak(), "shift"),
-                    attribution_augmentation=replay_augmentation(overlay_pairs, "overlay"), **ddpg_options())
+    loss = build_loss("sgqn", encoder, *actor_and_critic(setup, 512), decoder, quantile=0.93, consistency_weight=0.9,
+                      augmentation=replay_augmentation(views.weak(), "shift"),
+                      attribution_augmentation=replay_augmentation(overlay_pairs, "overlay"), **ddpg_options())
     modules = [ModuleMap("encoder", "encoder", (("projector", "projection"),)),
                ModuleMap("attribution_predictor.decoder", "decoder"), *CRITIC_MODULES]
     steps = CRITIC_STEPS + [StepMap("attribution", "loss_attribution", (("aux_optimizer", 0),))]
@@ -188,7 +189,7 @@ def build_sgqn(reference: Path, setup: Setup) -> Case:
 
 
 def build_drq(reference: Path, setup: Setup) -> Case:
-    from vigen.losses import DrQLoss, SquashedGaussian
+    from vigen.losses import SquashedGaussian, build_loss
     from vigen.models import Critic, DrQv2Encoder, GaussianActor
 
     ref = _rlvigen(reference, ["utils", "drq"])
@@ -198,10 +199,10 @@ def build_drq(reference: Path, setup: Setup) -> Case:
     batch = Batch.draw(setup, 1)
     views = Views(batch, setup)
     repr_dim = 32 * 35 * 35
-    loss = DrQLoss(DrQv2Encoder(setup.channels, max_value=255),
-                   GaussianActor(repr_dim, setup.action_dim, setup.hidden_dim, hidden_depth=2, log_std_bounds=(-10.0, 2.0)),
-                   Critic(repr_dim, setup.action_dim, setup.feature_dim, setup.hidden_dim),
-                   sampler=SquashedGaussian(init_temperature=0.1), augmentation=replay_augmentation(views.weak(), "shift"))
+    loss = build_loss("drq", DrQv2Encoder(setup.channels, max_value=255),
+                      GaussianActor(repr_dim, setup.action_dim, setup.hidden_dim, hidden_depth=2, log_std_bounds=(-10.0, 2.0)),
+                      Critic(repr_dim, setup.action_dim, setup.feature_dim, setup.hidden_dim),
+                      sampler=SquashedGaussian(init_temperature=0.1), augmentation=replay_augmentation(views.weak(), "shift"))
     loss.make_value_estimator(gamma=setup.gamma)
     modules = [ModuleMap("encoder", "encoder"), ModuleMap("actor", "actor", (("trunk", "action_head"),)),
                ModuleMap("critic", "critic", (("Q1", "q1"), ("Q2", "q2"))), ModuleMap("log_alpha", "sampler.log_alpha")]
@@ -222,7 +223,7 @@ def build_drq(reference: Path, setup: Setup) -> Case:
 
 
 def build_pieg(reference: Path, setup: Setup) -> Case:
-    from vigen.losses import PIEGLoss
+    from vigen.losses import build_loss
     from vigen.models import PIEGEncoder
 
     imagenet = imagenet_stand_in(setup.seed + 200)
@@ -239,8 +240,9 @@ def build_pieg(reference: Path, setup: Setup) -> Case:
         torch.save(imagenet.state_dict(), weights)
         encoder = PIEGEncoder(setup.channels, image_size=setup.image_size, out_dim=agent.encoder.repr_dim, weights=weights,
                               max_value=255)
-    loss = PIEGLoss(encoder, *actor_and_critic(setup, encoder.out_dim), augmentation=replay_augmentation(views.weak(), "shift"),
-                    strong_augmentation=replay_augmentation(overlay_pairs, "overlay"), **ddpg_options())
+    loss = build_loss("pieg", encoder, *actor_and_critic(setup, encoder.out_dim),
+                      augmentation=replay_augmentation(views.weak(), "shift"),
+                      strong_augmentation=replay_augmentation(overlay_pairs, "overlay"), **ddpg_options())
     loss = finish(loss, setup)
     resnet = [ModuleMap(f"encoder.model.{name}", f"encoder.resnet.{name}") for name in ("conv1", "bn1", "layer1", "layer2")]
     modules = [*resnet, ModuleMap("encoder.fc", "encoder.fc"), ModuleMap("encoder.ln", "encoder.ln"), *CRITIC_MODULES]

@@ -18,7 +18,7 @@ VRL3_PRETANH_THRESHOLD = 0.2
 
 
 def build_vrl3(reference: Path, setup: Setup) -> Case:
-    from vigen.losses import NoisyDeterministic, VRL3Loss
+    from vigen.losses import NoisyDeterministic, build_loss
     from vigen.models import VRL3Encoder
 
     substitutes, notes = torchvision_substitute()
@@ -40,9 +40,9 @@ def build_vrl3(reference: Path, setup: Setup) -> Case:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # random initial weights, as RL-ViGen (stage1_use_pretrain=False)
         encoder = VRL3Encoder(setup.channels, max_value=255)
-    loss = VRL3Loss(encoder, *actor_and_critic(setup, encoder.output_size), augmentation=replay_augmentation(views.weak(), "shift"),
-                    safe_q_threshold=VRL3_SAFE_Q_THRESHOLD, pretanh_threshold=VRL3_PRETANH_THRESHOLD,
-                    sampler=NoisyDeterministic(std=0.01, clip=0.3))
+    loss = build_loss("vrl3", encoder, *actor_and_critic(setup, encoder.output_size),
+                      augmentation=replay_augmentation(views.weak(), "shift"), safe_q_threshold=VRL3_SAFE_Q_THRESHOLD,
+                      pretanh_threshold=VRL3_PRETANH_THRESHOLD, sampler=NoisyDeterministic(std_schedule=0.01, clip=0.3))
     loss = finish(loss, setup)
     modules = [ModuleMap("encoder.model", "encoder"), *CRITIC_MODULES]
     metrics = [*DDPG_METRICS, ("abs_pretanh", "abs_pretanh"), ("max_abs_pretanh", "max_abs_pretanh")]

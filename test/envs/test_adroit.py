@@ -9,12 +9,12 @@ from torchrl.envs.utils import check_env_specs
 
 import vigen.transforms
 from vigen.envs import make_env
+from vigen.envs.adroit import env as adroit_env
+from vigen.envs.adroit import suite as adroit
 from vigen.envs.levels import resolve_levels
 from vigen.rendering import RenderSettings
 from vigen.transforms.scene import ScenePerturbation
 
-adroit = pytest.importorskip("vigen.envs.adroit")
-adroit_env = pytest.importorskip("vigen.envs.adroit_env")
 pytest.importorskip("gymnasium_robotics", reason="the adroit extra is not installed: pip install -e '.[adroit]'")
 
 pytestmark = pytest.mark.render

@@ -23,7 +23,7 @@ import pytest
 import torch
 
 from vigen.envs import make_env
-from vigen.envs.dmc import DMC
+from vigen.envs.dmc.suite import DMC
 from vigen.rendering import RenderSettings
 from vigen.transforms import DistractingCamera, DistractingColors, VideoBackground, VideoSource
 from vigen.transforms.scene.mujoco import texture_pixels

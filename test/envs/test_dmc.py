@@ -15,7 +15,7 @@ from torchrl.envs import CatFrames, ParallelEnv, SerialEnv
 from torchrl.envs.utils import check_env_specs
 
 from vigen.envs import make_env
-from vigen.envs.dmc_env import ActionRepeat, DMCPixelEnv
+from vigen.envs.dmc.env import ActionRepeat, DMCPixelEnv
 from vigen.rendering import RenderSettings
 
 FAST = RenderSettings.fast()

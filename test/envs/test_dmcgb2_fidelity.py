@@ -16,7 +16,7 @@ import pytest
 
 from vigen.assets import dmcgb_presets
 from vigen.envs import make_env
-from vigen.envs.dmc import DMC
+from vigen.envs.dmc.suite import DMC
 from vigen.rendering import RenderSettings
 from vigen.transforms import DMCGB2Camera, RandomSceneColors, VideoBackground
 from vigen.transforms.scene.dmcgb2_camera import rotate_presets

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 from functools import partial
 
 import numpy as np
@@ -9,7 +10,7 @@ import pytest
 import torch
 from torchrl.envs import Compose, ParallelEnv
 
-import vigen.envs.dmc_env as dmc
+import vigen.envs.dmc.env as dmc
 from vigen.envs import make_env
 from vigen.envs.pixels import check_env_arguments, check_transforms
 from vigen.rendering import RenderSettings
@@ -83,7 +84,7 @@ def test_camera_name_must_be_a_string():
      ("adroit/door", "action_repeat", 0), ("adroit/door", "frame_stack", True), ("adroit/door", "episode_length", 1.0)],
 )
 def test_other_suites_refuse_bad_arguments_before_building(monkeypatch, suite, name, value):
-    module = pytest.importorskip("vigen.envs." + suite.split("/")[0] + "_env")
+    module = importlib.import_module("vigen.envs." + suite.split("/")[0] + ".env")
     pixel_env = module.RobosuitePixelEnv if suite.startswith("robosuite") else module.AdroitPixelEnv
 
     def build(self, *args, **kwargs):

@@ -1,6 +1,6 @@
 """Golden frames: every named level renders what it rendered before the Suite redesign, bit for bit.
 
-``test/data/golden_frames.json`` holds the SHA-256 of the frames of two short episodes per suite,
+``test/envs/golden_frames.json`` holds the SHA-256 of the frames of two short episodes per suite,
 task and level (seed 3, 48×48, fast rendering), written by ``scripts/golden_frames.py``. The 97
 levels that existed before the Suite records were recorded at commit fcde993 and re-rendered
 bit for bit after the redesign; the DMC-GB2 and DCS presets, and the loco suite's 80 task-level
@@ -21,7 +21,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 RASTER_TOLERANCE = 0.25  # of 255, in a frame's channel mean (see the comment in the test)
-GOLDEN = json.loads((ROOT / "test" / "data" / "golden_frames.json").read_text())
+GOLDEN = json.loads(Path(__file__).with_name("golden_frames.json").read_text())
 SAMPLE = {
     "dmc/walker-walk:train", "dmc/walker-walk:color_hard", "dmc/walker-walk:video_hard", "dmc/walker-walk:camera_hard",
     "dmc/walker-walk:light_easy", "dmc/walker-walk:floor_texture", "dmc/walker-walk:jpeg_compression_3",

@@ -14,7 +14,7 @@ from torchrl.envs.utils import check_env_specs
 
 from vigen.envs import make_env
 from vigen.envs.levels import levels_markdown, resolve_levels
-from vigen.envs.dmc import DMC, GROUPS, LEVELS
+from vigen.envs.dmc.suite import DMC, GROUPS, LEVELS
 
 
 def level_transforms(level, seed=None, **options):

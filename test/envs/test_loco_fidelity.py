@@ -21,9 +21,9 @@ from dm_control.utils import rewards  # noqa: E402
 
 from vigen.assets.palettes import dmcgb_presets  # noqa: E402
 from vigen.envs import make_env  # noqa: E402
-from vigen.envs.loco import LOCO  # noqa: E402
-from vigen.envs.loco_scene import A1_JOINT_RANGES, LEG_JOINTS, LEGS, _floor_clearance, build_scene  # noqa: E402
-from vigen.envs.loco_tasks import normalized_action, source_command, stand_reward  # noqa: E402
+from vigen.envs.loco.suite import LOCO  # noqa: E402
+from vigen.envs.loco.scene import A1_JOINT_RANGES, LEG_JOINTS, LEGS, _floor_clearance, build_scene  # noqa: E402
+from vigen.envs.loco.tasks import normalized_action, source_command, stand_reward  # noqa: E402
 from vigen.rendering import RenderSettings  # noqa: E402
 from vigen.protocols import get_protocol  # noqa: E402
 from vigen.transforms import PresetMaterialColors, RandomSceneColors  # noqa: E402

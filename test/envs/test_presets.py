@@ -10,11 +10,11 @@ from __future__ import annotations
 import pytest
 
 from vigen.envs import make_env
-from vigen.envs.dmc import DMC
+from vigen.envs.dmc.suite import DMC
 from vigen.rendering import RenderSettings
 from vigen.transforms import DistractingCamera, DistractingColors, DMCGB2Camera, RandomSceneColors, VideoBackground
 from vigen.transforms.scene.dmcgb2_camera import rotate_presets
-from vigen.data import StandInDataWarning
+from vigen.datasets import StandInDataWarning
 
 FAST = {"image_size": 32, "render_settings": RenderSettings.fast()}
 DCS_INTENSITIES = (0.025, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5)  # ANCHORS §3.4, DMC-GB's DCS variant

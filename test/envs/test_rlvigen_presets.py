@@ -19,7 +19,7 @@ from tensordict import TensorDict
 
 from vigen.assets.palettes import dmcgb_presets
 from vigen.envs import make_env
-from vigen.envs.dmc import DMC
+from vigen.envs.dmc.suite import DMC
 from vigen.rendering import RenderSettings
 from vigen.transforms import PresetMaterialColors, RandomLighting, RandomSceneColors
 

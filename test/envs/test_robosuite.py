@@ -10,12 +10,12 @@ from torchrl.envs.utils import check_env_specs
 
 import vigen.transforms
 from vigen.envs import make_env
-from vigen.envs.dmc import DMC
+from vigen.envs.dmc.suite import DMC
 from vigen.envs.levels import resolve_levels
+from vigen.envs.robosuite import suite
 from vigen.rendering import RenderSettings
 from vigen.transforms.scene import ScenePerturbation
 
-suite = pytest.importorskip("vigen.envs.robosuite")
 pytest.importorskip("robosuite", reason="the robosuite extra is not installed: pip install -e '.[robosuite]'")
 
 pytestmark = pytest.mark.render

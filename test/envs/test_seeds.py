@@ -9,7 +9,7 @@ import torch
 from torchrl.envs import Compose, ParallelEnv
 
 from vigen.envs import make_env
-from vigen.envs.dmc import DMC, GROUPS, LEVELS
+from vigen.envs.dmc.suite import DMC, GROUPS, LEVELS
 
 
 def level_transforms(level, seed=None, **options):

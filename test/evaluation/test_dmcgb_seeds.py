@@ -9,7 +9,7 @@ import warnings
 import numpy as np
 import pytest
 
-from vigen.data import StandInDataWarning
+from vigen.datasets import StandInDataWarning
 from vigen.evaluation import evaluate
 from vigen.protocols import get_protocol
 

@@ -28,8 +28,9 @@ def test_probability_of_improvement_is_the_mann_whitney_average_over_tasks():
     assert probability_of_improvement(x, y) + probability_of_improvement(y, x) == pytest.approx(1.0)
     low, high = probability_of_improvement_ci(x, y, reps=300)
     assert 0.0 <= low <= probability_of_improvement(x, y) <= high <= 1.0
-    with pytest.raises(ValueError, match="same tasks"):
-        probability_of_improvement(x, y[:, :2])
+    for statistic in (probability_of_improvement, probability_of_improvement_ci, improvement_p_value):
+        with pytest.raises(ValueError, match="same tasks"):
+            statistic(x, y[:, :2])
 
 
 def test_performance_profile_is_the_fraction_of_scores_above_tau():

@@ -89,7 +89,7 @@ def test_stand_in_levels_are_labelled_in_the_report_and_warned_about(tmp_path):
          "video_hard", "--episodes", "1", "--episode-length", "10", "--out", str(out)],
         capture_output=True, text=True, cwd=ROOT, timeout=600, env=env)
     assert result.returncode == 0, result.stderr[-2000:]
-    assert "StandInDataWarning" in result.stderr and "python -m vigen.data fetch dmcgb-videos --part video_hard" in result.stderr
+    assert "StandInDataWarning" in result.stderr and "python -m vigen.datasets fetch dmcgb-videos --part video_hard" in result.stderr
     report = (out / "report.md").read_text()
     assert "| video_hard (stand-in) |" in report and "| train |" in report
     assert "- video_hard: DMC-GB video_hard" in report and "showed procedural stand-in videos (10) (vigen's stand-ins" in report
@@ -109,7 +109,7 @@ def test_a_videos_folder_is_checked_against_its_levels_data_set_before_any_work(
     message = str(stopped.value)
     assert f"video_easy={six}: 6 videos; video_easy plays dmcgb-videos/video_easy, 10 videos" in message
     assert f"color_video_easy={six}: 6 videos" in message and "dcs_0.1" not in message, "DAVIS pins no count"
-    assert "python -m vigen.data fetch dmcgb-videos --part video_easy" in message and "--allow-partial-data" in message
+    assert "python -m vigen.datasets fetch dmcgb-videos --part video_easy" in message and "--allow-partial-data" in message
     check_video_counts(levels, videos, allow_partial_data=True)  # asked for: no stop
     for i in (3, 4, 5, 7):
         (six / f"video{i}.mp4").write_bytes(b"")

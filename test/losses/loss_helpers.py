@@ -8,15 +8,21 @@ from typing import Any
 import torch
 from tensordict import TensorDict
 
-from vigen.losses import ActorCriticLoss, CURLLoss, DrQLoss, DrQv2Loss, SADALoss, SGQNLoss, SVEALoss, build_loss
-from vigen.models import Actor, AttributionDecoder, Critic, CURLHead, DrQv2Encoder, GaussianActor, ProjectedEncoder
-from vigen.models import MaDiMasker, PerFrameEncoder
-from vigen.losses import VRL3Loss
-from vigen.models import VRL3Encoder
-from vigen.losses import PIEGLoss
-from vigen.models import PIEGEncoder
-from vigen.losses import SCPLLoss
-from vigen.models import LatentDynamics
+from vigen.losses import ActorCriticLoss, build_loss
+from vigen.models import (
+    Actor,
+    AttributionDecoder,
+    Critic,
+    CURLHead,
+    DrQv2Encoder,
+    GaussianActor,
+    LatentDynamics,
+    MaDiMasker,
+    PerFrameEncoder,
+    PIEGEncoder,
+    ProjectedEncoder,
+    VRL3Encoder,
+)
 from vigen.transforms import RandomShift
 
 SIZE, ACTIONS, EMBEDDING = 16, 2, 16
@@ -27,7 +33,9 @@ SAC_LOSSES = ("drq", "sada", "scpl", "madi", "simgrl")  # sample from their poli
 def make_loss(name: str, max_value: float | None = None, *, gaussian: bool | None = None, **kwargs: Any) -> ActorCriticLoss:
     """A loss of each kind on networks small enough for unit tests (``max_value`` goes to the encoder).
 
-    ``gaussian``: a SAC actor (mean, log σ) rather than a deterministic one; default: the algorithm's.
+    The loss is :func:`~vigen.losses.build_loss`'s: the algorithm's record, with a 1-pixel shift
+    (16×16 frames) and ``kwargs`` over it. ``gaussian``: a SAC actor (mean, log σ) rather than a
+    deterministic one; default: the algorithm's.
     """
     kwargs.setdefault("augmentation", RandomShift(pad=1))
     scale = {} if max_value is None else {"max_value": max_value}
@@ -51,47 +59,15 @@ def make_loss(name: str, max_value: float | None = None, *, gaussian: bool | Non
         actor = GaussianActor(features, ACTIONS, hidden_dim=16, **({} if name in ("drq", "sada") else {"feature_dim": 8}))
     else:
         actor = Actor(features, ACTIONS, feature_dim=8, hidden_dim=16)
-    kwargs = _sampler_options(name, kwargs)
-    if name == "drqv2":
-        loss = DrQv2Loss(encoder, actor, critic, **kwargs)
-    elif name == "svea":
-        loss = SVEALoss(encoder, actor, critic, **kwargs)
-    elif name == "srm":
-        loss = build_loss("srm", encoder, actor, critic, **kwargs)
-    elif name == "sgqn":
-        decoder = AttributionDecoder(ACTIONS, embedding_dim=EMBEDDING, image_size=SIZE)
-        loss = SGQNLoss(encoder, actor, critic, decoder, **kwargs)
-    elif name == "curl":
-        loss = CURLLoss(encoder, actor, critic, CURLHead(EMBEDDING), **kwargs)
-    elif name == "drq":
-        loss = DrQLoss(encoder, actor, critic, **kwargs)
-    elif name == "sada":
-        loss = SADALoss(encoder, actor, critic, **kwargs)
-    elif name == "madi":
-        loss = build_loss("madi", encoder, actor, critic, input_mask=MaDiMasker(num_filters=4, max_value=max_value), **kwargs)
-    elif name == "simgrl":
-        loss = build_loss("simgrl", encoder, actor, critic, **kwargs)
-    elif name == "vrl3":
-        loss = VRL3Loss(encoder, actor, critic, **kwargs)
-    elif name == "pieg":
-        loss = PIEGLoss(encoder, actor, critic, **kwargs)
-    elif name == "scpl":
-        loss = SCPLLoss(encoder, actor, critic, LatentDynamics(8, ACTIONS, hidden_dim=16), **kwargs)
-    else:
-        raise ValueError(name)
+    extra = {
+        "sgqn": lambda: {"decoder": AttributionDecoder(ACTIONS, embedding_dim=EMBEDDING, image_size=SIZE)},
+        "curl": lambda: {"head": CURLHead(EMBEDDING)},
+        "madi": lambda: {"input_mask": MaDiMasker(num_filters=4, max_value=max_value)},
+        "scpl": lambda: {"dynamics": LatentDynamics(8, ACTIONS, hidden_dim=16)},
+    }.get(name, dict)()
+    loss = build_loss(name, encoder, actor, critic, **extra, **kwargs)  # the algorithm's record for what is not given
     loss.make_value_estimator(gamma=0.9)
     return loss
-
-
-def _sampler_options(name: str, kwargs: dict[str, Any]) -> dict[str, Any]:
-    """The sampler's shorthand options (``std``, ``init_temperature``, ...) as ``sampler=``, as ``make_loss`` takes them."""
-    from vigen.losses.registry import SAMPLER_OPTIONS, make_sampler
-
-    if "sampler" in kwargs or not any(key in kwargs for names in SAMPLER_OPTIONS.values() for key in names):
-        return kwargs
-    options = dict(kwargs)
-    sampler = make_sampler(name, options)  # takes the sampler's options out of options
-    return {**options, "sampler": sampler}
 
 
 def make_batch(batch: int = 6, seed: int = 0, **next_entries: torch.Tensor) -> TensorDict:

@@ -28,7 +28,7 @@ def _deterministic(name: str, **kwargs):
              "simgrl": {"strong_augmentation": []}, "pieg": {"strong_augmentation": []},
              "scpl": {"strong_augmentation": []}}.get(name, {})
     if name not in SAC_LOSSES:
-        extra["std"] = 0.0
+        extra["std_schedule"] = 0.0
     return make_loss(name, augmentation=None, **extra, **kwargs)
 
 

@@ -63,7 +63,7 @@ def _next_value(loss, next_pixels):
 
 # -- DrQ-v2 ------------------------------------------------------------------------------------
 def test_drqv2_equals_its_update_rule():
-    loss = make_loss("drqv2", augmentation=None, std=0.0)
+    loss = make_loss("drqv2", augmentation=None, std_schedule=0.0)
     batch = make_batch()
     out = loss(batch)
     with torch.no_grad():
@@ -77,7 +77,7 @@ def test_drqv2_equals_its_update_rule():
 
 
 def test_target_comes_from_the_target_critic():
-    loss = make_loss("drqv2", augmentation=None, std=0.0)
+    loss = make_loss("drqv2", augmentation=None, std_schedule=0.0)
     batch = make_batch()
     before = loss(batch)["target_mean"]
     with torch.no_grad():
@@ -88,7 +88,7 @@ def test_target_comes_from_the_target_critic():
 
 def test_n_step_terminated_and_truncated_targets():
     """γⁿ from steps_to_next_obs; terminations cut the bootstrap, truncations keep it."""
-    loss = make_loss("drqv2", augmentation=None, std=0.0, reduction="none")
+    loss = make_loss("drqv2", augmentation=None, std_schedule=0.0, reduction="none")
     batch = make_batch(
         batch=3,
         done=torch.tensor([[False], [True], [True]]),
@@ -118,7 +118,7 @@ def test_n_step_batch_from_torchrl_multistep_transform():
     buffer.extend(trajectory)
     buffer.extend(trajectory.clone())  # the transform holds back the last n steps until the next extend
     sample = buffer[:steps]
-    loss = make_loss("drqv2", augmentation=None, std=0.0, reduction="none")
+    loss = make_loss("drqv2", augmentation=None, std_schedule=0.0, reduction="none")
     loss(sample)
     with torch.no_grad():
         value = _next_value(loss, frames[[3, 4, 5, 6, 6, 6]]).squeeze(-1)
@@ -142,15 +142,16 @@ def test_clipped_noise_and_schedule():
     assert abs(wide.std().item() - 0.2) < 0.01
     near_edge = clipped_normal_sample(torch.full((100,), 0.99), std=1.0, clip=None)
     assert near_edge.max() < 1 and near_edge.min() > -1
-    loss = make_loss("drqv2", std=LinearSchedule(1.0, 0.1, 1000))
-    assert loss.stddev == 1.0
+    loss = make_loss("drqv2", std_schedule=LinearSchedule(1.0, 0.1, 1000))
+    assert loss.sampler.std(loss.schedule_step).item() == 1.0
     loss.set_step(500)
-    assert math.isclose(loss.stddev, 0.55) and math.isclose(loss(make_batch())["std"].item(), 0.55, rel_tol=1e-6)
+    assert math.isclose(loss(make_batch())["std"].item(), 0.55, rel_tol=1e-6)
+    assert loss.sampler.std_schedule(500) == 0.55 and loss.sampler.std(loss.schedule_step).item() == pytest.approx(0.55)
 
 
 # -- SVEA / SRM --------------------------------------------------------------------------------
 def test_svea_weights_the_weak_and_strong_views():
-    loss = make_loss("svea", augmentation=None, std=0.0, strong_augmentation=Invert(), weak_weight=0.3, strong_weight=0.7)
+    loss = make_loss("svea", augmentation=None, std_schedule=0.0, strong_augmentation=Invert(), weak_weight=0.3, strong_weight=0.7)
     batch = make_batch()
     out = loss(batch)
     with torch.no_grad():
@@ -222,7 +223,7 @@ def test_attribution_mask_keeps_the_top_quantile_per_frame():
 
 def test_sgqn_without_masking_is_td_plus_attribution_bce():
     """quantile 0 keeps every pixel: the consistency term vanishes and the head learns an all-ones mask."""
-    loss = make_loss("sgqn", augmentation=None, std=0.0, quantile=0.0, attribution_augmentation=[])
+    loss = make_loss("sgqn", augmentation=None, std_schedule=0.0, quantile=0.0, attribution_augmentation=[])
     batch = make_batch()
     out = loss(batch)
     with torch.no_grad():
@@ -236,7 +237,7 @@ def test_sgqn_without_masking_is_td_plus_attribution_bce():
 
 
 def test_sgqn_consistency_term_and_saliency():
-    loss = make_loss("sgqn", augmentation=None, std=0.0, quantile=0.9, consistency_weight=0.5)
+    loss = make_loss("sgqn", augmentation=None, std_schedule=0.0, quantile=0.9, consistency_weight=0.5)
     batch = make_batch()
     out = loss(batch)
     with torch.no_grad():
@@ -260,8 +261,9 @@ def test_sgqn_consistency_term_and_saliency():
 
 def test_sgqn_critic_gradients_are_the_plain_ones():
     """The guided switch only changes the saliency pass, never the loss's own backward."""
-    sgqn = make_loss("sgqn", augmentation=None, std=0.0, consistency_weight=0.0)
-    drqv2 = DrQv2Loss(sgqn.encoder, sgqn.actor, sgqn.critic, augmentation=None, sampler=NoisyDeterministic(std=0.0))
+    sgqn = make_loss("sgqn", augmentation=None, std_schedule=0.0, consistency_weight=0.0)
+    drqv2 = DrQv2Loss(sgqn.encoder, sgqn.actor, sgqn.critic, augmentation=None, sampler=NoisyDeterministic(std_schedule=0.0),
+                      target_encoder=False)
     drqv2.make_value_estimator(gamma=GAMMA)
     drqv2.target_critic_params.data.update_(sgqn.target_critic_params.data)
     batch = make_batch()
@@ -275,7 +277,7 @@ def test_sgqn_critic_gradients_are_the_plain_ones():
 
 # -- CURL --------------------------------------------------------------------------------------
 def test_curl_is_infonce_with_a_bilinear_head():
-    loss = make_loss("curl", augmentation=None, std=0.0, contrastive_augmentation=[])
+    loss = make_loss("curl", augmentation=None, std_schedule=0.0, contrastive_augmentation=[])
     batch = make_batch()
     out = loss(batch)
     with torch.no_grad():
@@ -288,7 +290,7 @@ def test_curl_is_infonce_with_a_bilinear_head():
 
 
 def test_curl_key_encoder_is_a_soft_updated_copy():
-    loss = make_loss("curl", augmentation=None, std=0.0, contrastive_augmentation=[], key_encoder=True)
+    loss = make_loss("curl", augmentation=None, std_schedule=0.0, contrastive_augmentation=[], key_encoder=True)
     updater = SoftUpdate(loss, tau=0.5)
     batch = make_batch()
     before = loss(batch)

@@ -54,7 +54,7 @@ CI_SAMPLE = {"drqv2", "svea", "curl", "drq", "sada", "simgrl", "vrl3"}  # the re
 @pytest.mark.parametrize("name", [name if name in CI_SAMPLE else pytest.param(name, marks=pytest.mark.matrix) for name in LOSSES])
 def test_loss_learns_the_dot_task(name):
     torch.manual_seed(0)
-    options = {} if name in SAC_LOSSES else {"std": 0.2}
+    options = {} if name in SAC_LOSSES else {"std_schedule": 0.2}
     loss = make_loss(name, augmentation=RandomShift(pad=1, seed=0), **options)
     updater = SoftUpdate(loss, tau=0.05)
     optimizer = torch.optim.Adam(loss.parameters(), lr=1e-3)

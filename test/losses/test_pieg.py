@@ -33,7 +33,7 @@ class Invert(ImageAugmentation):
 
 
 def _deterministic(**kwargs) -> PIEGLoss:
-    return make_loss("pieg", augmentation=None, strong_augmentation=Invert(), std=0.0, **kwargs)
+    return make_loss("pieg", augmentation=None, strong_augmentation=Invert(), std_schedule=0.0, **kwargs)
 
 
 def _resnet_state(loss: PIEGLoss) -> dict[str, torch.Tensor]:
@@ -177,7 +177,7 @@ def test_make_loss_builds_pieg_and_loads_weights(tmp_path):
         for value in source.resnet.parameters():
             value.normal_()
     path = tmp_path / "resnet18.pth"
-    torch.save(source.resnet.state_dict(), path)  # torchvision's names (test_pieg_encoder checks the layout)
+    torch.save(source.resnet.state_dict(), path)  # torchvision's names (test/models/test_resnet.py checks the layout)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         loss = make_paper_loss("pieg", (9, SIZE, SIZE), action_dim=ACTIONS, hidden_dim=16, encoder_weights=path, seed=0)

@@ -10,9 +10,10 @@ import torch.nn.functional as F
 from torch import nn
 
 from loss_helpers import ACTIONS, dmcgb_squashed_sample, make_batch, make_loss
-from vigen.losses import ALGOS, GuidedBackprop, NoisyDeterministic, SCPLLoss, attribution_mask, diagonal_gaussian_kl, squashed_normal_sample
+from vigen.losses import (ALGOS, GuidedBackprop, NoisyDeterministic, SCPLLoss, SquashedGaussian, attribution_mask, build_loss,
+                          diagonal_gaussian_kl, squashed_normal_sample)
 from vigen.losses import make_loss as make_paper_loss
-from vigen.models import Critic, DrQv2Encoder, GaussianActor, LatentDynamics, SharedCNN
+from vigen.models import Actor, Critic, DrQv2Encoder, GaussianActor, LatentDynamics, SharedCNN
 from vigen.transforms import ImageAugmentation, RandomOverlay
 
 pytestmark = pytest.mark.filterwarnings("ignore:No target network updater")
@@ -237,17 +238,19 @@ def test_bad_arguments_are_explained():
             return critic(hidden, action)
 
     with pytest.raises(TypeError, match="embed"):
-        SCPLLoss(encoder, actor, NoEmbed(), dynamics)
+        build_loss("scpl", encoder, actor, NoEmbed(), dynamics)
     with pytest.raises(TypeError, match="LatentDynamics"):
-        SCPLLoss(encoder, actor, critic, "model")
+        build_loss("scpl", encoder, actor, critic, "model")
     with pytest.raises(ValueError, match="quantile"):
-        SCPLLoss(encoder, actor, critic, dynamics, quantile=1.5)
+        build_loss("scpl", encoder, actor, critic, dynamics, quantile=1.5)
     with pytest.raises(ValueError, match="kl_covariance"):
-        SCPLLoss(encoder, actor, critic, dynamics, kl_covariance="cov")
+        build_loss("scpl", encoder, actor, critic, dynamics, kl_covariance="cov")
     with pytest.raises(ValueError, match="'lr'"):
-        SCPLLoss(encoder, actor, critic, dynamics, param_groups={"dynamics": {"lr": -1.0}})
-    with pytest.raises(TypeError, match="NoisyDeterministic"):
-        SCPLLoss(encoder, actor, critic, dynamics, sampler=NoisyDeterministic())
+        build_loss("scpl", encoder, actor, critic, dynamics, param_groups={"dynamics": {"lr": -1.0}})
+    with pytest.raises(TypeError, match="NoisyDeterministic"):  # refused by SCPL itself, with a deterministic actor too
+        build_loss("scpl", encoder, Actor(32, 2, feature_dim=8, hidden_dim=16), critic, dynamics, sampler=NoisyDeterministic())
     with pytest.raises(TypeError, match="std"):
-        SCPLLoss(encoder, actor, critic, dynamics, std=0.1)
-    assert math.isclose(SCPLLoss(encoder, actor, critic, dynamics).quantile, 0.9)
+        build_loss("scpl", encoder, actor, critic, dynamics, std_schedule=0.1)
+    with pytest.raises(TypeError, match="missing .*weak_weight"):  # the class has no defaults: the record gives them
+        SCPLLoss(encoder, actor, critic, dynamics, sampler=SquashedGaussian(), augmentation=None, target_encoder=True)
+    assert math.isclose(build_loss("scpl", encoder, actor, critic, dynamics).quantile, 0.9)

@@ -195,7 +195,7 @@ def test_compiling_refuses_what_it_cannot_trace():
 
 def test_the_scheduled_std_is_a_tensor_equal_to_the_schedule():
     """The update reads the noise std as a tensor op on the step buffer (no int(step)), the same value as DrQ-v2's linear()."""
-    loss = make_loss("drqv2", std=LinearSchedule(1.0, 0.1, 100_000))
+    loss = make_loss("drqv2", std_schedule=LinearSchedule(1.0, 0.1, 100_000))
     for step in (0, 1, 12_345, 50_000, 10**6):
         loss.set_step(step)
         std = loss.sampler.std(loss.schedule_step)

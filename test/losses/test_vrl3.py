@@ -14,10 +14,10 @@ from torchrl.data import Bounded
 from torchrl.objectives import SoftUpdate
 
 from loss_helpers import ACTIONS, SIZE, make_batch, make_loss
-from vigen.losses import VRL3Loss
+from vigen.losses import ALGOS, LinearSchedule, VRL3Loss, build_loss
 from vigen.losses import make_loss as make_paper_loss
 from vigen.losses.base import RunningStatistics
-from vigen.losses.vrl3 import ADROIT_REWARD_SCALES, pretanh_penalty, safe_q_target
+from vigen.losses.vrl3 import pretanh_penalty, safe_q_target
 from vigen.models import Actor, Critic, VRL3Encoder
 
 pytestmark = [pytest.mark.filterwarnings("ignore:No target network updater"),
@@ -33,7 +33,7 @@ def _encoder(in_channels: int = 9, **kwargs) -> VRL3Encoder:
 
 def _deterministic(**kwargs) -> VRL3Loss:
     """No augmentation and no noise: every term can be computed by hand from the networks."""
-    return make_loss("vrl3", augmentation=None, std=0.0, reduction="none", **kwargs)
+    return make_loss("vrl3", augmentation=None, std_schedule=0.0, reduction="none", **kwargs)
 
 
 # -- the safe Q target --------------------------------------------------------------------------
@@ -109,7 +109,7 @@ def test_the_penalty_trains_the_actor_only_and_shrinks_the_pre_tanh_output():
     for part in ("encoder", "critic"):
         assert all(g.grad is None or not g.grad.any() for g in getattr(loss, f"{part}_params").values(True, True)), part
     assert all(p.grad is None for p in loss.target_critic_params.values(True, True))
-    free = make_loss("vrl3", pretanh_weight=1.0, std=0.0, augmentation=None)
+    free = make_loss("vrl3", pretanh_weight=1.0, std_schedule=0.0, augmentation=None)
     free.load_state_dict(loss.state_dict())
     optimizer = torch.optim.SGD(free.actor_params.values(True, True), lr=1e-4)
     pixels = make_batch()["pixels"]
@@ -136,8 +136,8 @@ def test_without_penalty_any_actor_works_and_with_it_the_actor_must_expose_pre_t
 
     critic = Critic(32, ACTIONS, feature_dim=8, hidden_dim=16)
     with pytest.raises(TypeError, match="before its tanh"):
-        VRL3Loss(encoder, Plain(), critic)
-    loss = VRL3Loss(encoder, Plain(), critic, pretanh_weight=0.0, augmentation=None)
+        build_loss("vrl3", encoder, Plain(), critic)
+    loss = build_loss("vrl3", encoder, Plain(), critic, pretanh_weight=0.0, augmentation=None)
     loss.make_value_estimator(gamma=0.9)
     out = loss(make_batch())
     assert "actor_pretanh_penalty" not in out.keys() and torch.isfinite(out["loss_actor"])
@@ -159,10 +159,10 @@ def test_vrl3_defaults():
     loss = make_paper_loss("vrl3", (9, SIZE, SIZE), ACTIONS, hidden_dim=8, feature_dim=8)
     assert isinstance(loss, VRL3Loss) and isinstance(loss.encoder, VRL3Encoder)
     loss.set_step(10**6)
-    assert loss.stddev == 0.01 and loss.sampler.clip == 0.3
+    assert loss.sampler.std_schedule == LinearSchedule(0.01, 0.01, 500_000) and loss.sampler.clip == 0.3, "linear(0.01, 0.01, 500000)"
     assert (loss.safe_q_threshold, loss.safe_q_factor, loss.pretanh_threshold, loss.pretanh_weight) == (200.0, 0.5, 5.0, 1e-3)
     assert len(loss.optimizer_groups(1e-4)) == 1, "the encoder at the base lr (VRL3's encoder_lr_scale 1)"
-    assert ADROIT_REWARD_SCALES["door"] == 1 / 20
+    assert ALGOS["vrl3"].reward_scale("adroit/door") == 1 / 20
     policy = loss.make_policy(Bounded(-1, 1, shape=(ACTIONS,)))
     assert policy[-1].sigma == pytest.approx(0.01), "acting noise: the same fixed std"
 
@@ -304,6 +304,6 @@ def test_make_loss_passes_stage1_weights_to_the_encoder(tmp_path):
 def test_the_actor_reads_the_same_actor_as_vigens():
     """The penalty's ``u = actor.action_head(actor.trunk(h))`` is the input of vigen's Actor's final tanh."""
     actor = Actor(32, ACTIONS, feature_dim=8, hidden_dim=16)
-    loss = VRL3Loss(_encoder(channels=4), actor, Critic(32, ACTIONS, feature_dim=8, hidden_dim=16))
+    loss = build_loss("vrl3", _encoder(channels=4), actor, Critic(32, ACTIONS, feature_dim=8, hidden_dim=16))
     features = torch.randn(5, 32)
     assert torch.allclose(torch.tanh(actor.action_head(actor.trunk(features))), loss.actor_output(features))

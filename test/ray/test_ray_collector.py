@@ -40,7 +40,7 @@ def perturbed_env(seed: int, worker: int | None = None):
 
 def agent():
     torch.manual_seed(0)
-    loss = make_loss("drqv2", (9, 32, 32), 1, feature_dim=8, hidden_dim=16, seed=0, std=LinearSchedule(1.0, 0.1, 1000))
+    loss = make_loss("drqv2", (9, 32, 32), 1, feature_dim=8, hidden_dim=16, seed=0, std_schedule=LinearSchedule(1.0, 0.1, 1000))
     loss.make_value_estimator(gamma=0.99)
     return loss, loss.make_policy(perturbed_env(0).action_spec)
 

@@ -240,7 +240,7 @@ def test_a_recipe_cannot_claim_networks_vigen_does_not_build():
 def test_pieg_rlvigen_finds_torchvisions_resnet18_in_the_data_cache_or_names_the_fetch_command(tmp_path, monkeypatch):
     monkeypatch.setenv("VIGEN_DATA", str(tmp_path))
     config = new_config({"recipe": "pieg-rlvigen", "env": "dmc/walker-walk"})
-    with pytest.raises(ValueError, match=re.escape("Fetch it (checked by its sha256) with `python -m vigen.data fetch "
+    with pytest.raises(ValueError, match=re.escape("Fetch it (checked by its sha256) with `python -m vigen.datasets fetch "
                                                    "torchvision-resnet18`, or pass --encoder-weights PATH")):
         check_runnable(config)
     fetched = tmp_path / "torchvision-resnet18" / "resnet18-f37072fd.pth"

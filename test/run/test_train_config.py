@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from vigen.losses import ALGOS, LinearSchedule
-from vigen.run import (DEFAULT_FRAMES, PRESETS, TrainConfig, check_runnable, exploration_std, new_config, parse_flags,
+from vigen.run import (DEFAULT_FRAMES, PRESETS, TrainConfig, check_runnable, exploration_std_schedule, new_config, parse_flags,
                        resumed_config, with_protocol)
 
 DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
@@ -25,7 +25,7 @@ def test_paper_preset_is_drqv2s_hyperparameters():
     paper = PRESETS["paper"]
     assert (paper.batch_size, paper.buffer_size, paper.lr, paper.feature_dim, paper.hidden_dim) == (256, 10**6, 1e-4, 50, 1024)
     assert (paper.n_step, paper.gamma, paper.tau, paper.seed_frames, paper.update_every) == (3, 0.99, 0.01, 4000, 2)
-    assert exploration_std(paper) == LinearSchedule(1.0, 0.1, 100_000), "linear(1.0, 0.1, 100000), the algorithm's"
+    assert exploration_std_schedule(paper) == LinearSchedule(1.0, 0.1, 100_000), "linear(1.0, 0.1, 100000), the algorithm's"
     cpu = PRESETS["cpu"]
     assert replace(cpu, preset="paper", batch_size=256, buffer_size=10**6, eval_episodes=10) == paper, \
         "cpu is the same agent with a smaller batch, buffer and evaluation"
@@ -36,10 +36,10 @@ def test_flags_override_the_algorithms_defaults_which_the_run_takes_where_a_sett
     """VRL3 (RL-ViGen's Adroit setup): a fixed std of 0.01, door's rewards ×1/20; its record holds them, once."""
     vrl3 = new_config({"algo": "vrl3", "env": "adroit/door", "preset": "paper"})
     assert (vrl3.batch_size, vrl3.std_init, vrl3.std_final, vrl3.reward_scale) == (256, None, None, None), "unset"
-    assert (exploration_std(vrl3).init, exploration_std(vrl3).final) == (0.01, 0.01)
+    assert (exploration_std_schedule(vrl3).init, exploration_std_schedule(vrl3).final) == (0.01, 0.01)
     assert ALGOS["vrl3"].reward_scale("adroit/door") == 1 / 20 and ALGOS["vrl3"].reward_scale("dmc/walker-walk") == 1.0
     flagged = new_config({"algo": "vrl3", "env": "adroit/door", "std_init": 0.2})
-    assert (flagged.std_init, exploration_std(flagged).init, exploration_std(flagged).final) == (0.2, 0.2, 0.01)
+    assert (flagged.std_init, exploration_std_schedule(flagged).init, exploration_std_schedule(flagged).final) == (0.2, 0.2, 0.01)
     assert new_config({"algo": "svea"}) == replace(TrainConfig(), algo="svea")
 
 
@@ -90,7 +90,7 @@ def test_config_json_keeps_the_format_of_earlier_runs():
     assert all(written[key] is None for key in UNSET_SINCE_42)
     old = TrainConfig.from_json(saved)
     assert old == replace(config, frames=DEFAULT_FRAMES, std_duration=100_000, std_init=1.0, std_final=0.1, reward_scale=1.0)
-    assert exploration_std(old) == exploration_std(config) == LinearSchedule(1.0, 0.1, 100_000), "the same run"
+    assert exploration_std_schedule(old) == exploration_std_schedule(config) == LinearSchedule(1.0, 0.1, 100_000), "the same run"
     assert TrainConfig.from_json(json.loads(json.dumps(config.to_json()))) == replace(config, frames=DEFAULT_FRAMES)
 
 

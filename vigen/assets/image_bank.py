@@ -13,7 +13,7 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor
 
-from vigen.assets.procedural import STAND_IN_KINDS, procedural_image, stand_in_image
+from vigen.assets.procedural import PROCEDURAL_KINDS, STAND_IN_KINDS, procedural_image, stand_in_image
 
 IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png", ".bmp", ".webp")
 
@@ -58,7 +58,7 @@ class ImageBank:
         """labmaze's textures (89 with dm-control 1.0.41) plus ``procedural`` generated images."""
         textures = _load_images(_labmaze_textures(), size)
         generator = torch.Generator().manual_seed(seed)
-        generated = [procedural_image(kind=i % 4, size=size, generator=generator) for i in range(procedural)]
+        generated = [procedural_image(kind=i % PROCEDURAL_KINDS, size=size, generator=generator) for i in range(procedural)]
         images = torch.stack([*textures, *generated])
         return cls(images, name=f"builtin({len(textures)} labmaze textures + {procedural} procedural)")
 
@@ -66,7 +66,7 @@ class ImageBank:
     def procedural(cls, count: int, size: int = 128, seed: int = 0) -> ImageBank:
         """``count`` generated images (fractal noise, Voronoi cells, plaids, colour blobs, in turn), the same for a seed."""
         generator = torch.Generator().manual_seed(seed)
-        images = torch.stack([procedural_image(kind=i % 4, size=size, generator=generator) for i in range(count)])
+        images = torch.stack([procedural_image(kind=i % PROCEDURAL_KINDS, size=size, generator=generator) for i in range(count)])
         return cls(images, name=f"procedural({count}, seed={seed})")
 
     @classmethod

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from vigen.data.checksums import git_blob_id
+from vigen.datasets import git_blob_id
 
 PALETTE_KEYS = ("grid_rgb1", "grid_rgb2", "skybox_rgb", "self_rgb")
 """The four colours of a DMC-GB preset: floor checker (two tones), sky, and the agent's ``self`` material."""

@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 import torch
 
-import vigen.data
+import vigen.datasets
 from vigen.assets.davis import davis_split_folders
 from vigen.assets.image_bank import IMAGE_SUFFIXES
 from vigen.assets.procedural import procedural_video
-from vigen.data.identity import DataIdentity, identify_files
+from vigen.datasets.identity import DataIdentity, identify_fetched_split, identify_files
 from vigen.seeding import derive_seed
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".webm", ".mkv")
@@ -43,7 +43,7 @@ class VideoSource:
 
     :attr:`identity` says what the videos are without naming a path (evaluation rows carry it):
     a benchmark's data set part when every file is one of its pinned files (name and git blob id,
-    :func:`vigen.data.identity.identify_files`; e.g. ``dmcgb-videos/video_easy: 10 of 10, verified``),
+    :func:`vigen.datasets.identity.identify_files`; e.g. ``dmcgb-videos/video_easy: 10 of 10, verified``),
     DAVIS 2017's split when the folder is the fetched one, else ``user folder: <n> videos``.
 
     Args:
@@ -127,17 +127,14 @@ class VideoSource:
             return None
         if self._identity is None:
             self._identity = self._davis_identity() if self.split is not None else identify_files(
-                self.paths, vigen.data.DATASETS.values(), kind="videos", where="folder")
+                self.paths, vigen.datasets.DATASETS.values(), kind="videos", where="folder")
         return self._identity
 
     def _davis_identity(self) -> DataIdentity:
-        """DAVIS 2017's split as fetched by ``python -m vigen.data`` (no pinned ids: ``fetched``), or a user's DAVIS folder."""
-        davis = vigen.data.get_dataset("davis2017")
-        fetched = vigen.data.locate(davis)
-        inside = fetched is not None and all(Path(path).resolve().is_relative_to(fetched.resolve()) for path in self.paths)
-        if inside:
-            return DataIdentity(davis.name, self.split, len(self.paths), len(self.paths), "fetched")
-        return DataIdentity(None, None, len(self.paths), None, "user", note=f"DAVIS 2017 layout, {self.split} split")
+        """DAVIS 2017's split as ``python -m vigen.datasets fetch davis2017`` put it in the cache (``verified`` when extracted
+        from the pinned archive, :func:`~vigen.datasets.identity.identify_fetched_split`), or a user's DAVIS folder."""
+        fetched = identify_fetched_split(self.paths, vigen.datasets.get_dataset("davis2017"), self.split)
+        return fetched or DataIdentity(None, None, len(self.paths), None, "user", note=f"DAVIS 2017 layout, {self.split} split")
 
     def frames(self, index: int, height: int, width: int) -> torch.Tensor:
         """Video ``index`` as uint8 ``[T, height, width, 3]`` RGB; the last one asked for is cached."""

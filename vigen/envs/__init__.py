@@ -11,7 +11,7 @@ from vigen.envs.level_types import level_label
 from vigen.envs.parallel import ParallelEnv, WorkerError
 from vigen.envs.registry import SUITES, available_envs, check_level_options_used, factors, get_suite, level_options_for, make_env
 from vigen.envs.suite import Suite
-from vigen.envs.timing import SimulatorTimes, add_step_timers, step_times, without_step_times
+from vigen.envs.step_timers import SimulatorTimes, add_step_timers, step_times, without_step_times
 
 __all__ = ["SUITES", "ParallelEnv", "SimulatorTimes", "Suite", "WorkerError", "add_step_timers", "available_envs",
            "check_level_options_used", "factors", "get_suite", "level_label", "level_options_for", "make_env", "step_times",

@@ -15,6 +15,8 @@ Examples:
 
 from __future__ import annotations
 
+from types import MappingProxyType
+
 from vigen.envs.level_types import Factor, Scaled, Severity, Span, Step
 from vigen.transforms import DistractingColors, PixelCorruption, RandomCamera, RandomLighting
 from vigen.transforms.corruptions import SEVERITIES
@@ -40,6 +42,9 @@ FACTORS: dict[str, str] = {
 }
 """Factor name -> what it changes (and how the intensity ``x`` enters)."""
 
+
+NO_LIGHT_SHIFT = MappingProxyType({"position_offset": None, "diffuse_offset": None})
+"""RandomLighting parameters that leave position and colour alone (each lighting factor sets one thing)."""
 
 LIGHT_COLOR = Factor((Step(RandomLighting, {"position_offset": None, "diffuse_offset": Scaled(1.0)}),))
 CAMERA_ROTATION = Factor((Step(RandomCamera, {"position": 0.0, "rotation_deg": Scaled(90.0)}),))

@@ -29,7 +29,7 @@ from typing import Any
 
 from torchrl.envs import Transform
 
-import vigen.data
+import vigen.datasets
 from vigen.assets.image_bank import ImageBank
 from vigen.assets.procedural import STAND_IN_KINDS
 
@@ -189,11 +189,11 @@ class StandInImages:
 
 @dataclass(frozen=True, repr=False)
 class FetchedData(Derived):
-    """The folder of a benchmark data set fetched with ``python -m vigen.data fetch`` (:func:`vigen.data.locate`), or ``None``.
+    """The folder of a benchmark data set fetched with ``python -m vigen.datasets fetch`` (:func:`vigen.datasets.locate`), or ``None``.
 
     A level whose source shows real data (DMC-GB's videos, DAVIS 2017) names it here: when every
     file of the data set (or ``part``) is in the cache, the transform gets its folder (plus
-    ``subfolder``); when not, it gets ``None`` (its stand-ins) and a :class:`~vigen.data.StandInDataWarning`
+    ``subfolder``); when not, it gets ``None`` (its stand-ins) and a :class:`~vigen.datasets.StandInDataWarning`
     names the command that fetches the data. A folder given in ``level_options`` replaces the rule.
 
     Examples:
@@ -214,12 +214,12 @@ class FetchedData(Derived):
     suite: str = "dmc"
 
     def __call__(self, context: LevelContext) -> str | None:
-        folder = vigen.data.locate(self.dataset, self.part)
+        folder = vigen.datasets.locate(self.dataset, self.part)
         if folder is None:
             what = f"{self.dataset}" + (f" (part {self.part})" if self.part else "")
-            warnings.warn(vigen.data.StandInDataWarning(
+            warnings.warn(vigen.datasets.StandInDataWarning(
                 f"{self.suite}/{context.task} shows stand-ins: {what} is not in the data cache "
-                f"{vigen.data.cache_root()}; fetch it with `{vigen.data.fetch_command(self.dataset, self.part)}` "
+                f"{vigen.datasets.cache_root()}; fetch it with `{vigen.datasets.fetch_command(self.dataset, self.part)}` "
                 "(docs/data.md), or pass a folder in level_options."), stacklevel=2)
             return None
         return str(folder / self.subfolder) if self.subfolder else str(folder)

@@ -10,10 +10,10 @@ from typing import Any
 
 from torchrl.envs import EnvBase
 
-from vigen.envs.adroit import ADROIT
-from vigen.envs.dmc import DMC
-from vigen.envs.loco import LOCO
-from vigen.envs.robosuite import ROBOSUITE
+from vigen.envs.adroit.suite import ADROIT
+from vigen.envs.dmc.suite import DMC
+from vigen.envs.loco.suite import LOCO
+from vigen.envs.robosuite.suite import ROBOSUITE
 from vigen.envs.level_types import level_label
 from vigen.envs.suite import Suite
 
@@ -73,11 +73,11 @@ def make_env(name: str, **kwargs: Any) -> EnvBase:
               ``{"videos": folder}``; a key no transform of the suite takes raises, listing the valid ones;
             * ``scene_id`` (suites with scenes, robosuite's 10): the scene a level shows; ``None``
               follows the seed, ``seed % 10``;
-            * the suite's env options, those of its base env: :class:`~vigen.envs.dmc_env.DMCPixelEnv`
+            * the suite's env options, those of its base env: :class:`~vigen.envs.dmc.env.DMCPixelEnv`
               for ``dmc/`` (e.g. ``image_size``, ``action_repeat``, ``camera_id``, ``render_settings``),
-              :class:`~vigen.envs.robosuite_env.RobosuitePixelEnv` for ``robosuite/``,
-              :class:`~vigen.envs.adroit_env.AdroitPixelEnv` for ``adroit/`` and
-              :class:`~vigen.envs.loco_env.LocoPixelEnv` for ``loco/``.
+              :class:`~vigen.envs.robosuite.env.RobosuitePixelEnv` for ``robosuite/``,
+              :class:`~vigen.envs.adroit.env.AdroitPixelEnv` for ``adroit/`` and
+              :class:`~vigen.envs.loco.env.LocoPixelEnv` for ``loco/``.
 
     Returns:
         A :class:`~vigen.envs.pixels.PixelEnv` (a ``TransformedEnv``) with uint8 ``"pixels"``, float32

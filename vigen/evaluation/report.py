@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vigen.data.identity import not_in_full
+from vigen.datasets.identity import not_in_full
 from vigen.envs import get_suite
 from vigen.evaluation.statistics import performance_profile, performance_profile_ci
 from vigen.evaluation.summary import generalization_gaps, improvements, score_matrix, summarize
@@ -100,7 +100,7 @@ def interval_cell(value: float, low: float, high: float, runs: int | None, spec:
 def label_stand_ins(lines: Sequence[Mapping[str, Any]], rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     """``lines`` with " (stand-in)" after each level whose rows showed vigen's stand-ins (``stand_in`` true), and
     " (partial data)" after each level whose rows showed less than a data set in full (a user's folder, fewer files
-    than the part holds, files not verified: :func:`vigen.data.identity.not_in_full`), for tables.
+    than the part holds, files not verified: :func:`vigen.datasets.identity.not_in_full`), for tables.
 
     Examples:
         >>> from vigen.evaluation.report import label_stand_ins
@@ -508,7 +508,7 @@ def _add_returns(report: Report) -> None:
                     f"{markdown_table(label_stand_ins(report.lines, rows))}\n")
     if any(row["stand_in"] for row in rows):
         report.text += ("\nLevels marked (stand-in) showed vigen's stand-ins (procedural videos, statistics-matched colours), "
-                        "not the benchmark's own data; `python -m vigen.data fetch ...` gets the data (docs/data.md).\n")
+                        "not the benchmark's own data; `python -m vigen.datasets fetch ...` gets the data (docs/data.md).\n")
     if any(not_in_full(row.get("data")) for row in rows):
         report.text += ("\nLevels marked (partial data) showed less than their data set in full (fewer files than its part, "
                         "a user's folder, or files not verified against the pinned ids): their `data` column says what.\n")

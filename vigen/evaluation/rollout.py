@@ -92,7 +92,7 @@ def evaluate(
         the episode ever succeeded), after the ``tags``. Rows of a generalization dict also carry
         ``factor`` and ``intensity`` after ``level`` (:func:`~vigen.evaluation.sweep.level_columns`).
         Every row says what its level showed (:func:`data_columns`): ``data``, by identity and never
-        by path (:mod:`vigen.data.identity`: e.g. ``"dmcgb-colors/color_hard: 100 of 100, shipped"``,
+        by path (:mod:`vigen.datasets.identity`: e.g. ``"dmcgb-colors/color_hard: 100 of 100, shipped"``,
         ``"dmcgb-videos/video_easy: 10 of 10, verified"``, ``"user folder: 7 videos"`` or
         ``"procedural stand-in videos (10)"``, ``""`` for a level that shows no data), ``stand_in``
         (True where vigen's stand-ins replace the source's data) and ``level_options`` (the options
@@ -245,7 +245,7 @@ def portable_option(value: Any) -> Any:
     """A level option as a row records it: a folder or file by its name (``"folder video_easy"``), never the machine's path.
 
     Rows are shared and committed; the ``data`` column says what the folder held (its data set
-    and file count, :mod:`vigen.data.identity`).
+    and file count, :mod:`vigen.datasets.identity`).
 
     Examples:
         >>> import tempfile, pathlib

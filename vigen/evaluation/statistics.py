@@ -37,6 +37,14 @@ def _resample(scores: np.ndarray, rng: np.random.Generator, reps: int) -> np.nda
     return resample_runs(scores, stratified_picks(rng, reps, *scores.shape))
 
 
+def _same_tasks(x: np.ndarray | list, y: np.ndarray | list) -> tuple[np.ndarray, np.ndarray]:
+    """Two methods' checked scores ``[runs_x, tasks]`` and ``[runs_y, tasks]``; a different number of tasks raises."""
+    x, y = as_scores(x), as_scores(y)
+    if x.shape[1] != y.shape[1]:
+        raise ValueError(f"x and y must cover the same tasks, got {x.shape[1]} and {y.shape[1]} task columns.")
+    return x, y
+
+
 def _improvement(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """P(X > Y) per leading batch: x ``[..., n, tasks]``, y ``[..., m, tasks]`` -> ``[...]``."""
     above = (x[..., :, None, :] > y[..., None, :, :]).mean(axis=(-3, -2))
@@ -56,9 +64,7 @@ def probability_of_improvement(x: np.ndarray | list, y: np.ndarray | list) -> fl
         >>> probability_of_improvement([[1.0], [3.0]], [[1.0], [2.0]])  # (tie ½ + 0 + 1 + 1) / 4
         0.625
     """
-    x, y = as_scores(x), as_scores(y)
-    if x.shape[1] != y.shape[1]:
-        raise ValueError(f"x and y must cover the same tasks, got {x.shape[1]} and {y.shape[1]} task columns.")
+    x, y = _same_tasks(x, y)
     return float(_improvement(x, y))
 
 
@@ -73,7 +79,7 @@ def probability_of_improvement_ci(
         >>> 0.0 <= low < 2 / 3 < high <= 1.0
         True
     """
-    x, y = as_scores(x), as_scores(y)
+    x, y = _same_tasks(x, y)
     check_confidence(confidence)
     rng = np.random.default_rng(seed)
     values = np.concatenate([_improvement(_resample(x, rng, chunk), _resample(y, rng, chunk))
@@ -99,9 +105,7 @@ def improvement_p_value(x: np.ndarray | list, y: np.ndarray | list) -> float:
         >>> round(improvement_p_value([[0.0], [4.0], [5.0]], [[3.0], [1.0], [2.0]]), 4)  # 6 of 9 pairs: 7 of 20 orders do as well
         0.35
     """
-    x, y = as_scores(x), as_scores(y)
-    if x.shape[1] != y.shape[1]:
-        raise ValueError(f"x and y must cover the same tasks, got {x.shape[1]} and {y.shape[1]} task columns.")
+    x, y = _same_tasks(x, y)
     x_runs, y_runs = x.mean(axis=1), y.mean(axis=1)
     method = "asymptotic" if len(np.intersect1d(x_runs, y_runs)) or len(set(x_runs)) < len(x_runs) \
         or len(set(y_runs)) < len(y_runs) else "exact"

@@ -5,25 +5,30 @@ name        loss                  what it adds to DrQ-v2's update               
 ==========  ====================  =============================================================  ===========
 ``drqv2``   ``DrQv2Loss``         DDPG, clipped double-Q, n-step, random shift                   DrQ-v2
 ``svea``    ``SVEALoss``          TD loss on a strongly augmented view too (overlay)             SVEA
-``srm``     ``SVEALoss`` preset   SVEA with a frequency-masked overlay view                      SRM
+``srm``     ``SVEALoss`` record   SVEA with a frequency-masked overlay view                      SRM
 ``sgqn``    ``SGQNLoss``          saliency consistency term and an attribution head              SGQN
 ``curl``    ``CURLLoss``          InfoNCE over the batch with a bilinear head                    CURL
 ``drq``     ``DrQLoss``           (SAC) clean + shifted views, learned temperature               DrQ
 ``sada``    ``SADALoss``          (SAC) SVEA's critic; actor on clean + strong views             SADA
-``vrl3``    ``VRL3Loss``          safe Q target, pre-tanh penalty, std 0.01, small ResNet        VRL3
-``madi``    ``SVEALoss`` preset   (SAC) SVEA behind a per-frame soft mask (critic-trained)       MaDi
-``simgrl``  ``SVEALoss`` preset   (SAC) SVEA with a shifted overlay, per-frame encoder           SimGRL
+``vrl3``    ``VRL3Loss``          safe Q target, pre-tanh penalty, a fixed std, small ResNet   VRL3
+``madi``    ``SVEALoss`` record   (SAC) SVEA behind a per-frame soft mask (critic-trained)       MaDi
+``simgrl``  ``SVEALoss`` record   (SAC) SVEA with a shifted overlay, per-frame encoder           SimGRL
 ``pieg``    ``PIEGLoss``          SVEA on a frozen ImageNet ResNet-18 with adapting BNs          PIE-G
 ``scpl``    ``SCPLLoss``          (SAC) SVEA + masked-Q consistency, policy KL, dynamics         SCPL
 ==========  ====================  =============================================================  ===========
 
 Each loss's ``forward`` is its paper's update, top to bottom, built from the pieces
 :class:`ActorCriticLoss` writes once (the critic target, the TD loss, the actor loss, the output
-and TorchRL's plumbing). How it draws actions is its ``sampler``: :class:`NoisyDeterministic`
-(DrQ-v2's DDPG) or :class:`SquashedGaussian` (SAC, with its temperature, whose terms
-:meth:`ActorCriticLoss.output` adds for every loss); the same object makes the acting policy
-explore, ``loss.make_policy(action_spec)`` (in vigen, "policy" is always that acting module). Algorithms that differ only in their parts
-(SRM, MaDi, SimGRL) are presets of :func:`make_loss` (:data:`ALGOS`), not classes.
+and TorchRL's plumbing), and names every term of its summed loss. How it draws actions is its
+``sampler``: :class:`NoisyDeterministic` (DrQ-v2's DDPG) or :class:`SquashedGaussian` (SAC, whose
+temperature loss ``loss_alpha`` each ``forward`` adds with ``sampler.temperature_losses``); the
+same object makes the acting policy explore, ``loss.make_policy(action_spec)`` (in vigen, "policy"
+is always that acting module). Every default of a paper (the sampler and its options, the
+augmentations, the coefficients, the optimizer groups) has one home, the algorithm's record in
+:data:`ALGOS`: the loss classes take them as arguments, :func:`make_loss` and :func:`build_loss`
+apply the record (:mod:`vigen.losses.paper_defaults` writes it out for help texts and docs).
+Algorithms that differ only in their parts or options (SRM, MaDi, SimGRL) are records of an
+existing class, not classes.
 
 Each takes plain ``nn.Module`` networks (see :mod:`vigen.models`) and a TensorDict batch from a
 TorchRL replay buffer, returns ``loss_*`` entries and detached metrics, and has target critic
@@ -44,15 +49,21 @@ from vigen.losses.curl import CURLLoss
 from vigen.losses.drq import DrQLoss
 from vigen.losses.drqv2 import DrQv2Loss
 from vigen.losses.pieg import PIEGLoss
+from vigen.losses.paper_defaults import defaults_help, defaults_markdown
 from vigen.losses.registry import ALGOS, Algorithm, build_loss, make_loss, make_networks
-from vigen.losses.samplers import NoisyDeterministic, Sampler, SquashedGaussian
+from vigen.losses.samplers import (
+    NoisyDeterministic,
+    Sampler,
+    SquashedGaussian,
+    clipped_normal_sample,
+    squashed_normal_sample,
+)
 from vigen.losses.sada import SADALoss
 from vigen.losses.scpl import SCPLLoss, diagonal_gaussian_kl
-from vigen.losses.sampling import clipped_normal_sample, squashed_normal_sample
-from vigen.losses.saliency import GuidedBackprop, GuidedForward, attribution_mask
+from vigen.losses.saliency import GuidedBackprop, GuidedForward, SalientQLoss, attribution_mask
 from vigen.losses.schedule import LinearSchedule
 from vigen.losses.sgqn import SGQNLoss
-from vigen.losses.svea import SVEALoss
+from vigen.losses.svea import SVEALoss, TwoViewLoss, svea_critic
 from vigen.losses.target_update import SplitSoftUpdate
 from vigen.losses.update import UpdateStep, update_metrics
 from vigen.losses.vrl3 import VRL3Loss
@@ -72,15 +83,19 @@ __all__ = [
     "SADALoss",
     "SCPLLoss",
     "SGQNLoss",
+    "SalientQLoss",
     "SquashedGaussian",
     "SVEALoss",
     "Sampler",
     "SplitSoftUpdate",
+    "TwoViewLoss",
     "UpdateStep",
     "VRL3Loss",
     "attribution_mask",
     "build_loss",
     "clipped_normal_sample",
+    "defaults_help",
+    "defaults_markdown",
     "diagonal_gaussian_kl",
     "example_batch",
     "make_loss",
@@ -88,6 +103,7 @@ __all__ = [
     "per_sample_mean",
     "squared_td_errors",
     "squashed_normal_sample",
+    "svea_critic",
     "update_metrics",
     "weighted_td_errors",
 ]

@@ -11,12 +11,16 @@ building blocks are the update's pieces, written once:
 * :meth:`~ActorCriticLoss.actor_loss`: the actor's objective through a frozen critic;
 * ``loss.sampler``: how actions are drawn in the update and how the acting policy explores, a
   :class:`~vigen.losses.NoisyDeterministic` (DrQ-v2) or a :class:`~vigen.losses.SquashedGaussian`
-  (SAC, with its temperature loss, which :meth:`~ActorCriticLoss.output` adds for every loss from
-  the log-probability it is handed).
+  (SAC), with the temperature loss of SAC (``loss.sampler.temperature_losses``) and the sampler's
+  metrics (``loss.sampler.metrics``);
+* :meth:`~ActorCriticLoss.output`: the ``loss_*`` terms a ``forward`` hands it, reduced, and the metrics.
 
 Each algorithm's ``forward`` strings these together in the order of its paper's update, top to
-bottom, as DrQ-v2's ``update`` reads (see :class:`~vigen.losses.DrQv2Loss`); nothing on the
-update's path is a hook a subclass overrides.
+bottom, as DrQ-v2's ``update`` reads (see :class:`~vigen.losses.DrQv2Loss`), and names every term of
+its summed loss, SAC's temperature loss included; :meth:`~ActorCriticLoss.output` adds none. Nothing
+on the update's path is a hook a subclass overrides. A loss's defaults in its paper are not here
+nor in its class: they are its record in :data:`vigen.losses.ALGOS`, which :func:`~vigen.losses.build_loss`
+and :func:`~vigen.losses.make_loss` apply.
 """
 
 from __future__ import annotations
@@ -36,22 +40,13 @@ from torchrl.objectives import LossModule
 from torchrl.objectives.utils import ValueEstimators, dispatch_value_estimator
 
 from vigen.devices import host_reads_are_free
-from vigen.losses.samplers import ActorOutput, NoisyDeterministic, Sampler, SquashedGaussian
-from vigen.models import Actor, GaussianActor, rename_actor_keys, weight_init
+from vigen.losses.samplers import ActorOutput, Sampler, SquashedGaussian
+from vigen.models import weight_init
 from vigen.pixel_format import check_pixels
 from vigen.seeding import derive_seed
-from vigen.transforms import ImageAugmentation, RandomOverlay, RandomShift
+from vigen.transforms import ImageAugmentation
 
 Augmentations = ImageAugmentation | Sequence[ImageAugmentation] | None
-
-LEGACY_STATE_KEYS = {
-    "log_alpha": "sampler.log_alpha", "policy.log_alpha": "sampler.log_alpha",
-    "alpha": "weak_weight", "beta": "strong_weight",
-    "svea_alpha": "weak_weight", "svea_beta": "strong_weight",
-}
-"""State-dict keys of vigen's older losses → today's: before one name per coefficient, and before the sampler
-was ``loss.sampler`` (it was ``loss.policy``, a name that now means the acting module only). The actor's renamed
-submodules (``actor_params.policy.*``) are :data:`vigen.models.ACTOR_RENAMES`."""
 
 PARAM_GROUP_OPTIONS = frozenset({"lr", "lr_scale", "betas", "eps", "weight_decay", "every"})
 """The options a per-module optimizer group (``param_groups``) may set; ``lr_scale`` is a multiple of the base lr;
@@ -71,7 +66,13 @@ class Batch:
 
     @property
     def size(self) -> int:
+        """B, the number of samples."""
         return self.pixels.shape[0]
+
+    @property
+    def action_dim(self) -> int:
+        """The size of an action (SAC's default target entropy is ``−action_dim``)."""
+        return self.action.shape[-1]
 
 
 def example_batch(
@@ -98,25 +99,6 @@ def example_batch(
         "pixels": pixels, "action": torch.rand(batch_size, action_dim, generator=generator) * 2 - 1,
         "next": {"pixels": pixels, "reward": torch.ones(batch_size, 1), "done": flags, "terminated": flags.clone()},
     }, batch_size=[batch_size])
-
-
-def default_shift(augmentation: Augmentations | Literal["default"]) -> Augmentations:
-    """A loss's weak augmentation argument: ``"default"`` is DrQ-v2's ``RandomShift(pad=4)``, a new one each call.
-
-    The losses take ``augmentation="default"`` rather than a module instance as default argument
-    (one instance would be shared by every loss built with the default).
-
-    Examples:
-        >>> default_shift("default")
-        RandomShift(pad=4, in_keys=['pixels'])
-        >>> default_shift(None) is None
-        True
-    """
-    if isinstance(augmentation, str):
-        if augmentation != "default":
-            raise ValueError(f"augmentation must be an ImageAugmentation, a list of them, None or 'default', got {augmentation!r}.")
-        return RandomShift(pad=4)
-    return augmentation
 
 
 def squared_td_errors(q1: Tensor, q2: Tensor, target: Tensor) -> Tensor:
@@ -172,10 +154,12 @@ def per_sample_mean(loss: Tensor, views: int) -> Tensor:
 class ActorCriticLoss(LossModule):
     """TorchRL's plumbing for vigen's actor-critic losses, and the update's pieces, each written once.
 
-    A loss subclasses it with its ``__init__`` (its options) and its ``forward``: the update in its
-    paper's order, built from :meth:`read_batch`, :meth:`augment`, :meth:`next_value`,
+    A loss subclasses it with its ``__init__`` (its own options, if any) and its ``forward``: the
+    update in its paper's order, built from :meth:`read_batch`, :meth:`augment`, :meth:`next_value`,
     :meth:`bootstrap`, :meth:`encode`, :meth:`q_values`, :func:`weighted_td_errors`,
-    :meth:`actor_loss` and :meth:`output`. How actions are drawn is the ``sampler``'s.
+    :meth:`actor_loss`, the sampler's ``temperature_losses`` and ``metrics``, and :meth:`output`.
+    How actions are drawn is the ``sampler``'s. The class takes every option of the paper as an
+    argument; :func:`~vigen.losses.build_loss` gives them from the algorithm's record.
 
     The batch (checked before any work, naming every missing key and the fix):
 
@@ -209,13 +193,16 @@ class ActorCriticLoss(LossModule):
             for ``torchrl.objectives.SoftUpdate``.
         sampler: how actions are drawn, :class:`~vigen.losses.NoisyDeterministic` or
             :class:`~vigen.losses.SquashedGaussian`.
-        augmentation: the weak augmentation (``None`` if the replay buffer already augments).
-        input_mask: a module applied to the pixels before the encoder, in every view and in the
-            acting policy (MaDi's masker); ``None`` for none.
+        augmentation: the weak augmentation (DrQ-v2: ``RandomShift(pad=4)``), drawn afresh for each
+            view it makes; ``None`` if the replay buffer already augments (augment in one place only,
+            or every view is shifted twice).
         target_encoder: keep a target copy of the encoder (``target_encoder_params``, moved by
             ``SoftUpdate`` with the target critic) and score the next action on its features
-            (DMC-GB's SAC, the original DrQ). ``"keys"`` keeps the copy without scoring on it
+            (DMC-GB's SAC, the original DrQ); ``False``: the target critic scores the online
+            encoder's features (DrQ-v2, RL-ViGen). ``"keys"`` keeps the copy without scoring on it
             (CURL's momentum key encoder).
+        input_mask: a module applied to the pixels before the encoder, in every view and in the
+            acting policy (MaDi's masker); ``None`` for none.
         param_groups: per-module optimizer options, ``{attribute: {"lr": ..., ...}}`` for
             :meth:`optimizer_groups`, the one spelling of every per-module setting: MaDi's masker
             (``{"input_mask": {"lr": 1e-3, "betas": (0.9, 0.999)}}``), SCPL's dynamics model
@@ -264,6 +251,7 @@ class ActorCriticLoss(LossModule):
     SUPPORTED_VALUE_ESTIMATORS = (ValueEstimators.TD0,)
     own_out_keys: tuple[str, ...] = ()
     """The losses and metrics an algorithm adds to the output."""
+    _schedulable_buffers = frozenset({"weak_weight", "strong_weight"})  # TorchRL's: loss.weak_weight = 0.3 sets the buffer
 
     sampler: Sampler
     encoder: nn.Module
@@ -283,9 +271,9 @@ class ActorCriticLoss(LossModule):
         critic: nn.Module,
         *,
         sampler: Sampler,
-        augmentation: Augmentations = None,
+        augmentation: Augmentations,
+        target_encoder: bool | Literal["keys"],
         input_mask: nn.Module | None = None,
-        target_encoder: bool | Literal["keys"] = False,
         param_groups: Mapping[str, Mapping[str, Any]] | None = None,
         channels_last: bool = True,
         reduction: str = "mean",
@@ -319,7 +307,6 @@ class ActorCriticLoss(LossModule):
         self.register_buffer("nonfinite_calls", torch.zeros((), dtype=torch.long), persistent=False)
         self._scanned_pixels = False  # whether a batch's float pixels were scanned once (check_batch)
         self.param_groups = self._checked_param_groups(param_groups or {})
-        self.register_load_state_dict_pre_hook(_rename_legacy_keys)
 
     @property
     def out_keys(self) -> list[str]:
@@ -329,12 +316,11 @@ class ActorCriticLoss(LossModule):
     def add_strong_view(self, strong_augmentation: Augmentations, weak_weight: float, strong_weight: float) -> None:
         """SVEA's second view for the losses that score it (SVEA, SADA, PIE-G, SCPL): its augmentation and both views' weights.
 
-        ``strong_augmentation`` is applied on top of the weak view (``None``: ``RandomOverlay(alpha=0.5)``,
-        vigen's built-in image bank); ``weak_weight`` and ``strong_weight`` weigh the two views' TD errors
-        (buffers, schedulable: ``loss.strong_weight = 0.3``).
+        ``strong_augmentation`` is applied on top of the weak view (SVEA: ``RandomOverlay(alpha=0.5)``;
+        ``None`` makes the strong view the weak one); ``weak_weight`` and ``strong_weight`` weigh the two
+        views' TD errors (buffers, schedulable: ``loss.strong_weight = 0.3``).
         """
-        self.strong_augmentation = self._augmentations(
-            RandomOverlay(alpha=0.5) if strong_augmentation is None else strong_augmentation)
+        self.strong_augmentation = self._augmentations(strong_augmentation)
         self.register_coeff_buffer("weak_weight", weak_weight)
         self.register_coeff_buffer("strong_weight", strong_weight)
 
@@ -409,34 +395,29 @@ class ActorCriticLoss(LossModule):
         q2: Tensor,
         losses: Mapping[str, Tensor],
         metrics: Mapping[str, Tensor] | None = None,
-        *,
-        log_prob: Tensor | None = None,
     ) -> TensorDict:
-        """The loss's TensorDict: the reduced per-sample ``losses`` (``loss_critic`` weighted by ``priority_weight``),
-        the sampler's terms, the metrics.
+        """The loss's TensorDict: the per-sample ``losses`` the ``forward`` names, reduced, and its metrics, detached.
 
-        ``q1``, ``q2`` are the critic's values of the batch's first view ``[B, 1]`` and ``target``
-        its target ``y``: ``q_mean``, ``target_mean``, ``target_std`` and the ``td_error`` priority
+        It adds no loss: every ``loss_*`` entry is one of ``losses``, each per sample (``[B]``; an
+        actor step over several views gives each sample the mean over its views, as the forward
+        says), reduced by ``reduction`` (``loss_critic`` weighted by ``priority_weight``). ``q1``,
+        ``q2`` are the critic's values of the batch's first view ``[B, 1]`` and ``target`` its
+        target ``y``: ``q_mean``, ``target_mean``, ``target_std`` and the ``td_error`` priority
         ``max(|Q1 − y|, |Q2 − y|)`` (written into ``tensordict``) come from them.
-
-        The sampler's losses and metrics are added here, for every loss, from ``log_prob``, the
-        log-probability of the actor step's actions (``None`` for a ``NoisyDeterministic``):
-        SAC's ``loss_alpha``, ``alpha`` and ``entropy``, or the noise ``std``. An actor step over
-        ``V`` views of the batch (``log_prob`` of ``[V·B, 1]``, view-major) gives per-sample
-        terms averaged over its views.
         """
         keys = self.tensor_keys
+        size = q1.shape[0]
+        for name, value in losses.items():
+            if not name.startswith("loss_") or value.shape != (size,):
+                raise ValueError(f"{type(self).__name__}: the loss term {name!r} has shape {tuple(value.shape)}; a loss term "
+                                 f"is named loss_* and holds one value per sample, [{size}] (average an actor step over "
+                                 "several views per sample: per_sample_mean, temperature_losses(..., views=V)).")
         priority = torch.maximum((q1 - target).abs(), (q2 - target).abs()).detach().squeeze(-1)
         tensordict.set(keys.priority, priority)
         weights = self._maybe_get_priority_weight(tensordict)
-        losses = dict(losses)
-        views = 1 if log_prob is None else log_prob.shape[0] // q1.shape[0]
-        for name, value in self.sampler.losses(log_prob, tensordict.get(keys.action).shape[-1]).items():
-            losses[name] = value if views == 1 else per_sample_mean(value, views)
         out = {name: self._reduce_loss(value, tensordict, weights=weights if name == "loss_critic" else None)
                for name, value in losses.items()}
         out.update(q_mean=q1.detach().mean(), target_mean=target.mean(), target_std=target.std())
-        out.update(self.sampler.metrics(self.schedule_step, log_prob))
         out.update({name: value.detach() for name, value in (metrics or {}).items()})
         if self.check_finite:
             if host_reads_are_free(q1):
@@ -478,13 +459,6 @@ class ActorCriticLoss(LossModule):
         """(Q1', Q2') of the target critic."""
         with self.target_critic_params.to_module(self.critic, preserve_module_state=False):
             return self.critic(features, action)
-
-    @property
-    def stddev(self) -> float:
-        """The current noise std of a ``NoisyDeterministic`` sampler (a Python float: reading it synchronizes)."""
-        if not isinstance(self.sampler, NoisyDeterministic):
-            raise AttributeError(f"{type(self).__name__} samples from SAC's squashed Gaussian; it has no noise std.")
-        return self.sampler.stddev(self.schedule_step)
 
     @property
     def alpha(self) -> Tensor:
@@ -836,16 +810,6 @@ class RunningStatistics(nn.Module):
         finally:
             for norm in norms:
                 norm.train(True)
-
-
-def _rename_legacy_keys(loss: ActorCriticLoss, state_dict: dict[str, Any], prefix: str, *args: Any) -> None:
-    """Load a state dict saved before one name per coefficient or per concept (:data:`LEGACY_STATE_KEYS`; in the
-    parameters of vigen's actors, :data:`~vigen.models.ACTOR_RENAMES`)."""
-    for old, new in LEGACY_STATE_KEYS.items():
-        if prefix + old in state_dict and prefix + new not in state_dict:
-            state_dict[prefix + new] = state_dict.pop(prefix + old)
-    if isinstance(loss.actor, (Actor, GaussianActor)):
-        rename_actor_keys(state_dict, f"{prefix}actor_params.")
 
 
 def _reinitialise(module: nn.Module) -> None:

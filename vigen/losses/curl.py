@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Any
 
 import torch
 import torch.nn.functional as F
@@ -10,10 +10,8 @@ from tensordict import TensorDictBase
 from tensordict.nn import dispatch
 from torch import nn
 
-from vigen.losses.base import ActorCriticLoss, Augmentations, default_shift, squared_td_errors
-from vigen.losses.samplers import NoisyDeterministic, Sampler
+from vigen.losses.base import ActorCriticLoss, Augmentations, squared_td_errors
 from vigen.models import CURLHead
-from vigen.transforms import RandomShift
 
 
 class CURLLoss(ActorCriticLoss):
@@ -35,7 +33,7 @@ class CURLLoss(ActorCriticLoss):
     Adam over all parameters. ``curl_accuracy`` is the fraction of anchors
     whose highest logit is their positive.
 
-    RL-ViGen encodes the positives with the online encoder (``key_encoder=False``, the default).
+    RL-ViGen encodes the positives with the online encoder (``key_encoder=False``, ``make_loss("curl")``).
     The original CURL uses a momentum key encoder: ``key_encoder=True`` keeps one in
     ``target_encoder_params``, moved by the same ``SoftUpdate`` as the target critic (one τ for
     both; the original uses 0.05 for the key encoder and 0.01 for the critic). The original's
@@ -48,20 +46,18 @@ class CURLLoss(ActorCriticLoss):
     Args:
         encoder, actor, critic: as in :class:`DrQv2Loss`.
         head: the bilinear head (:class:`~vigen.models.CURLHead`) of the encoder's output size.
-        contrastive_augmentation: draws the anchor and positive views; default ``RandomShift(4)``.
+        contrastive_augmentation: draws the anchor and positive views (RL-ViGen: ``RandomShift(pad=4)``).
         key_encoder: encode positives with a momentum copy of the encoder.
-        sampler: DrQ-v2's :class:`~vigen.losses.NoisyDeterministic` (its default) or
-            :class:`~vigen.losses.SquashedGaussian`.
-        augmentation: the critic's view; ``"default"`` is ``RandomShift(pad=4)``.
-        **kwargs: ``input_mask``, ``channels_last``, ``reduction``, ``check_finite`` (see
-            :class:`~vigen.losses.ActorCriticLoss`).
+        **options: ``sampler`` (RL-ViGen: DrQ-v2's :class:`~vigen.losses.NoisyDeterministic`),
+            ``augmentation`` (the critic's view), ``input_mask``, ``param_groups``, ``channels_last``,
+            ``reduction``, ``check_finite`` (see :class:`~vigen.losses.ActorCriticLoss`).
 
     Examples:
         >>> from torchrl.objectives import SoftUpdate
-        >>> from vigen.losses import example_batch
+        >>> from vigen.losses import build_loss, example_batch
         >>> from vigen.models import Actor, CURLHead, Critic, ProjectedEncoder
         >>> encoder = ProjectedEncoder(9, image_size=84)
-        >>> loss = CURLLoss(encoder, Actor(512, 2, hidden_dim=32), Critic(512, 2, hidden_dim=32), CURLHead(512))
+        >>> loss = build_loss("curl", encoder, Actor(512, 2, hidden_dim=32), Critic(512, 2, hidden_dim=32), CURLHead(512))
         >>> updater = SoftUpdate(loss, tau=0.01)
         >>> batch = example_batch(4)  # uint8 frame stacks [4, 9, 84, 84], actions of size 2
         >>> sorted(key for key in loss(batch).keys() if key.startswith("loss_"))
@@ -70,25 +66,11 @@ class CURLLoss(ActorCriticLoss):
 
     own_out_keys = ("loss_curl", "curl_accuracy")
 
-    def __init__(
-        self,
-        encoder: nn.Module,
-        actor: nn.Module,
-        critic: nn.Module,
-        head: CURLHead,
-        *,
-        sampler: Sampler | None = None,
-        augmentation: Augmentations | Literal["default"] = "default",
-        contrastive_augmentation: Augmentations = None,
-        key_encoder: bool = False,
-        **kwargs: Any,
-    ) -> None:
-        super().__init__(encoder, actor, critic, sampler=NoisyDeterministic() if sampler is None else sampler,
-                         augmentation=default_shift(augmentation), target_encoder="keys" if key_encoder else False,
-                         **kwargs)
+    def __init__(self, encoder: nn.Module, actor: nn.Module, critic: nn.Module, head: CURLHead, *,
+                 contrastive_augmentation: Augmentations, key_encoder: bool, **options: Any) -> None:
+        super().__init__(encoder, actor, critic, target_encoder="keys" if key_encoder else False, **options)
         self.head = head
-        self.contrastive_augmentation = self._augmentations(
-            RandomShift(pad=4) if contrastive_augmentation is None else contrastive_augmentation)
+        self.contrastive_augmentation = self._augmentations(contrastive_augmentation)
         self.key_encoder = key_encoder
 
     @dispatch
@@ -107,5 +89,7 @@ class CURLLoss(ActorCriticLoss):
         labels = torch.arange(batch.size, device=logits.device)
         return self.output(tensordict, target, q1, q2,
                            {"loss_critic": squared_td_errors(q1, q2, target), "loss_actor": loss_actor,
-                            "loss_curl": F.cross_entropy(logits, labels, reduction="none")},
-                           {"curl_accuracy": (logits.argmax(dim=1) == labels).float().mean()}, log_prob=log_prob)
+                            "loss_curl": F.cross_entropy(logits, labels, reduction="none"),
+                            **self.sampler.temperature_losses(log_prob, batch.action_dim, views=1)},
+                           {**self.sampler.metrics(self.schedule_step, log_prob),
+                            "curl_accuracy": (logits.argmax(dim=1) == labels).float().mean()})

@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Any
 
 import torch
 from tensordict import TensorDictBase
 from tensordict.nn import dispatch
 from torch import Tensor, nn
 
-from vigen.losses.base import ActorCriticLoss, Augmentations, default_shift, weighted_td_errors
-from vigen.losses.samplers import Sampler, SquashedGaussian
+from vigen.losses.base import ActorCriticLoss, weighted_td_errors
 
 
 class DrQLoss(ActorCriticLoss):
@@ -26,10 +25,10 @@ class DrQLoss(ActorCriticLoss):
     * ``loss_actor = α·log π(ã|h₀) − min(Q1, Q2)(h₀, ã)`` on detached clean features, through a
       frozen critic;
     * ``loss_alpha = α·(−log π(ã|h₀) − H̄)`` with target entropy ``H̄ = −|A|``; α = exp(``log_alpha``),
-      initialised at 0.1.
+      initialised at 0.1 (RL-ViGen's, the record ``ALGOS["drq"]``).
 
-    RL-ViGen replaces one of the original DrQ's two shifted views by the raw observation; that is
-    the default here. The original DrQ (K = M = 2 independently shifted views, and a target
+    RL-ViGen replaces one of the original DrQ's two shifted views by the raw observation
+    (``clean_view=True``, ``make_loss("drq")``). The original DrQ (K = M = 2 independently shifted views, and a target
     encoder in the target critic) is ``clean_view=False, target_encoder=True``: the views are
     then ``shift₁(obs)`` and ``shift₂(obs)`` (and of next obs), the actor reads the first, the
     next action is sampled on the online encoder's features and scored on the target encoder's,
@@ -42,23 +41,24 @@ class DrQLoss(ActorCriticLoss):
     Args:
         encoder, critic: as in :class:`DrQv2Loss`.
         actor: features → (mean, log σ).
-        sampler: SAC's :class:`~vigen.losses.SquashedGaussian`; default α₀ = 0.1, ``H̄ = −|A|``, DrQ's log π
-            (a :class:`~vigen.losses.NoisyDeterministic` makes it DDPG on both views).
-        augmentation: the shift; ``"default"`` is ``RandomShift(pad=4)``.
         clean_view: pair the raw observation with one shifted view (RL-ViGen); ``False`` draws
             two shifted views (the original DrQ's K = M = 2).
-        target_encoder: encode the next views with a target copy of the encoder (the original
-            DrQ) instead of the online encoder (RL-ViGen).
-        **kwargs: ``input_mask``, ``param_groups``, ``channels_last``, ``reduction``,
-            ``check_finite`` (see :class:`~vigen.losses.ActorCriticLoss`).
+        **options: ``sampler`` (SAC's :class:`~vigen.losses.SquashedGaussian`; a
+            :class:`~vigen.losses.NoisyDeterministic` makes it DDPG on both views), ``augmentation``
+            (the shift), ``target_encoder`` (encode the next views with a target copy of the encoder,
+            as the original DrQ; RL-ViGen uses the online encoder), ``input_mask``, ``param_groups``,
+            ``channels_last``, ``reduction``, ``check_finite`` (see :class:`~vigen.losses.ActorCriticLoss`).
 
     Examples:
         >>> from torchrl.objectives import SoftUpdate
-        >>> from vigen.losses import example_batch
+        >>> from vigen.losses import build_loss, example_batch
         >>> from vigen.models import Critic, DrQv2Encoder, GaussianActor
         >>> encoder = DrQv2Encoder(9)
-        >>> repr_dim = encoder.output_dim(9, 84, 84)
-        >>> loss = DrQLoss(encoder, GaussianActor(repr_dim, 2, hidden_dim=32), Critic(repr_dim, 2, hidden_dim=32))
+        >>> features = encoder.output_dim(9, 84, 84)
+        >>> actor, critic = GaussianActor(features, 2, hidden_dim=32), Critic(features, 2, hidden_dim=32)
+        >>> loss = build_loss("drq", encoder, actor, critic)  # RL-ViGen's DrQ: its record, ALGOS["drq"]
+        >>> loss.clean_view, loss.sampler
+        (True, SquashedGaussian(init_temperature=0.1, target_entropy='auto', squash_epsilon=None))
         >>> updater = SoftUpdate(loss, tau=0.01)
         >>> batch = example_batch(4)  # uint8 frame stacks [4, 9, 84, 84], actions of size 2
         >>> out = loss(batch)
@@ -66,21 +66,9 @@ class DrQLoss(ActorCriticLoss):
         (['loss_actor', 'loss_alpha', 'loss_critic'], 0.1)
     """
 
-    def __init__(
-        self,
-        encoder: nn.Module,
-        actor: nn.Module,
-        critic: nn.Module,
-        *,
-        sampler: Sampler | None = None,
-        augmentation: Augmentations | Literal["default"] = "default",
-        clean_view: bool = True,
-        target_encoder: bool = False,
-        **kwargs: Any,
-    ) -> None:
-        super().__init__(encoder, actor, critic, sampler=SquashedGaussian() if sampler is None else sampler,
-                         augmentation=default_shift(augmentation), target_encoder=target_encoder, **kwargs)
-        self.clean_view = clean_view
+    def __init__(self, encoder: nn.Module, actor: nn.Module, critic: nn.Module, *, clean_view: bool, **options: Any) -> None:
+        super().__init__(encoder, actor, critic, **options)
+        self.clean_view = bool(clean_view)
 
     @dispatch
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
@@ -92,9 +80,12 @@ class DrQLoss(ActorCriticLoss):
         features = self.encode_views(self.two_views(batch.pixels, obs))
         q1, q2 = self.q_values(torch.cat(features), batch.action.repeat(2, 1))
         loss_critic = weighted_td_errors(q1, q2, target, [1.0, 1.0])  # summed over the views, not averaged
+        # the actor and SAC's temperature: on the first view's detached features
         loss_actor, log_prob = self.actor_loss(features[0].detach())
         return self.output(tensordict, target, q1[:batch.size], q2[:batch.size],
-                           {"loss_critic": loss_critic, "loss_actor": loss_actor}, log_prob=log_prob)
+                           {"loss_critic": loss_critic, "loss_actor": loss_actor,
+                            **self.sampler.temperature_losses(log_prob, batch.action_dim, views=1)},
+                           self.sampler.metrics(self.schedule_step, log_prob))
 
     def two_views(self, pixels: Tensor, shifted: Tensor) -> tuple[Tensor, Tensor]:
         """(raw or a second shift, the first shift): RL-ViGen's pair, or the original DrQ's (a fresh draw)."""

@@ -2,14 +2,10 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal
-
 from tensordict import TensorDictBase
 from tensordict.nn import dispatch
-from torch import nn
 
-from vigen.losses.base import ActorCriticLoss, Augmentations, default_shift, squared_td_errors
-from vigen.losses.samplers import NoisyDeterministic, Sampler
+from vigen.losses.base import ActorCriticLoss, squared_td_errors
 
 
 class DrQv2Loss(ActorCriticLoss):
@@ -33,10 +29,12 @@ class DrQv2Loss(ActorCriticLoss):
     (not after) this step's update, as in TorchRL's DDPG/TD3.
 
     The noise is the loss's ``sampler``, :class:`~vigen.losses.NoisyDeterministic`: its std follows
-    ``std`` at the step given to :meth:`set_step` (DrQ-v2: agent steps), and it makes the acting
-    policy explore (:meth:`make_policy`). With SAC's :class:`~vigen.losses.SquashedGaussian` (and an
-    actor returning mean and log σ) the same update is SAC's, with its ``loss_alpha``. The batch
-    contract and the finite-loss check are :class:`~vigen.losses.ActorCriticLoss`'s.
+    its ``std_schedule`` at the step given to :meth:`set_step` (DrQ-v2: agent steps), and it makes the
+    acting policy explore (:meth:`make_policy`). With SAC's :class:`~vigen.losses.SquashedGaussian`
+    (and an actor returning mean and log σ) the same update is SAC's, with its ``loss_alpha``. The
+    batch contract and the finite-loss check are :class:`~vigen.losses.ActorCriticLoss`'s. The
+    class has no options of its own: ``make_loss("drqv2")`` gives it DrQ-v2's (the record
+    ``ALGOS["drqv2"]``: the sampler, ``RandomShift(pad=4)``).
 
     Paper: DrQ-v2, https://arxiv.org/abs/2107.09645.
 
@@ -44,22 +42,23 @@ class DrQv2Loss(ActorCriticLoss):
         encoder: pixels ``[B, 3·k, H, W]`` → features ``[B, D]``, e.g. :class:`~vigen.models.DrQv2Encoder`.
         actor: features → action mean in [-1, 1], e.g. :class:`~vigen.models.Actor`.
         critic: (features, action) → (Q1, Q2), e.g. :class:`~vigen.models.Critic`.
-        augmentation: the weak augmentation, drawn independently for obs and next obs;
-            ``"default"`` is ``RandomShift(pad=4)``. ``None`` if the replay buffer already augments
-            (augment in one place only, or every view is shifted twice).
-        sampler: the noise, ``NoisyDeterministic(std, clip)``; default DrQ-v2's ``std =
-            linear(1.0, 0.1, 100000)``, clip 0.3 (``make_loss(..., std=...)`` builds it); or
-            :class:`~vigen.losses.SquashedGaussian`.
-        **kwargs: ``input_mask``, ``channels_last``, ``reduction``, ``check_finite`` (see
-            :class:`~vigen.losses.ActorCriticLoss`).
+        sampler: the noise, ``NoisyDeterministic(std_schedule, clip)`` (DrQ-v2: ``linear(1.0, 0.1,
+            100000)``, clip 0.3, its defaults), or :class:`~vigen.losses.SquashedGaussian`.
+        augmentation: the weak augmentation, drawn independently for obs and next obs (DrQ-v2:
+            ``RandomShift(pad=4)``); ``None`` if the replay buffer already augments.
+        target_encoder: score the next action on a target encoder's features (DrQ-v2: ``False``).
+        **options: ``input_mask``, ``param_groups``, ``channels_last``, ``reduction``, ``check_finite``
+            (see :class:`~vigen.losses.ActorCriticLoss`).
 
     Examples:
         >>> from torchrl.objectives import SoftUpdate
-        >>> from vigen.losses import example_batch
+        >>> from vigen.losses import NoisyDeterministic, example_batch
         >>> from vigen.models import Actor, Critic, DrQv2Encoder
+        >>> from vigen.transforms import RandomShift
         >>> encoder = DrQv2Encoder(9)
         >>> repr_dim = encoder.output_dim(9, 84, 84)
-        >>> loss = DrQv2Loss(encoder, Actor(repr_dim, 2, hidden_dim=32), Critic(repr_dim, 2, hidden_dim=32))
+        >>> loss = DrQv2Loss(encoder, Actor(repr_dim, 2, hidden_dim=32), Critic(repr_dim, 2, hidden_dim=32),
+        ...                  sampler=NoisyDeterministic(), augmentation=RandomShift(pad=4), target_encoder=False)
         >>> loss.make_value_estimator(gamma=0.99)
         DrQv2Loss(...)
         >>> updater = SoftUpdate(loss, tau=0.01)
@@ -74,19 +73,6 @@ class DrQv2Loss(ActorCriticLoss):
         KeyError: "DrQv2Loss: the batch has no ('next', 'terminated')...
     """
 
-    def __init__(
-        self,
-        encoder: nn.Module,
-        actor: nn.Module,
-        critic: nn.Module,
-        *,
-        augmentation: Augmentations | Literal["default"] = "default",
-        sampler: Sampler | None = None,
-        **kwargs: Any,
-    ) -> None:
-        super().__init__(encoder, actor, critic, sampler=NoisyDeterministic() if sampler is None else sampler,
-                         augmentation=default_shift(augmentation), **kwargs)
-
     @dispatch
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         batch = self.read_batch(tensordict)
@@ -96,4 +82,6 @@ class DrQv2Loss(ActorCriticLoss):
         q1, q2 = self.q_values(features, batch.action)
         loss_actor, log_prob = self.actor_loss(features.detach())
         return self.output(tensordict, target, q1, q2,
-                           {"loss_critic": squared_td_errors(q1, q2, target), "loss_actor": loss_actor}, log_prob=log_prob)
+                           {"loss_critic": squared_td_errors(q1, q2, target), "loss_actor": loss_actor,
+                            **self.sampler.temperature_losses(log_prob, batch.action_dim, views=1)},
+                           self.sampler.metrics(self.schedule_step, log_prob))

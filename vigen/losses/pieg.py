@@ -11,29 +11,22 @@ from tensordict.utils import NestedKey
 from torch import Tensor, nn
 from torchrl.data import TensorSpec
 
-from vigen.losses.base import (
-    BATCH_NORMS,
-    ActorCriticLoss,
-    Augmentations,
-    PixelsToAction,
-    RunningStatistics,
-    default_shift,
-    weighted_td_errors,
-)
-from vigen.losses.samplers import NoisyDeterministic, Sampler
+from vigen.losses.base import BATCH_NORMS, PixelsToAction, RunningStatistics
+from vigen.losses.svea import TwoViewLoss, svea_critic
 
 BatchNormMode = Literal["running", "observation"]
 
 
-class PIEGLoss(ActorCriticLoss):
+class PIEGLoss(TwoViewLoss):
     """PIE-G as RL-ViGen (and PIE-G's own code) trains it: SVEA's critic loss on a frozen ResNet-18 encoder.
 
-    The update is SVEA's (:class:`~vigen.losses.SVEALoss`) on DrQ-v2's DDPG, with ``s = shift(obs)``,
+    The update is SVEA's (:class:`~vigen.losses.SVEALoss`, its critic :func:`~vigen.losses.svea.svea_critic`) on
+    DrQ-v2's DDPG, with ``s = shift(obs)``,
     ``s̃ = overlay(s)`` and ``y = r + γⁿ·(1 − terminated)·min(Q1', Q2')(h', a')``:
 
         ``loss_critic = w·[MSE(Q1(h), y) + MSE(Q2(h), y)] + w̃·[MSE(Q1(h̃), y) + MSE(Q2(h̃), y)]``
 
-    with w = w̃ = 0.5, ``h = encoder(s)``, ``h̃ = encoder(s̃)``, ``h' = encoder(shift(next obs))``
+    with w = w̃ = 0.5 (RL-ViGen's, the record ``ALGOS["pieg"]``), ``h = encoder(s)``, ``h̃ = encoder(s̃)``, ``h' = encoder(shift(next obs))``
     (no gradient), and ``loss_actor = −min(Q1, Q2)(h.detach(), μ(h.detach()) + noise)``.
 
     What PIE-G changes is the encoder, :class:`~vigen.models.PIEGEncoder`: ImageNet ResNet-18
@@ -75,27 +68,27 @@ class PIEGLoss(ActorCriticLoss):
     Args:
         encoder, actor, critic: as in :class:`~vigen.losses.SVEALoss`; the encoder is PIE-G's
             :class:`~vigen.models.PIEGEncoder` (``make_loss("pieg", ..., encoder_weights=<file>)``).
-        acting_batchnorm: ``"running"`` or ``"observation"``, the BatchNorm statistics of the
-            acting policy (see above).
-        sampler: DrQ-v2's :class:`~vigen.losses.NoisyDeterministic` (the default) or
-            :class:`~vigen.losses.SquashedGaussian`.
-        augmentation: the weak view; ``"default"`` is ``RandomShift(pad=4)``.
-        strong_augmentation: applied on top of the weak view; ``None`` for ``RandomOverlay(alpha=0.5)``.
-        weak_weight, strong_weight: w and w̃ (0.5 each).
-        **kwargs: ``input_mask``, ``param_groups``, ``channels_last``, ``reduction``,
-            ``check_finite`` (see :class:`~vigen.losses.ActorCriticLoss`).
+        acting_batchnorm: ``"running"`` (RL-ViGen while training) or ``"observation"``, the BatchNorm
+            statistics of the acting policy (see above).
+        strong_augmentation, weak_weight, strong_weight, augment_next: the two views (see
+            :class:`~vigen.losses.svea.TwoViewLoss`; RL-ViGen: the overlay, 0.5 each, the next
+            observation shifted).
+        **options: ``sampler`` (RL-ViGen: DrQ-v2's :class:`~vigen.losses.NoisyDeterministic`),
+            ``augmentation`` (the weak view), ``target_encoder`` (RL-ViGen: none), ``input_mask``,
+            ``param_groups``, ``channels_last``, ``reduction``, ``check_finite`` (see
+            :class:`~vigen.losses.ActorCriticLoss`).
 
     Examples:
         >>> import warnings
         >>> from tensordict import TensorDict
         >>> from torchrl.data import Bounded
         >>> from torchrl.objectives import SoftUpdate
-        >>> from vigen.losses import example_batch
+        >>> from vigen.losses import build_loss, example_batch
         >>> from vigen.models import Actor, Critic, PIEGEncoder
         >>> with warnings.catch_warnings():
         ...     warnings.simplefilter("ignore")  # no ImageNet weights here: random ResNet weights
         ...     encoder = PIEGEncoder(9, image_size=16, out_dim=32)
-        >>> loss = PIEGLoss(encoder, Actor(32, 2, hidden_dim=32), Critic(32, 2, hidden_dim=32))
+        >>> loss = build_loss("pieg", encoder, Actor(32, 2, hidden_dim=32), Critic(32, 2, hidden_dim=32))  # RL-ViGen's options
         >>> updater = SoftUpdate(loss, tau=0.01)
         >>> batch = example_batch(4, observation_shape=(9, 16, 16))
         >>> out = loss(batch)
@@ -110,42 +103,24 @@ class PIEGLoss(ActorCriticLoss):
     """
 
     own_out_keys = ("q_strong_mean",)
-    _schedulable_buffers = frozenset({"weak_weight", "strong_weight"})
 
-    def __init__(
-        self,
-        encoder: nn.Module,
-        actor: nn.Module,
-        critic: nn.Module,
-        *,
-        sampler: Sampler | None = None,
-        augmentation: Augmentations | Literal["default"] = "default",
-        strong_augmentation: Augmentations = None,
-        weak_weight: float = 0.5,
-        strong_weight: float = 0.5,
-        acting_batchnorm: BatchNormMode = "running",
-        **kwargs: Any,
-    ) -> None:
+    def __init__(self, encoder: nn.Module, actor: nn.Module, critic: nn.Module, *, acting_batchnorm: BatchNormMode,
+                 **options: Any) -> None:
         mode = _checked_mode(acting_batchnorm, type(self).__name__)
-        super().__init__(encoder, actor, critic, sampler=NoisyDeterministic() if sampler is None else sampler,
-                         augmentation=default_shift(augmentation), **kwargs)
-        self.add_strong_view(strong_augmentation, weak_weight, strong_weight)
+        super().__init__(encoder, actor, critic, **options)
         self.acting_batchnorm: BatchNormMode = mode
 
     @dispatch
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         batch = self.read_batch(tensordict)
-        obs, next_obs = self.augment(batch.pixels), self.augment(batch.next_pixels)
-        target = self.critic_target(tensordict, next_obs)  # the first of three encoder passes
-        strong = self.augment(obs, self.strong_augmentation)
-        # the critic: SVEA's w·TD(s) + w̃·TD(s̃), each view in its own encoder pass (its own BatchNorm statistics)
-        features, strong_features = self.encode(obs), self.encode(strong)
-        q1, q2 = self.q_values(torch.cat([features, strong_features]), batch.action.repeat(2, 1))
-        loss_critic = weighted_td_errors(q1, q2, target, [self.weak_weight, self.strong_weight])
-        loss_actor, log_prob = self.actor_loss(features.detach())
-        return self.output(tensordict, target, q1[:batch.size], q2[:batch.size],
-                           {"loss_critic": loss_critic, "loss_actor": loss_actor},
-                           {"q_strong_mean": q1[batch.size:].detach().mean()}, log_prob=log_prob)
+        # the critic: SVEA's w·TD(s) + w̃·TD(s̃), each view in its own encoder pass (its own BatchNorm statistics);
+        # the target's pass is the first of three
+        critic = svea_critic(self, tensordict, batch, augment_next=self.augment_next, one_encoder_pass=False)
+        loss_actor, log_prob = self.actor_loss(critic.features.detach())
+        return self.output(tensordict, critic.target, *critic.weak_view_q,
+                           {"loss_critic": critic.loss, "loss_actor": loss_actor,
+                            **self.sampler.temperature_losses(log_prob, batch.action_dim, views=1)},
+                           {**self.sampler.metrics(self.schedule_step, log_prob), "q_strong_mean": critic.q_strong_mean})
 
     def make_policy(
         self,

@@ -1,6 +1,6 @@
 """Every algorithm of vigen by name: its loss, its paper's networks and the defaults that make it that paper's.
 
-SRM, MaDi and SimGRL are SVEA with other parts, so they are presets of :class:`~vigen.losses.SVEALoss`
+SRM, MaDi and SimGRL are SVEA with other parts, so they are records of :class:`~vigen.losses.SVEALoss`
 here, not classes:
 
 * **SRM** (RL-ViGen's): SVEA whose strong view also loses a random ring of spatial frequencies,
@@ -14,7 +14,7 @@ here, not classes:
   (the loss's ``input_mask``: every view, the target encoder's passes and the acting policy). The
   masker learns from the critic's TD error alone (the actor's features are detached, the target
   carries no gradient), with its own Adam group: lr 1e-3, betas (0.9, 0.999)
-  (``param_groups={"input_mask": {...}}``, :data:`MADI_PARAM_GROUPS`).
+  (``param_groups={"input_mask": {...}}``, in its record).
   The next observation is not shifted (DMC-GB's ``sample_svea``); the strong view is the random
   overlay; binary ("hard") masks are not offered. Paper: https://arxiv.org/abs/2312.15339 (code:
   https://github.com/bramgrooten/mask-distractions).
@@ -27,16 +27,19 @@ here, not classes:
 
 DMC-GB's SAC (MaDi, SimGRL, SCPL) uses SVEA's 11-layer CNN on ``x / 255``, a target encoder in
 the target critic, ``log(relu(1 − tanh²) + ε)`` (:data:`~vigen.losses.samplers.DMCGB_SQUASH_EPSILON`) and the actor's own ``feature_dim``
-projection; the departure of all SAC presets from their code (one optimizer step for all terms) is
+projection; the departure of all SAC records from their code (one optimizer step for all terms) is
 measured in ``benchmarks/parity``; their actor and targets every second update and their two target
 rates are the update's (:class:`~vigen.losses.UpdateStep`, :class:`~vigen.losses.SplitSoftUpdate`; the
 recipes of :data:`vigen.run.RECIPES`).
 
-Everything that makes an algorithm its paper's is a field of its :class:`Algorithm` record: the
-loss class, the encoder, the actor, the sampler and its options, the extra networks, the preset
-options, the per-module optimizer groups, the option that loads pretrained encoder weights, and
-the rewards' scale of its runs. The functions below read the record; none of them names an
-algorithm.
+Everything that makes an algorithm its paper's is a field of its :class:`Algorithm` record, and
+nowhere else: the loss class, the encoder, the actor, the sampler and its options, the loss's
+augmentations and options (its coefficients and switches), the extra networks, the per-module
+optimizer groups, the option that loads pretrained encoder weights, and the rewards' scale of its
+runs. The loss classes have no defaults of their own: they take all of it as arguments, and
+:func:`build_loss` gives them the record's. The functions below read the record; none of them
+names an algorithm. :mod:`vigen.losses.paper_defaults` writes the records out for help texts and
+``docs/losses.md``.
 """
 
 from __future__ import annotations
@@ -49,18 +52,18 @@ from typing import Any, Literal
 import torch
 from torch import nn
 
-from vigen.losses.base import ActorCriticLoss
+from vigen.losses.base import ActorCriticLoss, Augmentations
 from vigen.losses.curl import CURLLoss
 from vigen.losses.drq import DrQLoss
 from vigen.losses.drqv2 import DrQv2Loss
 from vigen.losses.pieg import PIEGLoss
 from vigen.losses.sada import SADALoss
-from vigen.losses.samplers import DMCGB_SQUASH_EPSILON, DRQV2_STD, NoisyDeterministic, Sampler, SquashedGaussian
+from vigen.losses.samplers import DMCGB_SQUASH_EPSILON, NoisyDeterministic, Sampler, SquashedGaussian
 from vigen.losses.schedule import LinearSchedule
 from vigen.losses.scpl import SCPLLoss
 from vigen.losses.sgqn import SGQNLoss
 from vigen.losses.svea import SVEALoss
-from vigen.losses.vrl3 import VRL3_STD, VRL3Loss, adroit_reward_scale
+from vigen.losses.vrl3 import VRL3Loss
 from vigen.models import (
     Actor,
     AttributionDecoder,
@@ -76,7 +79,7 @@ from vigen.models import (
     SharedCNN,
     VRL3Encoder,
 )
-from vigen.transforms import RandomFrequencyMask, RandomOverlay, RandomShiftedOverlay
+from vigen.transforms import RandomFrequencyMask, RandomOverlay, RandomShift, RandomShiftedOverlay
 
 EncoderName = Literal["drqv2", "shared_cnn", "shared_cnn_01", "per_frame", "projected", "vrl3", "pieg"]
 ActorName = Literal["deterministic", "gaussian", "gaussian_projected"]
@@ -116,13 +119,9 @@ ACTORS: Mapping[str, Callable[[Shapes], nn.Module]] = MappingProxyType({
 })
 """Actor name → ``shapes → actor``."""
 
-MADI_PARAM_GROUPS = MappingProxyType({"input_mask": MappingProxyType({"lr": 1e-3, "betas": (0.9, 0.999)})})
-"""MaDi's own Adam for its masker: lr 1e-3, β1 0.9 (its ``masker_lr``, ``masker_beta``)."""
-
-
 @dataclass(frozen=True)
 class Algorithm:
-    """One algorithm: the loss class, the networks of its paper, its sampler and the defaults that make it that paper's.
+    """One algorithm: its loss class, the networks of its paper, its sampler and every default that makes it that paper's.
 
     Attributes:
         loss: the loss class.
@@ -131,13 +130,19 @@ class Algorithm:
             ``"gaussian"`` (DrQ's SAC actor, no trunk) or ``"gaussian_projected"`` (the SAC actor with its
             own ``feature_dim`` trunk).
         sampler: :class:`~vigen.losses.NoisyDeterministic` or :class:`~vigen.losses.SquashedGaussian`.
-        sampler_options: the sampler's options in the paper (VRL3: its std; DMC-GB: ``squash_epsilon``).
+        sampler_options: the sampler's options in the paper where they are not the sampler's own
+            defaults (DrQ-v2's noise, SAC's α₀ = 0.1): VRL3's ``std_schedule``, DMC-GB's ``squash_epsilon``.
+        augmentations: the loss's augmentations in the paper, by keyword (``augmentation``, the weak
+            view, and ``strong_augmentation``, ...), as factories: a fresh one for every loss.
+        options: the loss's other options in the paper, by keyword: its coefficients (``weak_weight``,
+            ``quantile``, ...) and switches (``augment_next``, ``target_encoder``, ...).
         networks: the loss's extra networks by its keyword (SGQN's ``decoder``, CURL's ``head``, SCPL's
             ``dynamics``, MaDi's ``input_mask``), each built from the :class:`Shapes`, in this order.
-        presets: loss options that make the loss this paper's, as factories (a fresh augmentation per loss).
-        param_groups: per-module optimizer groups of the paper (MaDi's masker), under what is given.
+        param_groups: per-module optimizer groups of the paper (MaDi's masker, SCPL's dynamics model),
+            under what is given.
         encoder_weights: the :func:`make_loss` option that loads a pretrained encoder (``None``: none).
-        reward_scale: the factor the paper's runs put on an env's rewards, by env name (VRL3 on Adroit).
+        reward_scales: the factor the paper's runs put on an env's rewards, by env name (VRL3 on
+            Adroit); 1 for the others (:meth:`reward_scale`).
     """
 
     loss: type[ActorCriticLoss]
@@ -145,11 +150,18 @@ class Algorithm:
     actor: ActorName
     sampler: type[NoisyDeterministic] | type[SquashedGaussian]
     sampler_options: Mapping[str, Any] = field(default_factory=dict)
+    augmentations: Mapping[str, Callable[[], Augmentations]] = field(default_factory=dict)
+    options: Mapping[str, Any] = field(default_factory=dict)
     networks: Mapping[str, Callable[[Shapes], nn.Module]] = field(default_factory=dict)
-    presets: Mapping[str, Callable[[], Any]] = field(default_factory=dict)
     param_groups: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     encoder_weights: str | None = None
-    reward_scale: Callable[[str], float] = lambda env: 1.0
+    reward_scales: Mapping[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        for name in ("sampler_options", "augmentations", "options", "networks", "reward_scales"):  # read-only records
+            object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
+        object.__setattr__(self, "param_groups", MappingProxyType(
+            {module: MappingProxyType(dict(group)) for module, group in self.param_groups.items()}))
 
     @property
     def takes_std(self) -> bool:
@@ -157,64 +169,93 @@ class Algorithm:
         return self.sampler is NoisyDeterministic
 
     @property
-    def std(self) -> LinearSchedule:
-        """The noise std of the paper as a schedule (a fixed std is a flat one), for a std-taking algorithm.
+    def std_schedule(self) -> LinearSchedule:
+        """The paper's schedule of the noise std (a fixed std is a flat one), for a std-taking algorithm.
 
         Examples:
-            >>> ALGOS["drqv2"].std, ALGOS["vrl3"].std.init
+            >>> ALGOS["drqv2"].std_schedule, ALGOS["vrl3"].std_schedule.init
             (LinearSchedule(init=1.0, final=0.1, duration=100000), 0.01)
         """
         if not self.takes_std:
             raise AttributeError(f"{self.loss.__name__} samples from SAC's squashed Gaussian; it has no noise std.")
-        std = self.sampler_options.get("std", DRQV2_STD)
-        return std if isinstance(std, LinearSchedule) else LinearSchedule(float(std), float(std), DRQV2_STD.duration)
+        return self.sampler(**self.sampler_options).std_schedule
+
+    def reward_scale(self, env: str) -> float:
+        """The factor the paper's runs put on the rewards of ``env`` (``<suite>/<task>``): its ``reward_scales``, else 1.
+
+        Examples:
+            >>> ALGOS["vrl3"].reward_scale("adroit/door"), ALGOS["vrl3"].reward_scale("dmc/walker-walk")
+            (0.05, 1.0)
+        """
+        return float(self.reward_scales.get(env, 1.0))
 
 
+SHIFT = MappingProxyType({"augmentation": lambda: RandomShift(pad=4)})
+"""DrQ-v2's weak view, a random shift by up to 4 pixels: every algorithm's (RL-ViGen's and DMC-GB's code)."""
+
+
+def overlay() -> RandomOverlay:
+    """SVEA's strong view as RL-ViGen and DMC-GB draw it: the random overlay, α = 0.5 (vigen's built-in images)."""
+    return RandomOverlay(alpha=0.5)
+
+
+ONLINE_TARGET = MappingProxyType({"target_encoder": False})
+"""DrQ-v2's critic target (RL-ViGen's, DMC-GB2's): the next action scored on the online encoder's features."""
+SVEA_VIEWS = MappingProxyType({"weak_weight": 0.5, "strong_weight": 0.5, "augment_next": True})
+"""SVEA's two views: each TD error weighed 0.5 (RL-ViGen's ``svea_alpha``, ``svea_beta``), the next observation shifted."""
 DMCGB_SAC = MappingProxyType({"squash_epsilon": DMCGB_SQUASH_EPSILON})
+"""DMC-GB's SAC sampler (SAC-AE's ``log(relu(1 − tanh²) + ε)``), MaDi's, SimGRL's and SCPL's."""
 
 ALGOS: Mapping[str, Algorithm] = MappingProxyType({
-    "drqv2": Algorithm(DrQv2Loss, "drqv2", "deterministic", NoisyDeterministic),
-    "svea": Algorithm(SVEALoss, "shared_cnn", "deterministic", NoisyDeterministic),
-    "srm": Algorithm(SVEALoss, "shared_cnn", "deterministic", NoisyDeterministic,
-                     presets={"strong_augmentation": lambda: [RandomOverlay(alpha=0.5), RandomFrequencyMask()]}),
+    "drqv2": Algorithm(DrQv2Loss, "drqv2", "deterministic", NoisyDeterministic, augmentations=SHIFT, options=ONLINE_TARGET),
+    "svea": Algorithm(SVEALoss, "shared_cnn", "deterministic", NoisyDeterministic,
+                      augmentations={**SHIFT, "strong_augmentation": overlay}, options={**SVEA_VIEWS, **ONLINE_TARGET}),
+    "srm": Algorithm(SVEALoss, "shared_cnn", "deterministic", NoisyDeterministic, options={**SVEA_VIEWS, **ONLINE_TARGET},
+                     augmentations={**SHIFT, "strong_augmentation": lambda: [overlay(), RandomFrequencyMask()]}),
     "sgqn": Algorithm(SGQNLoss, "projected", "deterministic", NoisyDeterministic,
+                      augmentations={**SHIFT, "attribution_augmentation": overlay},
+                      # RL-ViGen's (the SGQN paper: 0.9, 0.5)
+                      options={"quantile": 0.93, "consistency_weight": 0.9, **ONLINE_TARGET},
                       networks={"decoder": lambda s: AttributionDecoder(s.action_dim, embedding_dim=s.features,
                                                                         out_channels=s.channels, image_size=s.image_size)}),
     "curl": Algorithm(CURLLoss, "projected", "deterministic", NoisyDeterministic,
-                      networks={"head": lambda s: CURLHead(s.features)}),
-    "drq": Algorithm(DrQLoss, "drqv2", "gaussian", SquashedGaussian),
-    "sada": Algorithm(SADALoss, "drqv2", "gaussian_projected", SquashedGaussian),
-    "vrl3": Algorithm(VRL3Loss, "vrl3", "deterministic", NoisyDeterministic, sampler_options={"std": VRL3_STD},
-                      encoder_weights="stage1_weights", reward_scale=adroit_reward_scale),
+                      augmentations={**SHIFT, "contrastive_augmentation": lambda: RandomShift(pad=4)},
+                      options={"key_encoder": False}, networks={"head": lambda s: CURLHead(s.features)}),
+    "drq": Algorithm(DrQLoss, "drqv2", "gaussian", SquashedGaussian, augmentations=SHIFT,
+                     options={"clean_view": True, **ONLINE_TARGET}),  # RL-ViGen's DrQ (the original: False, True)
+    "sada": Algorithm(SADALoss, "drqv2", "gaussian_projected", SquashedGaussian,
+                      augmentations={**SHIFT, "strong_augmentation": overlay},
+                      options={"weak_weight": 0.25, "strong_weight": 0.25, "augment_next": True, **ONLINE_TARGET}),
+    "vrl3": Algorithm(VRL3Loss, "vrl3", "deterministic", NoisyDeterministic,
+                      sampler_options={"std_schedule": LinearSchedule(0.01, 0.01, 500_000)}, augmentations=SHIFT,
+                      options={"safe_q_threshold": 200.0, "safe_q_factor": 0.5, "pretanh_threshold": 5.0,
+                               "pretanh_weight": 1e-3, **ONLINE_TARGET},
+                      encoder_weights="stage1_weights",
+                      # RL-ViGen's (and VRL3's) reward_rescale, the rewards its safe-Q threshold of 200 is meant for
+                      reward_scales={"adroit/door": 1 / 20, "adroit/hammer": 1 / 100, "adroit/pen": 1 / 50,
+                                     "adroit/relocate": 1 / 30}),
     "madi": Algorithm(SVEALoss, "shared_cnn_01", "gaussian_projected", SquashedGaussian, sampler_options=DMCGB_SAC,
+                      augmentations={**SHIFT, "strong_augmentation": overlay},
+                      options={**SVEA_VIEWS, "augment_next": False, "target_encoder": True},
                       networks={"input_mask": lambda s: MaDiMasker(max_value=s.max_value)},  # after the others, as MaDi
-                      presets={"augment_next": lambda: False, "target_encoder": lambda: True,
-                               "strong_augmentation": lambda: RandomOverlay(alpha=0.5)},
-                      param_groups=MADI_PARAM_GROUPS),
+                      param_groups={"input_mask": {"lr": 1e-3, "betas": (0.9, 0.999)}}),  # its masker_lr, masker_beta
     "simgrl": Algorithm(SVEALoss, "per_frame", "gaussian_projected", SquashedGaussian, sampler_options=DMCGB_SAC,
-                        presets={"augment_next": lambda: True, "target_encoder": lambda: True,
-                                 "strong_augmentation": lambda: RandomShiftedOverlay(alpha=0.5, max_shift=6)}),
-    "pieg": Algorithm(PIEGLoss, "pieg", "deterministic", NoisyDeterministic, encoder_weights="encoder_weights"),
+                        augmentations={**SHIFT, "strong_augmentation": lambda: RandomShiftedOverlay(alpha=0.5, max_shift=6)},
+                        options={**SVEA_VIEWS, "target_encoder": True}),
+    "pieg": Algorithm(PIEGLoss, "pieg", "deterministic", NoisyDeterministic,
+                      augmentations={**SHIFT, "strong_augmentation": overlay},
+                      options={**SVEA_VIEWS, "acting_batchnorm": "running", **ONLINE_TARGET}, encoder_weights="encoder_weights"),
     "scpl": Algorithm(SCPLLoss, "shared_cnn_01", "gaussian_projected", SquashedGaussian, sampler_options=DMCGB_SAC,
-                      networks={"dynamics": lambda s: LatentDynamics(s.feature_dim, s.action_dim)}),
+                      augmentations={**SHIFT, "strong_augmentation": overlay},
+                      options={"weak_weight": 0.5, "strong_weight": 0.5, "quantile": 0.9, "consistency_weight": 0.5,
+                               "kl_weight": 1.0, "kl_covariance": "std", "dynamics_weight": 1.0, "target_encoder": True},
+                      networks={"dynamics": lambda s: LatentDynamics(s.feature_dim, s.action_dim)},
+                      param_groups={"dynamics": {"lr": 3e-4}}),  # its own Adam for the model
 })
 """Algorithm name -> :class:`Algorithm`."""
 
-RENAMED_OPTIONS: Mapping[str, str] = MappingProxyType({
-    "policy": "sampler=",
-    "std_clip": "clip=",
-    "masker": "input_mask= (MaDi's masker is the loss's input mask)",
-    "masker_lr": 'param_groups={"input_mask": {"lr": ...}}',
-    "masker_beta": 'param_groups={"input_mask": {"betas": (..., 0.999)}}',
-    "dynamics_lr": 'param_groups={"dynamics": {"lr": ...}}',
-    "encoder_lr_scale": 'param_groups={"encoder": {"lr_scale": ...}}',
-    "pretanh_penalty": "pretanh_weight= (pretanh_penalty is the penalty function)",
-})
-"""Options of :func:`make_loss` and :func:`build_loss` before one name per concept and coefficient (issue 42) → today's
-spelling; an old name is refused with the new one. (Checkpoints' renamed state keys: ``vigen.losses.base.LEGACY_STATE_KEYS``.)"""
-
 SAMPLER_OPTIONS: Mapping[type, tuple[str, ...]] = MappingProxyType({
-    NoisyDeterministic: ("std", "clip"),
+    NoisyDeterministic: ("std_schedule", "clip"),
     SquashedGaussian: ("init_temperature", "target_entropy", "squash_epsilon"),
 })
 """The options of each sampler that :func:`make_loss` takes as keywords."""
@@ -222,11 +263,6 @@ SAMPLER_OPTIONS: Mapping[type, tuple[str, ...]] = MappingProxyType({
 SAMPLERS: Mapping[str, type[NoisyDeterministic] | type[SquashedGaussian]] = MappingProxyType({
     "noisy_deterministic": NoisyDeterministic, "squashed_gaussian": SquashedGaussian})
 """Sampler name → class: what ``sampler_type=`` of :func:`make_loss` picks instead of the algorithm's sampler."""
-
-PART_OPTIONS = ("encoder_type", "actor_type", "sampler_type", "log_std_bounds")
-"""The :func:`make_loss` options that swap or shape an algorithm's parts by name (an original's parts on vigen's loss):
-``encoder_type`` (:data:`ENCODERS`), ``actor_type`` (:data:`ACTORS`), ``sampler_type`` (:data:`SAMPLERS`) and the
-SAC actor's ``log_std_bounds``."""
 
 
 def algorithm(algo: str) -> Algorithm:
@@ -249,9 +285,9 @@ def make_sampler(algo: str, options: dict[str, Any]) -> Sampler:
 
     Examples:
         >>> make_sampler("vrl3", {})
-        NoisyDeterministic(std=0.01, clip=0.3)
+        NoisyDeterministic(std_schedule=LinearSchedule(init=0.01, final=0.01, duration=500000), clip=0.3)
         >>> make_sampler("svea", {"sampler_type": "squashed_gaussian", "squash_epsilon": 1e-6})
-        SquashedGaussian(target_entropy='auto', squash_epsilon=1e-06)
+        SquashedGaussian(init_temperature=0.1, target_entropy='auto', squash_epsilon=1e-06)
     """
     record = algorithm(algo)
     kind = options.pop("sampler_type", None)
@@ -294,12 +330,12 @@ def make_loss(
     CURL's bilinear head; SCPL's :class:`~vigen.models.LatentDynamics` (512 hidden units); MaDi's
     masker. The networks are put in channels-last layout (unless ``channels_last=False``).
 
-    The sampler takes its options here: ``std``, ``clip`` for the DDPG algorithms
+    The sampler takes its options here: ``std_schedule``, ``clip`` for the DDPG algorithms
     (:class:`~vigen.losses.NoisyDeterministic`), ``init_temperature``, ``target_entropy``,
     ``squash_epsilon`` for the SAC ones (:class:`~vigen.losses.SquashedGaussian`); or pass
     ``sampler=`` whole. Per-module optimizer options are ``param_groups`` (MaDi's masker:
     ``param_groups={"input_mask": {"lr": 5e-4}}``), merged over the paper's. An algorithm's parts can be
-    swapped by name (:data:`PART_OPTIONS`): ``encoder_type`` (:data:`ENCODERS`), ``actor_type``
+    swapped by name (an original's parts on vigen's loss): ``encoder_type`` (:data:`ENCODERS`), ``actor_type``
     (:data:`ACTORS`), ``sampler_type`` (:data:`SAMPLERS`), and a SAC actor's ``log_std_bounds``; SVEA as
     DMC-GB trains it is ``make_loss("svea", ..., encoder_type="shared_cnn_01", actor_type="gaussian_projected",
     sampler_type="squashed_gaussian", squash_epsilon=1e-6, ...)`` (:data:`vigen.run.RECIPES` holds such sets).
@@ -320,7 +356,7 @@ def make_loss(
             policies of :meth:`~vigen.losses.ActorCriticLoss.make_policy` act there.
         **loss_options: the sampler's options (above), the pretrained encoder's file (the
             record's ``encoder_weights``) and keyword arguments of the loss class (e.g.
-            ``strong_augmentation``, ``weak_weight``); they override the preset's.
+            ``strong_augmentation``, ``weak_weight``); they override the record's.
 
     Examples:
         >>> from vigen.losses import make_loss
@@ -401,14 +437,15 @@ def make_networks(
 
 def build_loss(algo: str, encoder: nn.Module, actor: nn.Module, critic: nn.Module, *extra: nn.Module,
                **options: Any) -> ActorCriticLoss:
-    """The loss of ``algo`` on the given networks, with the preset's options for those not given.
+    """The loss of ``algo`` on the given networks, with the record's options for those not given.
 
     ``extra`` are the record's extra networks in its order (:attr:`Algorithm.networks`, as
     :func:`make_networks` returns them), or pass them by keyword (``decoder=``, ``head=``,
     ``dynamics=``, ``input_mask=``). What :func:`make_loss` does after it builds the paper's
-    networks: the sampler from its options (``std``, ``init_temperature``, ...; or ``sampler=``),
-    the paper's per-module optimizer groups under the given ``param_groups``, and the preset's
-    defaults for options not given. Use it to run a preset (SRM, MaDi, SimGRL) on networks of your own.
+    networks: the sampler from its options (``std_schedule``, ``init_temperature``, ...; or ``sampler=``),
+    the paper's per-module optimizer groups under the given ``param_groups``, and the record's
+    augmentations and options for those not given. Use it to run an algorithm (SRM, MaDi, SimGRL
+    included) on networks of your own.
 
     Examples:
         >>> from vigen.models import Actor, Critic, SharedCNN
@@ -419,9 +456,6 @@ def build_loss(algo: str, encoder: nn.Module, actor: nn.Module, critic: nn.Modul
         ['RandomOverlay', 'RandomFrequencyMask']
     """
     record = algorithm(algo)
-    renamed = [f"{old}= is now {RENAMED_OPTIONS[old]}" for old in options if old in RENAMED_OPTIONS]
-    if renamed:
-        raise TypeError(f"{algo}: {'; '.join(renamed)}.")
     names = list(record.networks)
     if len(extra) > len(names):
         raise TypeError(f"{algo}: {len(extra)} extra networks given, but it takes {len(names)} ({', '.join(names) or 'none'}).")
@@ -445,6 +479,7 @@ def build_loss(algo: str, encoder: nn.Module, actor: nn.Module, critic: nn.Modul
         given = options.get("param_groups") or {}
         options["param_groups"] = {module: {**record.param_groups.get(module, {}), **given.get(module, {})}
                                    for module in {**record.param_groups, **given}}
-    for name, factory in record.presets.items():
-        options.setdefault(name, factory())
-    return record.loss(encoder, actor, critic, **options)
+    for name, factory in record.augmentations.items():
+        if name not in options:
+            options[name] = factory()
+    return record.loss(encoder, actor, critic, **{**record.options, **options})

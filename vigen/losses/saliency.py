@@ -1,19 +1,18 @@
-"""Guided-backprop saliency (SGQN's attribution) and its per-frame quantile mask, without captum."""
+"""Guided-backprop saliency (SGQN's attribution), its per-frame quantile mask (without captum) and the Q consistency with the salient pixels."""
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Any
 
 import torch
 from torch import Tensor, nn
 from torch.autograd.function import FunctionCtx
 from torch.utils.hooks import RemovableHandle
 
-if TYPE_CHECKING:
-    from vigen.losses.base import ActorCriticLoss
+from vigen.losses.base import ActorCriticLoss
 
 
 class GuidedBackprop:
@@ -234,7 +233,7 @@ def salient_q_consistency(
     ``quantile``), ``x_M = x·M + u·(1 − M)`` with one ``u ~ U(min x, max x)``, and the critic is run
     again on ``x_M``. Only ``nn.ReLU`` modules of the loss's encoder and critic are guided. A
     compiled update takes the saliency from ``guided_forward`` instead (a :class:`GuidedForward` on
-    the loss's encoder and critic, which SGQN's and SCPL's ``prepare_compile`` make): a guided pass
+    the loss's encoder and critic, which :meth:`SalientQLoss.prepare_compile` makes): a guided pass
     of its own, which ``torch.compile`` can trace.
 
     Paper: SGQN, https://arxiv.org/abs/2209.09203; SCPL, https://github.com/bofusun/SCPL.
@@ -268,3 +267,44 @@ def salient_q_consistency(
     masked_q1, masked_q2 = loss.q_values(loss.encode(torch.where(mask, x.detach(), fill)), action)
     consistency = ((q1 - masked_q1).pow(2) + (q2 - masked_q2).pow(2)).squeeze(-1)
     return SalientQ(features, q1, q2, mask, consistency)
+
+
+class SalientQLoss(ActorCriticLoss):
+    """What a loss with the Q consistency on salient pixels (:func:`salient_q_consistency`) is built with: quantile and λ.
+
+    Before any work it checks that the encoder and the critic have ``nn.ReLU`` modules to guide; it
+    installs the traceable guided pass a compiled update takes (:meth:`prepare_compile`), and
+    :meth:`salient_q` runs :func:`salient_q_consistency` with the loss's quantile. It holds these
+    options only: SGQN (:class:`~vigen.losses.SGQNLoss`) and SCPL (:class:`~vigen.losses.SCPLLoss`)
+    each write their own ``forward``.
+
+    Paper: SGQN, https://arxiv.org/abs/2209.09203.
+
+    Args:
+        encoder, actor, critic: the networks (see :class:`~vigen.losses.ActorCriticLoss`).
+        quantile: the saliency quantile of the mask, per sample and frame, in [0, 1].
+        consistency_weight: λ, the weight of the consistency term (a buffer, schedulable:
+            ``loss.consistency_weight = 0.3``).
+        **options: ``sampler``, ``augmentation`` and the rest of :class:`~vigen.losses.ActorCriticLoss`'s.
+    """
+
+    _schedulable_buffers = frozenset({"consistency_weight"})
+
+    def __init__(self, encoder: nn.Module, actor: nn.Module, critic: nn.Module, *, quantile: float,
+                 consistency_weight: float, **options: Any) -> None:
+        if not 0.0 <= quantile <= 1.0:
+            raise ValueError(f"{type(self).__name__}: quantile must be in [0, 1], got {quantile}.")
+        super().__init__(encoder, actor, critic, **options)
+        GuidedBackprop(encoder, critic)  # fails early, with advice, when there is no nn.ReLU to guide
+        self.quantile = quantile
+        self.register_coeff_buffer("consistency_weight", consistency_weight)
+        self.guided_forward: GuidedForward | None = None
+
+    def prepare_compile(self) -> None:
+        """Install the guided pass a compiled update takes its saliency from (:class:`GuidedForward`)."""
+        if self.guided_forward is None:
+            self.guided_forward = GuidedForward(self.encoder, self.critic)
+
+    def salient_q(self, pixels: Tensor, action: Tensor) -> SalientQ:
+        """:func:`salient_q_consistency` of ``pixels`` at the loss's ``quantile``: features, Q values, mask, consistency."""
+        return salient_q_consistency(self, pixels, action, self.quantile, self.guided_forward)

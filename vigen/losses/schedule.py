@@ -1,4 +1,4 @@
-"""DrQ-v2's linear schedule for the exploration and target-policy noise std."""
+"""DrQ-v2's linear schedule, of the exploration and target-policy noise std (a sampler's ``std_schedule``)."""
 
 from __future__ import annotations
 
@@ -30,6 +30,16 @@ class LinearSchedule:
     def __post_init__(self) -> None:
         if self.duration <= 0:
             raise ValueError(f"LinearSchedule duration must be positive, got {self.duration}.")
+
+    @classmethod
+    def constant(cls, value: float) -> LinearSchedule:
+        """The schedule that stays at ``value`` from the first step.
+
+        Examples:
+            >>> LinearSchedule.constant(0.2)(10**6)
+            0.2
+        """
+        return cls(value, value, 1)
 
     def __call__(self, step: int | float) -> float:
         mix = min(max(float(step) / self.duration, 0.0), 1.0)

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from types import MappingProxyType
 from typing import Any, Literal
 
 import torch
@@ -11,12 +9,9 @@ from tensordict import TensorDictBase
 from tensordict.nn import dispatch
 from torch import Tensor, nn
 
-from vigen.losses.base import ActorCriticLoss, Augmentations, default_shift, per_sample_mean, squared_td_errors
-from vigen.losses.samplers import DMCGB_SQUASH_EPSILON, SquashedGaussian
-from vigen.losses.saliency import GuidedBackprop, GuidedForward, salient_q_consistency
-
-SCPL_PARAM_GROUPS = MappingProxyType({"dynamics": MappingProxyType({"lr": 3e-4})})
-"""SCPL's own Adam for the dynamics model: lr 3e-4 (the default ``param_groups``)."""
+from vigen.losses.base import Augmentations, per_sample_mean, squared_td_errors
+from vigen.losses.samplers import SquashedGaussian
+from vigen.losses.saliency import SalientQLoss
 
 
 def diagonal_gaussian_kl(mean_p: Tensor, log_var_p: Tensor, mean_q: Tensor, log_var_q: Tensor) -> Tensor:
@@ -36,7 +31,7 @@ def diagonal_gaussian_kl(mean_p: Tensor, log_var_p: Tensor, mean_q: Tensor, log_
     return 0.5 * (ratio + (mean_q - mean_p).pow(2) / log_var_q.exp() - 1.0 - (log_var_p - log_var_q)).sum(-1)
 
 
-class SCPLLoss(ActorCriticLoss):
+class SCPLLoss(SalientQLoss):
     """SCPL: SAC with SVEA's two-view critic, a saliency-masked Q consistency, a policy KL and a dynamics model.
 
     With the weak views ``s = shift(obs)``, ``s' = shift(next obs)`` (drawn independently), the
@@ -49,11 +44,11 @@ class SCPLLoss(ActorCriticLoss):
       ``x_M = x·M + u·(1 − M)`` with one ``u ~ U(min, max)`` over both views, and
       ``C(x) = (Q1(x) − Q1(x_M))² + (Q2(x) − Q2(x_M))²`` with gradient on both sides. SCPL's
       ``MSE(Q, y)`` over the stacked views and its ``0.5·MSE(Q, Q_M)`` are w = w̃ = 0.5 and
-      λ_c = 0.5 here (the defaults);
+      λ_c = 0.5 here (its record, ``ALGOS["scpl"]``);
     * **actor**: ``loss_actor = α·log π(ã|h) − min(Q1, Q2)(h, ã) + λ_KL·KL(π(·|h) ‖ π(·|h̃))`` on
       detached encoder features. As in SCPL's code, the KL is between the Gaussians
       ``N(tanh μ, diag(σ))`` and ``N(tanh μ̃, diag(σ̃))`` built from the policy's mean and σ at
-      ``h`` and ``h̃`` (``kl_covariance="std"``, the default; ``"variance"`` uses ``diag(σ²)``),
+      ``h`` and ``h̃`` (``kl_covariance="std"``; ``"variance"`` uses ``diag(σ²)``),
       with the covariance of the first detached and its mean not;
     * **temperature**: ``loss_alpha = α·(−log π(ã|h) − H̄)``;
     * **dynamics**: with ``e = critic.embed(h)`` (the critic trunk's embedding, DMC-GB's critic
@@ -62,7 +57,7 @@ class SCPLLoss(ActorCriticLoss):
       ``loss_dynamics = ½·mean_j (ê' − e')² + (r̂ − r)²``, averaged over the two views; it trains
       the model, the critic trunk and the encoder.
 
-    The next observation's target uses a target encoder by default (``target_encoder=True``,
+    The next observation's target uses a target encoder (``target_encoder=True`` in its record,
     DMC-GB's SAC, whose target critic holds its own encoder): the next action is sampled on the
     online encoder's features and scored by the target critic on the target encoder's.
     ``SoftUpdate`` moves the target encoder with the target critic.
@@ -92,22 +87,20 @@ class SCPLLoss(ActorCriticLoss):
             read (:class:`~vigen.models.Critic`).
         dynamics: (embedding, action) → (next embedding, reward), e.g.
             :class:`~vigen.models.LatentDynamics`.
-        augmentation: the weak view; ``"default"`` is ``RandomShift(pad=4)``.
-        strong_augmentation: the strong view; ``None`` for ``RandomOverlay(alpha=0.5)`` (SCPL's
-            ``scpl``; pass ``RandomConv()`` for its ``scplr``).
-        weak_weight, strong_weight: w and w̃ (0.5 each).
-        quantile: the saliency quantile of the mask (0.9).
-        consistency_weight: λ_c (0.5).
-        kl_weight: λ_KL (1).
-        kl_covariance: ``"std"`` (SCPL's code: ``diag(σ)``) or ``"variance"`` (``diag(σ²)``).
-        dynamics_weight: weight of ``loss_dynamics`` (1).
-        param_groups: per-module optimizer options (:meth:`optimizer_groups`); the dynamics model's
-            default is SCPL's lr 3e-4 (``{"dynamics": {"lr": 3e-4}}``), merged with what is given.
-        target_encoder: encode the next view for the target critic with a target encoder.
         sampler: SAC's :class:`~vigen.losses.SquashedGaussian` (the policy KL needs its mean and
-            σ: a ``NoisyDeterministic`` is refused); default SCPL's (DMC-GB's) α₀ = 0.1 and
+            σ: a ``NoisyDeterministic`` is refused); SCPL's (DMC-GB's) is α₀ = 0.1 and
             ``log(relu(1 − tanh²) + ε)`` (``squash_epsilon=DMCGB_SQUASH_EPSILON``).
-        **kwargs: ``input_mask``, ``channels_last``, ``reduction``, ``check_finite``.
+        strong_augmentation: the strong view (SCPL's ``scpl``: ``RandomOverlay(alpha=0.5)``; its
+            ``scplr``: ``RandomConv()``).
+        weak_weight, strong_weight: w and w̃ (SCPL: 0.5 each).
+        quantile: the saliency quantile of the mask (SCPL: 0.9; :class:`~vigen.losses.saliency.SalientQLoss`).
+        consistency_weight: λ_c (SCPL: 0.5).
+        kl_weight: λ_KL (SCPL: 1).
+        kl_covariance: ``"std"`` (SCPL's code: ``diag(σ)``) or ``"variance"`` (``diag(σ²)``).
+        dynamics_weight: weight of ``loss_dynamics`` (SCPL: 1).
+        **options: ``augmentation`` (the weak view), ``target_encoder`` (SCPL: DMC-GB's target encoder),
+            ``param_groups`` (SCPL's dynamics model has its own Adam, lr 3e-4: ``{"dynamics": {"lr": 3e-4}}``,
+            :meth:`optimizer_groups`), ``input_mask``, ``channels_last``, ``reduction``, ``check_finite``.
 
     Examples:
         >>> import torch
@@ -126,7 +119,7 @@ class SCPLLoss(ActorCriticLoss):
 
     own_out_keys = ("q_strong_mean", "loss_dynamics", "mask_fraction", "consistency", "policy_kl",
                     "transition_error", "reward_error")
-    _schedulable_buffers = frozenset({"weak_weight", "strong_weight", "consistency_weight", "kl_weight", "dynamics_weight"})
+    _schedulable_buffers = frozenset({"kl_weight", "dynamics_weight"})
 
     def __init__(
         self,
@@ -135,22 +128,17 @@ class SCPLLoss(ActorCriticLoss):
         critic: nn.Module,
         dynamics: nn.Module,
         *,
-        sampler: SquashedGaussian | None = None,
-        augmentation: Augmentations | Literal["default"] = "default",
-        strong_augmentation: Augmentations = None,
-        weak_weight: float = 0.5,
-        strong_weight: float = 0.5,
-        quantile: float = 0.9,
-        consistency_weight: float = 0.5,
-        kl_weight: float = 1.0,
-        kl_covariance: Literal["std", "variance"] = "std",
-        dynamics_weight: float = 1.0,
-        param_groups: Mapping[str, Mapping[str, Any]] | None = None,
-        target_encoder: bool = True,
-        **kwargs: Any,
+        sampler: SquashedGaussian,
+        strong_augmentation: Augmentations,
+        weak_weight: float,
+        strong_weight: float,
+        kl_weight: float,
+        kl_covariance: Literal["std", "variance"],
+        dynamics_weight: float,
+        **options: Any,
     ) -> None:
         name = type(self).__name__
-        if sampler is not None and not isinstance(sampler, SquashedGaussian):
+        if not isinstance(sampler, SquashedGaussian):
             raise TypeError(f"{name} is SAC: its policy KL compares the squashed Gaussians of two views; it takes a "
                             f"SquashedGaussian sampler, not {type(sampler).__name__}.")
         if not callable(getattr(critic, "embed", None)):
@@ -158,30 +146,14 @@ class SCPLLoss(ActorCriticLoss):
                             "(the dynamics model's input), as vigen.models.Critic has.")
         if not isinstance(dynamics, nn.Module):
             raise TypeError(f"{name}: dynamics must be an nn.Module (e.g. vigen.models.LatentDynamics), got {type(dynamics).__name__}.")
-        if not 0.0 <= quantile <= 1.0:
-            raise ValueError(f"{name}: quantile must be in [0, 1], got {quantile}.")
         if kl_covariance not in ("std", "variance"):
             raise ValueError(f"{name}: kl_covariance must be 'std' (SCPL's code) or 'variance', got {kl_covariance!r}.")
-        groups = {module: {**SCPL_PARAM_GROUPS.get(module, {}), **options}
-                  for module, options in {**SCPL_PARAM_GROUPS, **(param_groups or {})}.items()}
-        super().__init__(encoder, actor, critic,
-                         sampler=SquashedGaussian(squash_epsilon=DMCGB_SQUASH_EPSILON) if sampler is None else sampler,
-                         augmentation=default_shift(augmentation), target_encoder=target_encoder, param_groups=groups,
-                         **kwargs)
-        GuidedBackprop(encoder, critic)  # fails early, with advice, when there is no nn.ReLU to guide
+        super().__init__(encoder, actor, critic, sampler=sampler, **options)
         self.add_strong_view(strong_augmentation, weak_weight, strong_weight)
         self.dynamics = dynamics
-        self.quantile = quantile
         self.kl_covariance = kl_covariance
-        self.guided_forward: GuidedForward | None = None
-        for coefficient, value in (("consistency_weight", consistency_weight), ("kl_weight", kl_weight),
-                                   ("dynamics_weight", dynamics_weight)):
-            self.register_coeff_buffer(coefficient, value)
-
-    def prepare_compile(self) -> None:
-        """Install the guided pass a compiled update takes its saliency from (:class:`~vigen.losses.GuidedForward`)."""
-        if self.guided_forward is None:
-            self.guided_forward = GuidedForward(self.encoder, self.critic)
+        self.register_coeff_buffer("kl_weight", kl_weight)
+        self.register_coeff_buffer("dynamics_weight", dynamics_weight)
 
     @dispatch
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
@@ -193,8 +165,7 @@ class SCPLLoss(ActorCriticLoss):
         strong_obs, strong_next_obs = pair.chunk(2, dim=1)
         target = self.critic_target(tensordict, next_obs)
         # the critic: the TD loss of both views plus λ_c· their mean Q consistency with their salient pixels
-        salient = salient_q_consistency(self, torch.cat([obs, strong_obs]), action.repeat(2, 1), self.quantile,
-                                        self.guided_forward)
+        salient = self.salient_q(torch.cat([obs, strong_obs]), action.repeat(2, 1))
         q1, q2 = salient.q1, salient.q2
         consistency = salient.consistency.reshape(2, size).mean(0)
         errors = squared_td_errors(q1, q2, target.repeat(2, 1)).split(size)
@@ -217,12 +188,14 @@ class SCPLLoss(ActorCriticLoss):
         rewards = tensordict.get(("next", self.tensor_keys.reward)).repeat(2, 1)
         reward = (predicted_reward - rewards).pow(2).squeeze(-1)
         losses = {"loss_critic": loss_critic, "loss_actor": loss_actor,
-                  "loss_dynamics": per_sample_mean(self.dynamics_weight * (transition + reward), views=2)}
-        metrics = {"q_strong_mean": q1[size:].detach().mean(),
+                  "loss_dynamics": per_sample_mean(self.dynamics_weight * (transition + reward), views=2),
+                  # SAC's temperature, on the actor step's actions (the clean view's)
+                  "loss_alpha": self.sampler.temperature_losses(log_prob, batch.action_dim, views=1)["loss_alpha"]}
+        metrics = {**self.sampler.metrics(self.schedule_step, log_prob), "q_strong_mean": q1[size:].detach().mean(),
                    "mask_fraction": salient.mask.float().mean(), "consistency": consistency.detach().mean(),
                    "policy_kl": kl.detach().mean(), "transition_error": transition.detach().mean(),
                    "reward_error": reward.detach().mean()}
-        return self.output(tensordict, target, q1[:size], q2[:size], losses, metrics, log_prob=log_prob)
+        return self.output(tensordict, target, q1[:size], q2[:size], losses, metrics)
 
     def embed(self, features: Tensor) -> Tensor:
         """The online critic's embedding of encoder features (its trunk), with gradient."""

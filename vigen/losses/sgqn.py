@@ -2,20 +2,18 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Any
 
 import torch.nn.functional as F
 from tensordict import TensorDictBase
 from tensordict.nn import dispatch
 from torch import nn
 
-from vigen.losses.base import ActorCriticLoss, Augmentations, default_shift, squared_td_errors
-from vigen.losses.samplers import NoisyDeterministic, Sampler
-from vigen.losses.saliency import GuidedBackprop, GuidedForward, salient_q_consistency
-from vigen.transforms import RandomOverlay
+from vigen.losses.base import Augmentations, squared_td_errors
+from vigen.losses.saliency import SalientQLoss
 
 
-class SGQNLoss(ActorCriticLoss):
+class SGQNLoss(SalientQLoss):
     """SGQN on DrQ-v2 (RL-ViGen's variant): a saliency-consistency term and an attribution head.
 
     With ``s = shift(obs)``:
@@ -35,7 +33,7 @@ class SGQNLoss(ActorCriticLoss):
     (0.99, 0.999)). Here both terms use the mask of the same parameters and one ``backward()``,
     as everything in one call of a TorchRL loss does.
 
-    Defaults follow RL-ViGen: ``quantile=0.93``, ``consistency_weight=0.9``. The original SGQN
+    ``make_loss("sgqn")`` follows RL-ViGen: ``quantile=0.93``, ``consistency_weight=0.9``. The original SGQN
     uses ``quantile=0.9`` (0.98 for cartpole) and ``consistency_weight=0.5``; RL-ViGen's Adroit
     branch also uses 0.5. The encoder in both is :class:`~vigen.models.ProjectedEncoder` (512-d),
     the head :class:`~vigen.models.AttributionDecoder`. Guided backprop runs through the
@@ -46,22 +44,21 @@ class SGQNLoss(ActorCriticLoss):
     Args:
         encoder, actor, critic: as in :class:`DrQv2Loss`.
         decoder: the attribution head, ``(embedding, action) → mask logits [B, 3·k, H, W]``.
-        quantile: saliency quantile of the mask, per frame.
+        quantile: saliency quantile of the mask, per frame (:class:`~vigen.losses.saliency.SalientQLoss`).
         consistency_weight: λ.
-        attribution_augmentation: the view the head predicts from; default ``RandomOverlay()``.
-        sampler: DrQ-v2's :class:`~vigen.losses.NoisyDeterministic` (its default) or
-            :class:`~vigen.losses.SquashedGaussian`.
-        augmentation: the weak view; ``"default"`` is ``RandomShift(pad=4)``.
-        **kwargs: ``input_mask``, ``channels_last``, ``reduction``, ``check_finite`` (see
+        attribution_augmentation: the view the head predicts from (RL-ViGen: ``RandomOverlay(alpha=0.5)``).
+        **options: ``sampler`` (RL-ViGen: DrQ-v2's :class:`~vigen.losses.NoisyDeterministic`),
+            ``augmentation`` (the weak view), ``target_encoder`` (RL-ViGen: none), ``input_mask``,
+            ``param_groups``, ``channels_last``, ``reduction``, ``check_finite`` (see
             :class:`~vigen.losses.ActorCriticLoss`).
 
     Examples:
         >>> from torchrl.objectives import SoftUpdate
-        >>> from vigen.losses import example_batch
+        >>> from vigen.losses import build_loss, example_batch
         >>> from vigen.models import Actor, AttributionDecoder, Critic, ProjectedEncoder
         >>> encoder = ProjectedEncoder(9, image_size=84)
-        >>> loss = SGQNLoss(encoder, Actor(512, 2, hidden_dim=32), Critic(512, 2, hidden_dim=32),
-        ...                 AttributionDecoder(action_dim=2))
+        >>> loss = build_loss("sgqn", encoder, Actor(512, 2, hidden_dim=32), Critic(512, 2, hidden_dim=32),
+        ...                   AttributionDecoder(action_dim=2))  # RL-ViGen's options
         >>> updater = SoftUpdate(loss, tau=0.01)
         >>> batch = example_batch(4)  # uint8 frame stacks [4, 9, 84, 84], actions of size 2
         >>> out = loss(batch)
@@ -70,38 +67,12 @@ class SGQNLoss(ActorCriticLoss):
     """
 
     own_out_keys = ("loss_attribution", "mask_fraction", "consistency")
-    _schedulable_buffers = frozenset({"consistency_weight"})
 
-    def __init__(
-        self,
-        encoder: nn.Module,
-        actor: nn.Module,
-        critic: nn.Module,
-        decoder: nn.Module,
-        *,
-        sampler: Sampler | None = None,
-        augmentation: Augmentations | Literal["default"] = "default",
-        quantile: float = 0.93,
-        consistency_weight: float = 0.9,
-        attribution_augmentation: Augmentations = None,
-        **kwargs: Any,
-    ) -> None:
-        if not 0.0 <= quantile <= 1.0:
-            raise ValueError(f"quantile must be in [0, 1], got {quantile}.")
-        super().__init__(encoder, actor, critic, sampler=NoisyDeterministic() if sampler is None else sampler,
-                         augmentation=default_shift(augmentation), **kwargs)
-        GuidedBackprop(encoder, critic)  # fails early, with advice, when there is no nn.ReLU to guide
+    def __init__(self, encoder: nn.Module, actor: nn.Module, critic: nn.Module, decoder: nn.Module, *,
+                 attribution_augmentation: Augmentations, **options: Any) -> None:
+        super().__init__(encoder, actor, critic, **options)
         self.decoder = decoder
-        self.quantile = quantile
-        self.register_coeff_buffer("consistency_weight", consistency_weight)
-        self.attribution_augmentation = self._augmentations(
-            RandomOverlay(alpha=0.5) if attribution_augmentation is None else attribution_augmentation)
-        self.guided_forward: GuidedForward | None = None
-
-    def prepare_compile(self) -> None:
-        """Install the guided pass a compiled update takes its saliency from (:class:`~vigen.losses.GuidedForward`)."""
-        if self.guided_forward is None:
-            self.guided_forward = GuidedForward(self.encoder, self.critic)
+        self.attribution_augmentation = self._augmentations(attribution_augmentation)
 
     @dispatch
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
@@ -109,7 +80,7 @@ class SGQNLoss(ActorCriticLoss):
         obs, next_obs = self.augment(batch.pixels), self.augment(batch.next_pixels)
         target = self.critic_target(tensordict, next_obs)
         # the critic: TD loss of s plus λ· the consistency of Q on s and on its salient pixels s_M (mask M)
-        salient = salient_q_consistency(self, obs, batch.action, self.quantile, self.guided_forward)
+        salient = self.salient_q(obs, batch.action)
         loss_critic = squared_td_errors(salient.q1, salient.q2, target) + self.consistency_weight * salient.consistency
         loss_actor, log_prob = self.actor_loss(salient.features.detach())
         # the attribution head learns to predict M from an overlaid view of s (its gradient reaches the encoder)
@@ -118,6 +89,7 @@ class SGQNLoss(ActorCriticLoss):
         attribution = F.binary_cross_entropy_with_logits(logits, salient.mask.to(logits.dtype), reduction="none")
         return self.output(tensordict, target, salient.q1, salient.q2,
                            {"loss_critic": loss_critic, "loss_actor": loss_actor,
-                            "loss_attribution": attribution.flatten(1).mean(1)},
-                           {"mask_fraction": salient.mask.float().mean(), "consistency": salient.consistency.mean()},
-                           log_prob=log_prob)
+                            "loss_attribution": attribution.flatten(1).mean(1),
+                            **self.sampler.temperature_losses(log_prob, batch.action_dim, views=1)},
+                           {**self.sampler.metrics(self.schedule_step, log_prob),
+                            "mask_fraction": salient.mask.float().mean(), "consistency": salient.consistency.mean()})

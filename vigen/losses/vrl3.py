@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from types import MappingProxyType
-from typing import Any, Literal
+from typing import Any
 
 import torch
 from tensordict import TensorDictBase
@@ -14,27 +13,8 @@ from tensordict.utils import NestedKey
 from torch import Tensor, nn
 from torchrl.data import TensorSpec
 
-from vigen.losses.base import ActorCriticLoss, Augmentations, PixelsToAction, RunningStatistics, default_shift, squared_td_errors
+from vigen.losses.base import ActorCriticLoss, PixelsToAction, RunningStatistics, squared_td_errors
 from vigen.losses.samplers import NoisyDeterministic
-
-VRL3_STD = 0.01
-"""VRL3's noise std, fixed (its ``linear(0.01, 0.01, 500000)``): target, actor step and acting."""
-
-ADROIT_REWARD_SCALES = MappingProxyType({"door": 1 / 20, "hammer": 1 / 100, "pen": 1 / 50, "relocate": 1 / 30})
-"""RL-ViGen's (and VRL3's) Adroit reward rescaling (``reward_rescale: true``), by task: the rewards
-VRL3's safe-Q threshold of 200 is meant for. Multiply the env's rewards by it before the loss
-(``examples/train.py --algo vrl3`` does, through :func:`adroit_reward_scale`, unless ``--reward-scale`` is given)."""
-
-
-def adroit_reward_scale(env: str) -> float:
-    """The factor VRL3's runs put on the rewards of the env ``<suite>/<task>``: :data:`ADROIT_REWARD_SCALES` on Adroit, else 1.
-
-    Examples:
-        >>> adroit_reward_scale("adroit/door"), adroit_reward_scale("dmc/walker-walk")
-        (0.05, 1.0)
-    """
-    suite, _, task = env.partition("/")
-    return ADROIT_REWARD_SCALES.get(task, 1.0) if suite == "adroit" else 1.0
 
 
 def safe_q_target(target: Tensor, threshold: float = 200.0, factor: float = 0.5) -> Tensor:
@@ -91,8 +71,8 @@ class VRL3Loss(ActorCriticLoss):
       (:func:`pretanh_penalty`; ``t`` = ``pretanh_threshold`` = 5, ``λ`` = ``pretanh_weight`` =
       0.001), through a frozen critic.
 
-    The noise std σ is fixed at :data:`VRL3_STD` = 0.01 (VRL3's ``linear(0.01, 0.01, 500000)``), for
-    the target, the actor step and acting; VRL3 is DDPG, so a SAC sampler is refused. The encoder
+    The noise std σ is fixed at 0.01 (VRL3's ``linear(0.01, 0.01, 500000)``, the sampler of its record
+    ``ALGOS["vrl3"]``), for the target, the actor step and acting; VRL3 is DDPG, so a SAC sampler is refused. The encoder
     (VRL3's small ResNet, :class:`~vigen.models.VRL3Encoder`) learns from the critic loss only, at
     ``lr`` (VRL3: its ``encoder_lr_scale`` 1; 0.01 for relocate is
     ``param_groups={"encoder": {"lr_scale": 0.01}}``, :meth:`optimizer_groups`). The acting policy (:meth:`make_policy`) runs the encoder's
@@ -100,7 +80,7 @@ class VRL3Loss(ActorCriticLoss):
     statistics of each batch.
 
     The safe-Q threshold is in the units of the rewards the loss sees: VRL3 and RL-ViGen scale
-    Adroit's rewards (door by 1/20, hammer 1/100, pen 1/50: :data:`ADROIT_REWARD_SCALES`), so
+    Adroit's rewards (door by 1/20, hammer 1/100, pen 1/50: the record's ``reward_scales``), so
     scale them before the loss (``examples/train.py --algo vrl3`` does).
 
     What is left out of VRL3 (stage 3 as RL-ViGen runs it: ``stage1_use_pretrain=False``,
@@ -121,31 +101,31 @@ class VRL3Loss(ActorCriticLoss):
         actor: features → action mean ``tanh(u)``; for the penalty the loss reads ``u`` as
             ``actor.action_head(actor.trunk(h))``, the shape of vigen's :class:`~vigen.models.Actor`.
         critic: (features, action) → (Q1, Q2), e.g. :class:`~vigen.models.Critic`.
-        sampler: DrQ-v2's :class:`~vigen.losses.NoisyDeterministic`; default VRL3's fixed std 0.01, clip 0.3.
-        augmentation: the weak view; ``"default"`` is ``RandomShift(pad=4)``.
-        safe_q_threshold: ``c`` of the safe target (200).
-        safe_q_factor: ``ρ`` in [0, 1] (0.5); 1 turns the safe target off, 0 is a hard cap at ``c + 1``.
-        pretanh_threshold: ``t`` of the penalty (5).
-        pretanh_weight: ``λ`` (0.001); 0 turns the penalty off (and any actor works).
-        **kwargs: ``input_mask``, ``param_groups``, ``channels_last``, ``reduction``, ``check_finite``
-            (see :class:`~vigen.losses.ActorCriticLoss`).
+        sampler: DrQ-v2's :class:`~vigen.losses.NoisyDeterministic` (VRL3: std 0.01, clip 0.3).
+        safe_q_threshold: ``c`` of the safe target (VRL3: 200).
+        safe_q_factor: ``ρ`` in [0, 1] (VRL3: 0.5); 1 turns the safe target off, 0 is a hard cap at ``c + 1``.
+        pretanh_threshold: ``t`` of the penalty (VRL3: 5).
+        pretanh_weight: ``λ`` (VRL3: 0.001); 0 turns the penalty off (and any actor works).
+        **options: ``augmentation`` (the weak view), ``target_encoder`` (VRL3: none), ``input_mask``,
+            ``param_groups``, ``channels_last``, ``reduction``, ``check_finite`` (see
+            :class:`~vigen.losses.ActorCriticLoss`).
 
     Examples:
         >>> import torch, warnings
         >>> from torchrl.objectives import SoftUpdate
-        >>> from vigen.losses import example_batch
+        >>> from vigen.losses import build_loss, example_batch
         >>> from vigen.models import Actor, Critic, VRL3Encoder
         >>> with warnings.catch_warnings():
         ...     warnings.simplefilter("ignore")  # no stage-1 weights: random initialisation, as RL-ViGen
         ...     encoder = VRL3Encoder(9)
         >>> features = encoder.output_dim(9, 84, 84)
-        >>> loss = VRL3Loss(encoder, Actor(features, 2, hidden_dim=32), Critic(features, 2, hidden_dim=32))
+        >>> loss = build_loss("vrl3", encoder, Actor(features, 2, hidden_dim=32), Critic(features, 2, hidden_dim=32))
         >>> loss.make_value_estimator(gamma=0.99)
         VRL3Loss(...)
         >>> updater = SoftUpdate(loss, tau=0.01)
         >>> batch = example_batch(4)  # uint8 frame stacks [4, 9, 84, 84], actions of size 2
         >>> out = loss(batch)
-        >>> sorted(key for key in out.keys() if key.startswith("loss_")), loss.stddev
+        >>> sorted(key for key in out.keys() if key.startswith("loss_")), round(out["std"].item(), 6)
         (['loss_actor', 'loss_critic'], 0.01)
         >>> optimizer = torch.optim.Adam(loss.optimizer_groups(lr=1e-4))
         >>> sum(out[key] for key in ("loss_actor", "loss_critic")).backward()
@@ -154,22 +134,11 @@ class VRL3Loss(ActorCriticLoss):
 
     own_out_keys = ("actor_pretanh_penalty", "abs_pretanh", "max_abs_pretanh")
 
-    def __init__(
-        self,
-        encoder: nn.Module,
-        actor: nn.Module,
-        critic: nn.Module,
-        *,
-        sampler: NoisyDeterministic | None = None,
-        augmentation: Augmentations | Literal["default"] = "default",
-        safe_q_threshold: float = 200.0,
-        safe_q_factor: float = 0.5,
-        pretanh_threshold: float = 5.0,
-        pretanh_weight: float = 1e-3,
-        **kwargs: Any,
-    ) -> None:
+    def __init__(self, encoder: nn.Module, actor: nn.Module, critic: nn.Module, *, sampler: NoisyDeterministic,
+                 safe_q_threshold: float, safe_q_factor: float, pretanh_threshold: float, pretanh_weight: float,
+                 **options: Any) -> None:
         name = type(self).__name__
-        if sampler is not None and not isinstance(sampler, NoisyDeterministic):
+        if not isinstance(sampler, NoisyDeterministic):
             raise TypeError(f"{name} is DDPG (VRL3 acts with a fixed-std noisy deterministic actor, its penalty reads the "
                             f"actor's pre-tanh action); it takes a NoisyDeterministic sampler, not {type(sampler).__name__}.")
         for arg, value in (("safe_q_threshold", safe_q_threshold), ("pretanh_threshold", pretanh_threshold),
@@ -189,8 +158,7 @@ class VRL3Loss(ActorCriticLoss):
                 f"(vigen.models.Actor); {type(actor).__name__} has no trunk and action_head. Use vigen.models.Actor, "
                 "or pass pretanh_weight=0."
             )
-        super().__init__(encoder, actor, critic, sampler=NoisyDeterministic(std=VRL3_STD) if sampler is None else sampler,
-                         augmentation=default_shift(augmentation), **kwargs)
+        super().__init__(encoder, actor, critic, sampler=sampler, **options)
         self.safe_q_threshold = float(safe_q_threshold)
         self.safe_q_factor = float(safe_q_factor)
         self.pretanh_threshold = float(pretanh_threshold)
@@ -215,8 +183,10 @@ class VRL3Loss(ActorCriticLoss):
             metrics.update(actor_pretanh_penalty=penalty.mean(), abs_pretanh=size.mean(), max_abs_pretanh=size.max())
         else:
             loss_actor, _ = self.actor_loss(detached)
+        # VRL3 is DDPG (a NoisyDeterministic sampler): no temperature loss
         return self.output(tensordict, target, q1, q2,
-                           {"loss_critic": squared_td_errors(q1, q2, target), "loss_actor": loss_actor}, metrics)
+                           {"loss_critic": squared_td_errors(q1, q2, target), "loss_actor": loss_actor},
+                           {**self.sampler.metrics(self.schedule_step, None), **metrics})
 
     def make_policy(self, action_spec: TensorSpec, *, pixels_key: NestedKey = "pixels") -> TensorDictModuleBase:
         """DrQ-v2's acting policy (σ = the loss's std), the encoder's BatchNorms on their running statistics."""

@@ -11,7 +11,6 @@ projection encoder, SGQN's attribution decoder, CURL's bilinear head and the SAC
 from vigen.models.dynamics import LatentDynamics
 from vigen.models.masker import MaDiMasker
 from vigen.models.networks import (
-    ACTOR_RENAMES,
     Actor,
     AttributionDecoder,
     Critic,
@@ -20,7 +19,6 @@ from vigen.models.networks import (
     GaussianActor,
     ProjectedEncoder,
     SharedCNN,
-    rename_actor_keys,
     weight_init,
 )
 from vigen.models.per_frame import PerFrameEncoder
@@ -28,7 +26,6 @@ from vigen.models.resnet import PIEGEncoder
 from vigen.models.vrl3 import VRL3Encoder
 
 __all__ = [
-    "ACTOR_RENAMES",
     "Actor",
     "AttributionDecoder",
     "CURLHead",
@@ -42,6 +39,5 @@ __all__ = [
     "ProjectedEncoder",
     "SharedCNN",
     "VRL3Encoder",
-    "rename_actor_keys",
     "weight_init",
 ]

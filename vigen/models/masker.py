@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import numbers
 
 import torch
 from torch import Tensor, nn
 
+from vigen.models.checks import check_sizes
 from vigen.models.networks import weight_init
-from vigen.pixel_format import check_pixels, white_value
+from vigen.pixel_format import check_max_value, check_pixels, white_value
 
 
 FRAMES_PER_PASS = 48
@@ -64,14 +64,9 @@ class MaDiMasker(nn.Module):
     ) -> None:
         super().__init__()
         name = type(self).__name__
-        for arg, value, low in (("frame_channels", frame_channels, 1), ("num_filters", num_filters, 1), ("num_layers", num_layers, 2)):
-            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < low:
-                raise ValueError(f"{name}: {arg} must be an int >= {low}, got {value!r}.")
-        if max_value is not None and not (isinstance(max_value, numbers.Real) and max_value > 0):
-            raise ValueError(f"{name}: max_value is the white of float pixels and must be positive (or None for 1.0), "
-                             f"got {max_value!r}; use 255 for float pixels on the 0–255 scale.")
+        check_sizes(name, ("frame_channels", frame_channels, 1), ("num_filters", num_filters, 1), ("num_layers", num_layers, 2))
         self.frame_channels = int(frame_channels)
-        self.max_value: float | None = None if max_value is None else float(max_value)
+        self.max_value = check_max_value(name, max_value)
         layers: list[nn.Module] = [nn.Conv2d(frame_channels, num_filters, 3, padding=1)]
         for _ in range(num_layers - 2):
             layers += [nn.ReLU(), nn.Conv2d(num_filters, num_filters, 3, padding=1)]

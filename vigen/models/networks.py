@@ -12,46 +12,11 @@ zero biases.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from types import MappingProxyType
-from typing import Any
-
 import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from vigen.pixel_format import check_pixels, white_value
-
-
-ACTOR_RENAMES: Mapping[str, str] = MappingProxyType({"policy": "action_head"})
-"""Submodules of :class:`Actor` and :class:`GaussianActor` renamed since vigen first wrote checkpoints: old name → today's.
-
-``policy`` (DrQ-v2's name for the MLP after the trunk) was one more meaning of "policy", which in
-vigen names the acting module only (issue 42); it is ``action_head``. A state dict with an old name
-loads bit for bit: the actors rename it when they load (:func:`rename_actor_keys`), the losses for
-their ``actor_params``. The shipped agents' weights (:mod:`vigen.pretrained`) keep the old names."""
-
-
-def rename_actor_keys(state_dict: dict[str, Any], prefix: str = "") -> None:
-    """Rename, in place, the keys of an actor's state dict under ``prefix`` from their old names (:data:`ACTOR_RENAMES`).
-
-    A key already under its new name wins: the old one is then left for ``load_state_dict`` to report.
-
-    Examples:
-        >>> state = {"actor.trunk.0.weight": 1, "actor.policy.0.weight": 2}
-        >>> rename_actor_keys(state, "actor.")
-        >>> sorted(state)
-        ['actor.action_head.0.weight', 'actor.trunk.0.weight']
-    """
-    for old, new in ACTOR_RENAMES.items():
-        for key in [key for key in state_dict if key.startswith(f"{prefix}{old}.")]:
-            renamed = f"{prefix}{new}{key[len(prefix) + len(old):]}"
-            if renamed not in state_dict:
-                state_dict[renamed] = state_dict.pop(key)
-
-
-def _load_old_names(module: nn.Module, state_dict: dict[str, Any], prefix: str, *args: Any) -> None:
-    rename_actor_keys(state_dict, prefix)
+from vigen.pixel_format import check_max_value, check_pixels, white_value
 
 
 def weight_init(module: nn.Module) -> None:
@@ -62,6 +27,15 @@ def weight_init(module: nn.Module) -> None:
         module.weight.data.copy_(nn.init.orthogonal_(weight, gain))  # copy_ keeps a channels-last layout
         if module.bias is not None:
             module.bias.data.fill_(0.0)
+
+
+def resnet_init(module: nn.Module) -> None:
+    """torchvision's ResNet initialisation, for ``model.apply``: Kaiming-normal convs (``fan_out``), BatchNorm weight 1, bias 0."""
+    if isinstance(module, nn.Conv2d):
+        nn.init.kaiming_normal_(module.weight, mode="fan_out", nonlinearity="relu")
+    elif isinstance(module, nn.BatchNorm2d):
+        nn.init.ones_(module.weight)
+        nn.init.zeros_(module.bias)
 
 
 class _PixelEncoder(nn.Module):
@@ -76,9 +50,12 @@ class _PixelEncoder(nn.Module):
     """
 
     convnet: nn.Module
-    chunk_size: int | None
-    max_value: float | None
-    centered: bool = True  # x / white − 0.5 (DrQ-v2, RL-ViGen); False: x / white (DMC-GB)
+
+    def __init__(self, chunk_size: int | None, max_value: float | None, centered: bool = True) -> None:
+        super().__init__()
+        self.chunk_size = chunk_size
+        self.max_value = check_max_value(type(self).__name__, max_value)
+        self.centered = bool(centered)  # x / white − 0.5 (DrQ-v2, RL-ViGen); False: x / white (DMC-GB)
 
     def forward(self, pixels: Tensor) -> Tensor:
         check_pixels(pixels.detach(), name=type(self).__name__, max_value=self.max_value)
@@ -131,9 +108,7 @@ class DrQv2Encoder(_PixelEncoder):
     def __init__(
         self, in_channels: int = 9, channels: int = 32, chunk_size: int | None = 64, *, max_value: float | None = None
     ) -> None:
-        super().__init__()
-        self.chunk_size = chunk_size
-        self.max_value = _positive_or_none(max_value, type(self).__name__)
+        super().__init__(chunk_size, max_value)
         layers: list[nn.Module] = [nn.Conv2d(in_channels, channels, 3, stride=2), nn.ReLU()]
         for _ in range(3):
             layers += [nn.Conv2d(channels, channels, 3, stride=1), nn.ReLU()]
@@ -169,10 +144,7 @@ class SharedCNN(_PixelEncoder):
         max_value: float | None = None,
         centered: bool = True,
     ) -> None:
-        super().__init__()
-        self.centered = bool(centered)
-        self.chunk_size = chunk_size
-        self.max_value = _positive_or_none(max_value, type(self).__name__)
+        super().__init__(chunk_size, max_value, centered)
         layers: list[nn.Module] = [nn.Conv2d(in_channels, channels, 3, stride=2)]
         for _ in range(num_layers - 1):
             layers += [nn.ReLU(), nn.Conv2d(channels, channels, 3, stride=1)]
@@ -206,10 +178,8 @@ class ProjectedEncoder(_PixelEncoder):
         *,
         max_value: float | None = None,
     ) -> None:
-        super().__init__()
+        super().__init__(chunk_size, max_value)
         base = DrQv2Encoder(in_channels, chunk_size=chunk_size)
-        self.chunk_size = chunk_size
-        self.max_value = _positive_or_none(max_value, type(self).__name__)
         self.convnet = base.convnet
         self.projection = nn.Linear(base.output_dim(in_channels, image_size, image_size), out_dim)
         self.apply(weight_init)
@@ -238,13 +208,6 @@ def _as_float(pixels: Tensor) -> Tensor:
     return pixels if pixels.is_floating_point() else pixels.float()
 
 
-def _positive_or_none(max_value: float | None, name: str) -> float | None:
-    if max_value is not None and not max_value > 0:
-        raise ValueError(f"{name}: max_value is the white of float pixels and must be positive (or None for 1.0), "
-                         f"got {max_value!r}; use 255 for float pixels on the 0–255 scale.")
-    return None if max_value is None else float(max_value)
-
-
 def _trunk(repr_dim: int, feature_dim: int) -> nn.Sequential:
     return nn.Sequential(nn.Linear(repr_dim, feature_dim), nn.LayerNorm(feature_dim), nn.Tanh())
 
@@ -261,8 +224,8 @@ class Actor(nn.Module):
     """DrQ-v2's deterministic actor head: ``trunk`` Linear → LayerNorm → Tanh, then an MLP (``action_head``) and ``tanh``.
 
     Returns the action mean μ in [-1, 1]; the exploration noise (a clipped normal with scheduled
-    std) is added by the loss or the exploration module. DrQ-v2 calls the MLP ``policy``; a state
-    dict with that name loads (:data:`ACTOR_RENAMES`).
+    std) is added by the loss or the exploration module. (DrQ-v2 calls the MLP ``policy``; in vigen
+    "policy" names the acting module only.)
 
     Paper: DrQ-v2, https://arxiv.org/abs/2107.09645.
 
@@ -277,7 +240,6 @@ class Actor(nn.Module):
         self.trunk = _trunk(repr_dim, feature_dim)
         self.action_head = _mlp(feature_dim, hidden_dim, action_dim)
         self.apply(weight_init)
-        self.register_load_state_dict_pre_hook(_load_old_names)
 
     def forward(self, hidden: Tensor) -> Tensor:
         return torch.tanh(self.action_head(self.trunk(hidden)))
@@ -320,7 +282,6 @@ class GaussianActor(nn.Module):
         self.action_head = nn.Sequential(*layers)
         self.log_std_bounds = log_std_bounds
         self.apply(weight_init)
-        self.register_load_state_dict_pre_hook(_load_old_names)
 
     def forward(self, hidden: Tensor) -> tuple[Tensor, Tensor]:
         mean, log_std = self.action_head(self.trunk(hidden)).chunk(2, dim=-1)

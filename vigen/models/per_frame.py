@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import numbers
 
 import torch
 from torch import Tensor, nn
 
+from vigen.models.checks import check_sizes, check_stack
 from vigen.models.networks import chunks_pay, weight_init
-from vigen.pixel_format import check_pixels, white_value
+from vigen.pixel_format import check_max_value, white_value
 
 
 class PerFrameEncoder(nn.Module):
@@ -39,9 +39,7 @@ class PerFrameEncoder(nn.Module):
         frame_layers: of those, the ones applied to each frame alone (3).
         frame_filters: channels of the per-frame convolutions (16).
         channels: channels of the convolutions after the stacking (32).
-        chunk_size: samples convolved at a time (``None``: the whole batch).
-        max_value: the white of float pixels; ``None`` for 1.0 (TorchRL's ``ToTensorImage()``),
-            255 for float pixels on the 0–255 scale. uint8 pixels are always 0–255.
+        chunk_size, max_value: as in :class:`~vigen.models.DrQv2Encoder`.
         centered: scale to ``x / white − 0.5`` (default); ``False`` for SimGRL's ``x / white``.
 
     Examples:
@@ -52,8 +50,6 @@ class PerFrameEncoder(nn.Module):
         torch.Size([2, 14112])
         >>> encoder.output_dim(9, 84, 84)
         14112
-        >>> torch.allclose(encoder(pixels.float() / 255), encoder(pixels), atol=1e-6)  # ToTensorImage's floats
-        True
     """
 
     def __init__(
@@ -71,22 +67,18 @@ class PerFrameEncoder(nn.Module):
     ) -> None:
         super().__init__()
         name = type(self).__name__
-        sizes = (("in_channels", in_channels, 1), ("frame_channels", frame_channels, 1), ("frame_layers", frame_layers, 1),
-                 ("frame_filters", frame_filters, 1), ("channels", channels, 1), ("num_layers", num_layers, frame_layers + 1))
-        for arg, value, low in sizes:
-            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < low:
-                raise ValueError(f"{name}: {arg} must be an int >= {low}, got {value!r}"
-                                 + (" (at least one convolution follows the stacking)." if arg == "num_layers" else "."))
+        check_sizes(name, ("in_channels", in_channels, 1), ("frame_channels", frame_channels, 1), ("frame_layers", frame_layers, 1),
+                    ("frame_filters", frame_filters, 1), ("channels", channels, 1), ("num_layers", num_layers, 1))
+        if num_layers <= frame_layers:
+            raise ValueError(f"{name}: num_layers must be an int >= {frame_layers + 1}, got {num_layers!r} (at least one "
+                             "convolution follows the stacking).")
         if in_channels % frame_channels:
             raise ValueError(f"{name}: in_channels={in_channels} is not a stack of frames of {frame_channels} channels; "
                              "pass in_channels = frames · frame_channels (9 for three RGB frames).")
-        if max_value is not None and not (isinstance(max_value, numbers.Real) and max_value > 0):
-            raise ValueError(f"{name}: max_value is the white of float pixels and must be positive (or None for 1.0), "
-                             f"got {max_value!r}; use 255 for float pixels on the 0–255 scale.")
         self.in_channels, self.frame_channels = int(in_channels), int(frame_channels)
         self.frames = self.in_channels // self.frame_channels
         self.chunk_size = chunk_size
-        self.max_value: float | None = None if max_value is None else float(max_value)
+        self.max_value = check_max_value(name, max_value)
         self.centered = bool(centered)
         frame_net: list[nn.Module] = [nn.Conv2d(frame_channels, frame_filters, 3, stride=2)]
         for _ in range(frame_layers - 1):
@@ -99,11 +91,7 @@ class PerFrameEncoder(nn.Module):
         self.apply(weight_init)
 
     def forward(self, pixels: Tensor) -> Tensor:
-        name = type(self).__name__
-        check_pixels(pixels.detach(), name=name, max_value=self.max_value)
-        if pixels.shape[-3] != self.in_channels:
-            raise ValueError(f"{name} was built for stacks of {self.in_channels} channels, got shape "
-                             f"{tuple(pixels.shape)}; build it with in_channels={pixels.shape[-3]}.")
+        check_stack(type(self).__name__, pixels, self.in_channels, self.max_value)
         white = white_value(pixels, self.max_value)
         batch, image = pixels.shape[:-3], pixels.shape[-3:]
         x = pixels.reshape(-1, *image)

@@ -17,13 +17,15 @@ from typing import Literal
 import torch
 from torch import Tensor, nn
 
+from vigen.models.checks import check_sizes
+from vigen.models.networks import resnet_init
 from vigen.models.vrl3 import IMAGENET_MEAN, IMAGENET_STD
-from vigen.pixel_format import check_pixels, white_value
+from vigen.pixel_format import check_max_value, check_pixels, white_value
 
 RGB = 3
 RESNET18_URL = "https://download.pytorch.org/models/resnet18-f37072fd.pth"
-RESNET18_FETCH = "python -m vigen.data fetch torchvision-resnet18"
-"""The command that fetches torchvision's ImageNet ResNet-18 into vigen's data cache (:mod:`vigen.data`)."""
+RESNET18_FETCH = "python -m vigen.datasets fetch torchvision-resnet18"
+"""The command that fetches torchvision's ImageNet ResNet-18 into vigen's data cache (:mod:`vigen.datasets`)."""
 """torchvision's ImageNet ResNet-18 (``ResNet18_Weights.IMAGENET1K_V1``), a plain state dict."""
 _WIDTHS = (64, 128, 256, 512)
 _BATCH_NORM_COUNTER = "num_batches_tracked"
@@ -68,12 +70,7 @@ class ResNet18Features(nn.Module):
             blocks = (_BasicBlock(width, channels, stride), _BasicBlock(channels, channels, 1))
             setattr(self, f"layer{index + 1}", nn.Sequential(*blocks))
             width = channels
-        for module in self.modules():
-            if isinstance(module, nn.Conv2d):
-                nn.init.kaiming_normal_(module.weight, mode="fan_out", nonlinearity="relu")
-            elif isinstance(module, nn.BatchNorm2d):
-                nn.init.ones_(module.weight)
-                nn.init.zeros_(module.bias)
+        self.apply(resnet_init)
 
     @property
     def out_channels(self) -> int:
@@ -201,8 +198,7 @@ class PIEGEncoder(nn.Module):
         weights: a file with torchvision's ResNet-18 state dict; ``None`` for random weights.
         normalization: ``"centered"`` (``x / white − 0.5``, RL-ViGen) or ``"imagenet"``
             (``(x / white − mean) / std`` per RGB channel).
-        max_value: the white of float pixels; ``None`` for 1.0 (TorchRL's ``ToTensorImage()``),
-            255 for float pixels on the 0–255 scale. uint8 pixels are always 0–255.
+        max_value: the white of float pixels, as in :class:`~vigen.models.DrQv2Encoder`.
 
     Examples:
         >>> import torch, warnings
@@ -214,8 +210,6 @@ class PIEGEncoder(nn.Module):
         (torch.Size([4, 32]), 32, 2048)
         >>> any(p.requires_grad for p in encoder.resnet.parameters())
         False
-        >>> torch.allclose(encoder(pixels.float() / 255), encoder(pixels), atol=1e-5)  # ToTensorImage's floats
-        True
     """
 
     def __init__(
@@ -231,9 +225,7 @@ class PIEGEncoder(nn.Module):
     ) -> None:
         super().__init__()
         name = type(self).__name__
-        for arg, value in (("in_channels", in_channels), ("image_size", image_size), ("out_dim", out_dim)):
-            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
-                raise ValueError(f"{name}: {arg} must be a positive int, got {value!r}.")
+        check_sizes(name, ("in_channels", in_channels, 1), ("image_size", image_size, 1), ("out_dim", out_dim, 1))
         if in_channels % RGB or in_channels < 2 * RGB:
             raise ValueError(
                 f"{name}: in_channels={in_channels} is not a stack of at least two RGB frames. PIE-G runs the ResNet on "
@@ -243,13 +235,10 @@ class PIEGEncoder(nn.Module):
         if normalization not in ("centered", "imagenet"):
             raise ValueError(f"{name}: normalization must be 'centered' (x / white - 0.5, RL-ViGen) or 'imagenet', "
                              f"got {normalization!r}.")
-        if max_value is not None and not (isinstance(max_value, numbers.Real) and max_value > 0):
-            raise ValueError(f"{name}: max_value is the white of float pixels and must be positive (or None for 1.0), "
-                             f"got {max_value!r}; use 255 for float pixels on the 0–255 scale.")
         self.in_channels, self.image_size, self.out_dim = int(in_channels), int(image_size), int(out_dim)
         self.frames = self.in_channels // RGB
         self.normalization = normalization
-        self.max_value: float | None = None if max_value is None else float(max_value)
+        self.max_value = check_max_value(name, max_value)
         self.resnet = ResNet18Features(depth)
         channels, height, width = self.resnet.output_shape(self.image_size, self.image_size)
         self.conv_dim = 2 * (self.frames - 1) * channels * height * width
@@ -323,7 +312,7 @@ def _read_state_dict(path: str | os.PathLike, name: str) -> dict[str, Tensor]:
     if not os.path.isfile(path):
         raise FileNotFoundError(
             f"{name}: no ResNet-18 weights at {os.fspath(path)!r}. Fetch them into vigen's data cache, checked by their "
-            f"sha256, with `{RESNET18_FETCH}` (then `python -m vigen.data path torchvision-resnet18` prints the folder), "
+            f"sha256, with `{RESNET18_FETCH}` (then `python -m vigen.datasets path torchvision-resnet18` prints the folder), "
             f"or download {RESNET18_URL} (or save torchvision.models.resnet18(weights='IMAGENET1K_V1').state_dict() "
             "with torch.save) and pass its path; weights=None starts from random weights."
         )

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import numbers
 import os
 import warnings
 
@@ -10,7 +9,9 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from vigen.pixel_format import check_pixels, white_value
+from vigen.models.checks import check_sizes, check_stack
+from vigen.models.networks import resnet_init
+from vigen.pixel_format import check_max_value, white_value
 
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
 """Per-channel mean of ImageNet's RGB images, which VRL3 subtracts from every frame of the stack."""
@@ -57,8 +58,7 @@ class VRL3Encoder(nn.Module):
         blocks: residual blocks per stage; 0 is VRL3's shallow ``resnet6``.
         stage1_weights: a stage-1 checkpoint file (VRL3's ``<model>_checkpoint.pth.tar``, or a
             plain state dict); ``None`` starts from random weights, as RL-ViGen does.
-        max_value: the white of float pixels; ``None`` for 1.0 (TorchRL's ``ToTensorImage()``),
-            255 for float pixels on the 0–255 scale. uint8 pixels are always 0–255.
+        max_value: the white of float pixels, as in :class:`~vigen.models.DrQv2Encoder`.
 
     Examples:
         >>> import torch, warnings
@@ -68,8 +68,6 @@ class VRL3Encoder(nn.Module):
         >>> pixels = torch.randint(0, 256, (4, 9, 84, 84), dtype=torch.uint8)
         >>> encoder(pixels).shape, encoder.output_dim(9, 84, 84)
         (torch.Size([4, 256]), 256)
-        >>> torch.allclose(encoder(pixels.float() / 255), encoder(pixels), atol=1e-5)  # ToTensorImage's floats
-        True
     """
 
     def __init__(
@@ -83,18 +81,13 @@ class VRL3Encoder(nn.Module):
     ) -> None:
         super().__init__()
         name = type(self).__name__
-        for arg, value, low in (("in_channels", in_channels, 1), ("channels", channels, 1), ("blocks", blocks, 0)):
-            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < low:
-                raise ValueError(f"{name}: {arg} must be an int >= {low}, got {value!r}.")
+        check_sizes(name, ("in_channels", in_channels, 1), ("channels", channels, 1), ("blocks", blocks, 0))
         if in_channels % RGB:
             raise ValueError(f"{name}: in_channels={in_channels} is not a stack of RGB frames; VRL3 normalises each "
                              "frame with ImageNet's RGB statistics, so pass in_channels = 3·frames (9 for three frames).")
-        if max_value is not None and not (isinstance(max_value, numbers.Real) and max_value > 0):
-            raise ValueError(f"{name}: max_value is the white of float pixels and must be positive (or None for 1.0), "
-                             f"got {max_value!r}; use 255 for float pixels on the 0–255 scale.")
         self.in_channels, self.channels, self.blocks = int(in_channels), int(channels), int(blocks)
         self.frames = self.in_channels // RGB
-        self.max_value: float | None = None if max_value is None else float(max_value)
+        self.max_value = check_max_value(name, max_value)
         self.conv1 = nn.Conv2d(in_channels, channels, 3, stride=2)
         self.bn1 = nn.BatchNorm2d(channels)
         width = channels
@@ -108,12 +101,7 @@ class VRL3Encoder(nn.Module):
                 layers += [_ResidualBlock(channels * multiple, channels * multiple, 1) for _ in range(blocks - 1)]
             setattr(self, f"layer{index + 1}", nn.Sequential(*layers))
             width = channels * multiple
-        for module in self.modules():
-            if isinstance(module, nn.Conv2d):
-                nn.init.kaiming_normal_(module.weight, mode="fan_out", nonlinearity="relu")
-            elif isinstance(module, nn.BatchNorm2d):
-                nn.init.ones_(module.weight)
-                nn.init.zeros_(module.bias)
+        self.apply(resnet_init)
         if stage1_weights is None:
             warnings.warn(
                 f"{name} starts from random weights, as RL-ViGen runs VRL3 on Adroit (stage1_use_pretrain=False). "
@@ -132,11 +120,7 @@ class VRL3Encoder(nn.Module):
         return 8 * self.channels
 
     def forward(self, pixels: Tensor) -> Tensor:
-        name = type(self).__name__
-        check_pixels(pixels.detach(), name=name, max_value=self.max_value)
-        if pixels.shape[-3] != self.in_channels:
-            raise ValueError(f"{name} was built for stacks of {self.in_channels} channels, got shape "
-                             f"{tuple(pixels.shape)}; build it with in_channels={pixels.shape[-3]}.")
+        check_stack(type(self).__name__, pixels, self.in_channels, self.max_value)
         white = white_value(pixels, self.max_value)
         batch, image = pixels.shape[:-3], pixels.shape[-3:]
         x = pixels.reshape(-1, *image)

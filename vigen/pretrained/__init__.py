@@ -88,8 +88,7 @@ def load_agent(name: str, *, device: torch.device | str = "cpu", root: str | Pat
     policy acts without noise (see :func:`load_policy`). Only the acting parts are loaded (encoder,
     actor, input mask); the critic keeps its initial weights. The weights file is checked against
     the checksum in the provenance and loaded with ``weights_only=True``; float16 values are
-    restored to float32 exactly, and the actor's old parameter names load (the shipped files keep
-    ``policy.*``, :data:`vigen.models.ACTOR_RENAMES`).
+    restored to float32 exactly, each part strictly (every key of the module, no other).
 
     Returns:
         The config the agent was trained with (its recorded ``config``, with the file's network

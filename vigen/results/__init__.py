@@ -17,7 +17,7 @@ Examples:
     236.3 ± 58.9
 """
 
-from vigen.results.aggregates import seed_aggregates, task_means
+from vigen.results.paper_aggregates import seed_aggregates, task_means
 from vigen.results.compare import PartialData, ProtocolMismatch, RecipeMismatch, StandInRows, check_protocol, compare
 from vigen.results.published import COLUMNS, PublishedScore, as_dicts, load, published
 from vigen.results.sources import SOURCES, Source

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from vigen.data.identity import not_in_full
+from vigen.datasets.identity import not_in_full
 from vigen.protocols import Protocol, get_protocol
 from vigen.results.published import PublishedScore, published
 from vigen.results.sources import SOURCES
@@ -38,6 +38,19 @@ LOCO_PROTOCOL: Mapping[str, str] = MappingProxyType({"rlvigen": "rlvigen_loco"})
 """Source -> the protocol its ``loco/`` rows follow (:data:`vigen.protocols.PROTOCOLS`), named on every ``loco/`` line."""
 
 
+def refusal(reason: str, items: Iterable[str], fix: str = "") -> str:
+    """The message of a refused comparison: ``reason``, one ``  - item`` line per item, then ``fix``.
+
+    Examples:
+        >>> print(refusal("cannot compare", ["a differs", "b differs"], "Fix a and b."))
+        cannot compare:
+          - a differs
+          - b differs
+        Fix a and b.
+    """
+    return "\n".join([f"{reason}:", *(f"  - {item}" for item in items), *([fix] if fix else [])])
+
+
 class ProtocolMismatch(ValueError):
     """The run and the published numbers were not produced under the same protocol; ``differences`` lists how.
 
@@ -50,8 +63,7 @@ class ProtocolMismatch(ValueError):
 
     def __init__(self, differences: Sequence[str], hint: str = "") -> None:
         self.differences = list(differences)
-        super().__init__("cannot compare with the published numbers; what differs:\n" +
-                         "\n".join(f"  - {difference}" for difference in self.differences) + (f"\n{hint}" if hint else ""))
+        super().__init__(refusal("cannot compare with the published numbers; what differs", self.differences, hint))
 
 
 class StandInRows(ValueError):
@@ -62,16 +74,16 @@ class StandInRows(ValueError):
         >>> print(StandInRows([("video_hard", "procedural stand-in videos (10)")]))  # doctest: +ELLIPSIS
         cannot set these rows beside published numbers: they showed vigen's stand-ins, not the benchmark's data:
           - video_hard: procedural stand-in videos (10)
-        Fetch the data (python -m vigen.data fetch ...) and evaluate again, or pass allow_stand_ins=True ...
+        Fetch the data (python -m vigen.datasets fetch ...) and evaluate again, or pass allow_stand_ins=True ...
     """
 
     def __init__(self, levels: Sequence[tuple[str, str]]) -> None:
         self.levels = list(levels)
-        super().__init__(
-            "cannot set these rows beside published numbers: they showed vigen's stand-ins, not the benchmark's data:\n"
-            + "\n".join(f"  - {level}: {data}" for level, data in self.levels)
-            + "\nFetch the data (python -m vigen.data fetch ...) and evaluate again, or pass allow_stand_ins=True "
-              "(--allow-stand-ins) to show them anyway, each line saying so.")
+        super().__init__(refusal(
+            "cannot set these rows beside published numbers: they showed vigen's stand-ins, not the benchmark's data",
+            (f"{level}: {data}" for level, data in self.levels),
+            "Fetch the data (python -m vigen.datasets fetch ...) and evaluate again, or pass allow_stand_ins=True "
+            "(--allow-stand-ins) to show them anyway, each line saying so."))
 
 
 class PartialData(ValueError):
@@ -82,23 +94,23 @@ class PartialData(ValueError):
         >>> print(PartialData([("video_easy", "dmcgb-videos/video_easy: 6 of 10, verified")]))  # doctest: +ELLIPSIS
         cannot set these rows beside published numbers: their level did not show the published data set in full:
           - video_easy: dmcgb-videos/video_easy: 6 of 10, verified
-        Evaluate on the whole data set (python -m vigen.data fetch ..., without --videos), or pass allow_partial_data=True ...
+        Evaluate on the whole data set (python -m vigen.datasets fetch ..., without --videos), or pass allow_partial_data=True ...
     """
 
     def __init__(self, levels: Sequence[tuple[str, str]]) -> None:
         self.levels = list(levels)
-        super().__init__(
-            "cannot set these rows beside published numbers: their level did not show the published data set in full:\n"
-            + "\n".join(f"  - {level}: {data}" for level, data in self.levels)
-            + "\nEvaluate on the whole data set (python -m vigen.data fetch ..., without --videos), or pass "
-              "allow_partial_data=True (--allow-partial-data) to show them anyway, each line saying what was shown.")
+        super().__init__(refusal(
+            "cannot set these rows beside published numbers: their level did not show the published data set in full",
+            (f"{level}: {data}" for level, data in self.levels),
+            "Evaluate on the whole data set (python -m vigen.datasets fetch ..., without --videos), or pass "
+            "allow_partial_data=True (--allow-partial-data) to show them anyway, each line saying what was shown."))
 
 
 def partial_data(label: Any) -> list[str]:
-    """The parts of a row's ``data`` label that are not a data set shown in full (:func:`vigen.data.identity.not_in_full`).
+    """The parts of a row's ``data`` label that are not a data set shown in full (:func:`vigen.datasets.identity.not_in_full`).
 
     A part is in full where it names a data set part, every one of its files, ``verified`` against
-    the pinned ids or ``shipped`` with vigen (:class:`vigen.data.identity.DataIdentity`). A user's
+    the pinned ids or ``shipped`` with vigen (:class:`vigen.datasets.identity.DataIdentity`). A user's
     folder or file, fewer files than the part holds, unverified files, and a label that names no
     data set (e.g. a machine path, as rows had before vigen named data by identity) are not;
     stand-ins are left to the ``stand_in`` column.
@@ -129,11 +141,11 @@ class RecipeMismatch(ValueError):
 
     def __init__(self, differences: Sequence[str]) -> None:
         self.differences = list(differences)
-        super().__init__(
-            "cannot set the run beside these published numbers: it was not trained by the recipe behind them:\n"
-            + "\n".join(f"  - {difference}" for difference in self.differences)
-            + "\nTrain with the published row's recipe (examples/train.py --recipe NAME; --recipe list), or pass "
-              "allow_recipe_mismatch=True (--allow-recipe-mismatch) to show it anyway, each line saying what differs.")
+        super().__init__(refusal(
+            "cannot set the run beside these published numbers: it was not trained by the recipe behind them",
+            self.differences,
+            "Train with the published row's recipe (examples/train.py --recipe NAME; --recipe list), or pass "
+            "allow_recipe_mismatch=True (--allow-recipe-mismatch) to show it anyway, each line saying what differs."))
 
 
 def run_recipe(rows: Sequence[Mapping[str, Any]]) -> tuple[str | None, dict[str, Any]]:

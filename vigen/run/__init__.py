@@ -43,7 +43,7 @@ from typing import Any
 
 _HOMES = {
     "Agent": "agent", "TrainedAgent": "agent", "build_agent": "agent", "check_runnable": "agent",
-    "env_action_spec": "agent", "exploration_std": "agent", "load_agent": "agent", "make_update": "agent",
+    "env_action_spec": "agent", "exploration_std_schedule": "agent", "load_agent": "agent", "make_update": "agent",
     "recipe_loss_options": "agent", "recipe_weights": "agent", "RECIPES": "recipes", "Recipe": "recipes",
     "list_recipes": "recipes", "with_recipe": "config",
     "CollectorBatches": "collection", "SegmentCollectors": "collection", "make_collector": "collection",

@@ -20,10 +20,10 @@ from torchrl.modules import AdditiveGaussianModule
 from torchrl.objectives import SoftUpdate
 
 from vigen.run.checkpoint import CheckpointError, load_checkpoint, newest_checkpoint
-from vigen.data import fetch_command, get_dataset, locate
+from vigen.datasets import fetch_command, get_dataset, locate
 from vigen.envs import available_envs, make_env
 from vigen.envs.levels import resolve_levels
-from vigen.losses import ALGOS, ActorCriticLoss, LinearSchedule, SplitSoftUpdate, UpdateStep, make_loss
+from vigen.losses import ALGOS, ActorCriticLoss, LinearSchedule, NoisyDeterministic, SplitSoftUpdate, UpdateStep, make_loss
 from vigen.ray_cluster import import_ray
 from vigen.run.config import TrainConfig
 from vigen.transforms import RandomConv, RandomFrequencyMask, RandomOverlay, RandomShiftedOverlay
@@ -101,20 +101,20 @@ def check_runnable(config: TrainConfig) -> None:
         raise ValueError(f"--eval-levels: {error}") from None
 
 
-def exploration_std(config: TrainConfig) -> LinearSchedule | None:
-    """The run's exploration std: the algorithm's schedule with the config's ``std_*`` settings over it; ``None`` for SAC.
+def exploration_std_schedule(config: TrainConfig) -> LinearSchedule | None:
+    """The run's schedule of the exploration std: the algorithm's, with the config's ``std_*`` settings over it; ``None`` for SAC.
 
     Examples:
-        >>> exploration_std(TrainConfig(algo="drqv2", std_final=0.2))
+        >>> exploration_std_schedule(TrainConfig(algo="drqv2", std_final=0.2))
         LinearSchedule(init=1.0, final=0.2, duration=100000)
-        >>> exploration_std(TrainConfig(algo="vrl3")).final, exploration_std(TrainConfig(algo="drq"))
+        >>> exploration_std_schedule(TrainConfig(algo="vrl3")).final, exploration_std_schedule(TrainConfig(algo="drq"))
         (0.01, None)
     """
     record = ALGOS[config.algo]
     kind = (config.recipe_settings or {}).get("loss.sampler_type")
     if not (record.takes_std if kind is None else kind == "noisy_deterministic"):
         return None
-    own = record.std if record.takes_std else LinearSchedule(1.0, 0.1, 100_000)
+    own = record.std_schedule if record.takes_std else NoisyDeterministic().std_schedule  # DrQ-v2's, for a swapped-in sampler
     return LinearSchedule(own.init if config.std_init is None else config.std_init,
                           own.final if config.std_final is None else config.std_final,
                           own.duration if config.std_duration is None else config.std_duration)
@@ -131,7 +131,7 @@ def build_agent(
 
     The policy explores with the run's std schedule (linear ``std_init`` → ``std_final`` over
     ``std_duration`` agent steps, each the algorithm's where the config leaves it unset,
-    :func:`exploration_std`) where the algorithm takes one, and is bounded by ``action_spec``.
+    :func:`exploration_std_schedule`) where the algorithm takes one, and is bounded by ``action_spec``.
     The loss's augmentations are seeded by ``config.seed`` unless the update is compiled
     (torch.compile cannot trace their own generators; they then draw from torch's global RNG).
     The loss checks its losses are finite inside the call on the CPU only (elsewhere reading the
@@ -156,9 +156,9 @@ def build_agent(
     record = ALGOS[config.algo]
     # check_finite stays on: it raises on the CPU and counts on the device elsewhere
     options: dict[str, object] = recipe_loss_options(config)
-    std = exploration_std(config)
-    if std is not None:
-        options["std"] = std
+    std_schedule = exploration_std_schedule(config)
+    if std_schedule is not None:
+        options["std_schedule"] = std_schedule
     weights = config.encoder_weights if config.encoder_weights is not None else recipe_weights(config) if pretrained else None
     if pretrained and weights is not None:
         if record.encoder_weights is None:
@@ -207,7 +207,7 @@ def recipe_loss_options(config: TrainConfig) -> dict[str, Any]:
 
 
 def recipe_weights(config: TrainConfig) -> Path | None:
-    """The pretrained encoder file a recipe loads (``network.weights``, a data set of :mod:`vigen.data`), from the cache.
+    """The pretrained encoder file a recipe loads (``network.weights``, a data set of :mod:`vigen.datasets`), from the cache.
 
     ``None`` when the run gives ``--encoder-weights`` or its recipe loads none.
 

@@ -20,7 +20,7 @@ A recipe's settings are flat, one name each (:meth:`Recipe.settings`):
 * ``optimizer.betas`` (Adam's, for every group without its own) and ``optimizer.<module>.<option>``:
   the loss's ``param_groups`` (``lr``, ``betas``, ``every``);
 * ``network.<property>``: what the built networks must be (their encoder's layers and channels),
-  checked when the agent is built; ``network.weights``: the data set (``python -m vigen.data``)
+  checked when the agent is built; ``network.weights``: the data set (``python -m vigen.datasets``)
   that holds the pretrained encoder the recipe loads.
 
 This module imports neither torch nor the losses, so that a config can name a recipe anywhere.

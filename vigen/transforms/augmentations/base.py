@@ -17,7 +17,7 @@ from torchrl.data.tensor_specs import ContinuousBox
 from torchrl.envs import Transform
 from torchrl.envs.transforms.utils import _set_missing_tolerance
 
-from vigen.pixel_format import check_pixel_layout, check_pixels, white_value
+from vigen.pixel_format import check_max_value, check_pixel_layout, check_pixels, white_value
 from vigen.transforms.augmentations import functional
 
 Params = dict[str, Tensor]
@@ -135,10 +135,7 @@ class ImageAugmentation(Transform):
         seed: int | None = None,
     ) -> None:
         name = type(self).__name__
-        if max_value is not None:
-            check_parameter(name, "max_value", max_value, hint=" It is the white of float pixels, e.g. 255 or 1.0.")
-            if max_value <= 0:
-                raise ValueError(f"{name}: max_value must be positive (the white of float pixels), got {max_value!r}.")
+        check_max_value(name, max_value)
         _check_seed(name, seed)
         in_keys = ["pixels"] if in_keys is None else in_keys
         super().__init__(in_keys=in_keys, out_keys=out_keys if out_keys is not None else in_keys)

@@ -95,10 +95,16 @@ class RandomOverlay(ImageAugmentation):
     def apply(self, images: Tensor, params: Params) -> Tensor:
         white = self.white(images)
         backgrounds = self.bank.resized(*images.shape[-2:], device=images.device)[params["index"]]
-        if backgrounds.dtype != images.dtype or white != 255:
-            backgrounds = backgrounds.float() * (white / 255)
-        return functional.overlay(images, backgrounds, self.alpha, white)
+        return functional.overlay(images, self.at_white(backgrounds, images.dtype, white), self.alpha, white)
+
+    @staticmethod
+    def at_white(backgrounds: Tensor, dtype: torch.dtype, white: float) -> Tensor:
+        """The bank's uint8 ``backgrounds`` on the frames' scale: as they are for uint8 frames, else floats ``× white / 255``."""
+        return backgrounds if backgrounds.dtype == dtype and white == 255 else backgrounds.float() * (white / 255)
+
+    def image_source(self) -> str:
+        """Where the images come from, for ``repr``: the bank, the folder, or ``builtin``."""
+        return str(self._images if isinstance(self._images, ImageBank) else (self._images or "builtin"))
 
     def extra_repr(self) -> str:
-        source = self._images if isinstance(self._images, ImageBank) else (self._images or "builtin")
-        return f"alpha={self.alpha}, images={source!s}"
+        return f"alpha={self.alpha}, images={self.image_source()}"

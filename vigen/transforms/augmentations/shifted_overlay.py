@@ -12,11 +12,11 @@ from torch import Tensor
 from vigen.assets.image_bank import ImageBank
 from vigen.devices import host_reads_are_free
 from vigen.transforms.augmentations import functional
-from vigen.transforms.augmentations.base import ImageAugmentation, Params, check_parameter
-from vigen.transforms.augmentations.overlay import check_overlay
+from vigen.transforms.augmentations.base import Params, check_parameter
+from vigen.transforms.augmentations.overlay import RandomOverlay
 
 
-class RandomShiftedOverlay(ImageAugmentation):
+class RandomShiftedOverlay(RandomOverlay):
     """Blend frame ``f`` of every stack with a crop of the sample's image shifted by ``f·(dy, dx)`` (SimGRL).
 
     For a stack of k frames of ``H × W`` pixels, each sample draws one image ``I`` from the bank
@@ -61,9 +61,6 @@ class RandomShiftedOverlay(ImageAugmentation):
         (torch.Size([4, 9, 84, 84]), torch.uint8)
     """
 
-    needs_rgb = True  # RGB images blended into RGB frames
-    needs_scale = True  # the images are brought to the frames' white level before the blend
-
     def __init__(
         self,
         alpha: float = 0.5,
@@ -75,18 +72,9 @@ class RandomShiftedOverlay(ImageAugmentation):
         max_value: float | None = None,
         seed: int | None = None,
     ) -> None:
-        check_overlay(type(self).__name__, alpha, images)
         check_parameter(type(self).__name__, "max_shift", max_shift, low=0, integer=True)
-        super().__init__(in_keys, out_keys, max_value=max_value, seed=seed)
-        self.alpha = alpha
+        super().__init__(alpha, images=images, in_keys=in_keys, out_keys=out_keys, max_value=max_value, seed=seed)
         self.max_shift = int(max_shift)
-        self._images = images
-
-    @property
-    def bank(self) -> ImageBank:
-        """The image bank, loaded on first access."""
-        self._images = ImageBank.load(self._images)
-        return self._images
 
     def prepare(self, shape: torch.Size, device: torch.device) -> None:
         channels, height, width = shape[-3:]
@@ -110,15 +98,12 @@ class RandomShiftedOverlay(ImageAugmentation):
         bank = self.bank.resized(height + 2 * pad, width + 2 * pad, device=images.device)
         backgrounds = shifted_windows(bank[params["index"]], shift, frames, pad, height, width)
         white = self.white(images)
-        if backgrounds.dtype != images.dtype or white != 255:
-            backgrounds = backgrounds.float() * (white / 255)
         per_frame = images.reshape(n * frames, functional.FRAME_CHANNELS, height, width)
-        blended = functional.overlay(per_frame, backgrounds.reshape(per_frame.shape), self.alpha, white)
-        return blended.reshape(images.shape)
+        backgrounds = self.at_white(backgrounds, images.dtype, white).reshape(per_frame.shape)
+        return functional.overlay(per_frame, backgrounds, self.alpha, white).reshape(images.shape)
 
     def extra_repr(self) -> str:
-        source = self._images if isinstance(self._images, ImageBank) else (self._images or "builtin")
-        return f"alpha={self.alpha}, max_shift={self.max_shift}, images={source!s}"
+        return f"alpha={self.alpha}, max_shift={self.max_shift}, images={self.image_source()}"
 
 
 def shifted_windows(images: Tensor, shift: Tensor, frames: int, pad: int, height: int, width: int) -> Tensor:

@@ -12,7 +12,7 @@ import torch
 
 from vigen.assets.palettes import (DMCGB_PRESETS, PALETTE_KEYS, check_palette, dmcgb_preset_file_part, dmcgb_presets,
                                    load_dmcgb_palette)
-from vigen.data.identity import DataIdentity
+from vigen.datasets.identity import DataIdentity
 from vigen.transforms.scene.base import Defaults, SceneHandle, SceneParams, ScenePerturbation
 from vigen.transforms.scene.builtin_textures import (
     CUBE_FACES,

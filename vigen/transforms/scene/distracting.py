@@ -20,10 +20,8 @@ from tensordict import TensorDictBase
 from vigen.transforms.scene.base import Defaults, SceneHandle, SceneParams, ScenePerturbation
 from vigen.transforms.scene.schedule import action_repeat_of, check_update_every, updates_due
 
-# distracting_control/suite_utils.py: DIFFICULTY_SCALE and DIFFICULTY_NUM_VIDEOS (None: every video of the split)
-DCS_DIFFICULTY_SCALE = MappingProxyType({"easy": 0.1, "medium": 0.2, "hard": 0.3})
-DCS_DIFFICULTY_NUM_VIDEOS = MappingProxyType({"easy": 4, "medium": 8, "hard": None})
 # DMC-GB's src/env/distracting_control/suite_utils.py: its intensities (the scale itself) and videos per intensity
+# (None: every video of the split)
 DCS_SCALES = (0.025, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5)
 DCS_NUM_VIDEOS = MappingProxyType({0.025: 2, 0.05: 2, 0.1: 4, 0.15: 6, 0.2: 8, 0.3: None, 0.4: None, 0.5: None})
 # suite_utils.get_background_kwargs: the floor grid's alpha per domain (every other domain: 0.3)
@@ -275,9 +273,7 @@ class DistractingCamera(DistractionWalk):
         dynamic: drift the camera every step.
         camera: camera id or name (DCS: the render camera, 0; quadruped 2).
         limit_to_upper_quadrant: keep the camera above the ground and on the -y side (DCS: every domain but reacher).
-        walk_steps: random-walk steps per env step (dynamic only, with ``update_every=None``).
-        update_every: control steps per walk step (DMC-GB: 2, the original: 1), or ``None``.
-        seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
+        walk_steps, update_every, seed: see :class:`DistractionWalk`.
 
     Examples:
         >>> from vigen.envs import make_env
@@ -399,16 +395,15 @@ class DistractingColors(DistractionWalk):
         scale: the suite's scale ``s`` in [0, 1] (the colour box half-width).
         dynamic: walk the colours every step.
         parts: name prefixes of the materials to recolour; ``None`` (DCS) recolours every material.
-        walk_steps: random-walk steps per env step (dynamic only, with ``update_every=None``).
-        update_every: control steps per walk step (DMC-GB: 2, the original: 1), or ``None``.
-        seed: see :class:`~vigen.transforms.scene.ScenePerturbation`.
+        walk_steps, update_every, seed: see :class:`DistractionWalk`.
 
     Examples:
         >>> from vigen.envs import make_env
         >>> from vigen.transforms import DistractingColors
-        >>> env = make_env("dmc/walker-walk", generalization=[DistractingColors(0.3, dynamic=True, seed=0)], image_size=32)
-        >>> env.rollout(3)["pixels"].shape
-        torch.Size([3, 9, 32, 32])
+        >>> plain = make_env("dmc/walker-walk", image_size=32, seed=0).reset()["pixels"]
+        >>> env = make_env("dmc/walker-walk", generalization=[DistractingColors(0.3, seed=0)], image_size=32, seed=0)
+        >>> bool((env.reset()["pixels"] != plain).any())  # the same start, recoloured
+        True
     """
 
     def __init__(

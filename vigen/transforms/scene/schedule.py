@@ -16,9 +16,6 @@ from typing import Any
 
 from torchrl.envs import Transform
 
-UPDATE_EVERY = {"dmcgb": 2, "original": 1}
-"""Control steps between two moves of DCS's dynamic distractions: DMC-GB's copy 2, the original suite 1."""
-
 
 def check_update_every(name: str, update_every: int | None) -> None:
     """Raise a ValueError unless ``update_every`` is ``None`` or an int >= 1."""
