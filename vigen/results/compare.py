@@ -16,7 +16,7 @@ from collections import defaultdict
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -66,7 +66,21 @@ class ProtocolMismatch(ValueError):
         super().__init__(refusal("cannot compare with the published numbers; what differs", self.differences, hint))
 
 
-class StandInRows(ValueError):
+class LevelsRefused(ValueError):
+    """Rows refused beside the published numbers for what their levels showed; ``levels`` lists (level, data shown).
+
+    Each subclass says why (``reason``) and how to go on (``fix``).
+    """
+
+    reason: ClassVar[str]
+    fix: ClassVar[str]
+
+    def __init__(self, levels: Sequence[tuple[str, str]]) -> None:
+        self.levels = list(levels)
+        super().__init__(refusal(self.reason, (f"{level}: {data}" for level, data in self.levels), self.fix))
+
+
+class StandInRows(LevelsRefused):
     """Rows that showed vigen's stand-ins where the source showed its own data; ``levels`` lists (level, data shown).
 
     Examples:
@@ -77,16 +91,12 @@ class StandInRows(ValueError):
         Fetch the data (python -m vigen.datasets fetch ...) and evaluate again, or pass allow_stand_ins=True ...
     """
 
-    def __init__(self, levels: Sequence[tuple[str, str]]) -> None:
-        self.levels = list(levels)
-        super().__init__(refusal(
-            "cannot set these rows beside published numbers: they showed vigen's stand-ins, not the benchmark's data",
-            (f"{level}: {data}" for level, data in self.levels),
-            "Fetch the data (python -m vigen.datasets fetch ...) and evaluate again, or pass allow_stand_ins=True "
-            "(--allow-stand-ins) to show them anyway, each line saying so."))
+    reason = "cannot set these rows beside published numbers: they showed vigen's stand-ins, not the benchmark's data"
+    fix = ("Fetch the data (python -m vigen.datasets fetch ...) and evaluate again, or pass allow_stand_ins=True "
+           "(--allow-stand-ins) to show them anyway, each line saying so.")
 
 
-class PartialData(ValueError):
+class PartialData(LevelsRefused):
     """Rows whose level did not show the published data set in full; ``levels`` lists (level, data shown).
 
     Examples:
@@ -97,13 +107,9 @@ class PartialData(ValueError):
         Evaluate on the whole data set (python -m vigen.datasets fetch ..., without --videos), or pass allow_partial_data=True ...
     """
 
-    def __init__(self, levels: Sequence[tuple[str, str]]) -> None:
-        self.levels = list(levels)
-        super().__init__(refusal(
-            "cannot set these rows beside published numbers: their level did not show the published data set in full",
-            (f"{level}: {data}" for level, data in self.levels),
-            "Evaluate on the whole data set (python -m vigen.datasets fetch ..., without --videos), or pass "
-            "allow_partial_data=True (--allow-partial-data) to show them anyway, each line saying what was shown."))
+    reason = "cannot set these rows beside published numbers: their level did not show the published data set in full"
+    fix = ("Evaluate on the whole data set (python -m vigen.datasets fetch ..., without --videos), or pass "
+           "allow_partial_data=True (--allow-partial-data) to show them anyway, each line saying what was shown.")
 
 
 def partial_data(label: Any) -> list[str]:

@@ -134,14 +134,13 @@ class ImageAugmentation(Transform):
         max_value: float | None = None,
         seed: int | None = None,
     ) -> None:
-        name = type(self).__name__
-        check_max_value(name, max_value)
-        _check_seed(name, seed)
+        check_max_value(type(self).__name__, max_value)
+        _check_seed(type(self).__name__, seed)
         in_keys = ["pixels"] if in_keys is None else in_keys
         super().__init__(in_keys=in_keys, out_keys=out_keys if out_keys is not None else in_keys)
         if len(self.in_keys) != len(self.out_keys):
             raise ValueError(
-                f"{name}: out_keys must have one key per in_key, got in_keys={self.in_keys} and "
+                f"{type(self).__name__}: out_keys must have one key per in_key, got in_keys={self.in_keys} and "
                 f"out_keys={self.out_keys}; leave out_keys None to write in place."
             )
         self.max_value = max_value

@@ -13,6 +13,21 @@ from vigen.seeding import derive_seed
 from vigen.transforms.augmentations.base import ImageAugmentation, Params
 
 
+def _check_members(name: str, augmentations: Sequence[ImageAugmentation], max_value: float | None) -> None:
+    """Raise unless ``augmentations`` is a non-empty list of vigen augmentations that keep the image size and agree with
+    the composite ``name`` on ``max_value``."""
+    if isinstance(augmentations, ImageAugmentation) or not isinstance(augmentations, Sequence) or not augmentations:
+        raise TypeError(f"{name} takes a non-empty list of vigen augmentations, e.g. [RandomRotate(), RandomShift(pad=16)].")
+    for member in augmentations:
+        if not isinstance(member, ImageAugmentation):
+            raise TypeError(f"{name}: every member must be a vigen ImageAugmentation, got {type(member).__name__}.")
+        if member.output_size(84, 84) != (84, 84):
+            raise ValueError(f"{name}: {type(member).__name__} changes the image size; members must keep it.")
+        if None not in (member.max_value, max_value) and member.max_value != max_value:
+            raise ValueError(f"{name}: {type(member).__name__} has max_value={member.max_value} but the composite's "
+                             f"is {max_value}; set it once, on the composite.")
+
+
 class _Composite(ImageAugmentation):
     """Members held as submodules; ``max_value`` and the seed reach every member.
 
@@ -29,17 +44,7 @@ class _Composite(ImageAugmentation):
         max_value: float | None = None,
         seed: int | None = None,
     ) -> None:
-        name = type(self).__name__
-        if isinstance(augmentations, ImageAugmentation) or not isinstance(augmentations, Sequence) or not augmentations:
-            raise TypeError(f"{name} takes a non-empty list of vigen augmentations, e.g. [RandomRotate(), RandomShift(pad=16)].")
-        for member in augmentations:
-            if not isinstance(member, ImageAugmentation):
-                raise TypeError(f"{name}: every member must be a vigen ImageAugmentation, got {type(member).__name__}.")
-            if member.output_size(84, 84) != (84, 84):
-                raise ValueError(f"{name}: {type(member).__name__} changes the image size; members must keep it.")
-            if None not in (member.max_value, max_value) and member.max_value != max_value:
-                raise ValueError(f"{name}: {type(member).__name__} has max_value={member.max_value} but the composite's "
-                                 f"is {max_value}; set it once, on the composite.")
+        _check_members(type(self).__name__, augmentations, max_value)
         self._max_value: float | None = None
         super().__init__(in_keys, out_keys, max_value=max_value, seed=None)
         self.members = nn.ModuleList(member.clone() for member in augmentations)
