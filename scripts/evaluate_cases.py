@@ -1,10 +1,10 @@
 """Run a fixed set of ``examples/evaluate.py`` cases and keep everything each one wrote, to compare two versions byte for byte.
 
-    python scripts/evaluate_cases.py runs --cases /work/eval-cases                     # two tiny runs with train.py, once
-    python scripts/evaluate_cases.py cases --cases /work/eval-cases --into before      # every case, with this checkout
+    python scripts/evaluate_cases.py runs --cases ../eval-cases                     # two tiny runs with train.py, once
+    python scripts/evaluate_cases.py cases --cases ../eval-cases --into before      # every case, with this checkout
     ... change the code ...
-    python scripts/evaluate_cases.py cases --cases /work/eval-cases --into after
-    diff -r /work/eval-cases/before /work/eval-cases/after                              # only help.txt may differ
+    python scripts/evaluate_cases.py cases --cases ../eval-cases --into after
+    diff -r ../eval-cases/before ../eval-cases/after                              # only help.txt may differ
 
 ``runs`` trains two tiny runs on ``dmc/cartpole-balance`` (DrQ-v2 under the ``drqv2`` protocol, SVEA under
 ``dmcgb``; 800 frames, ``--threads 1``) into ``<cases>/runs``, and writes a folder of two short videos

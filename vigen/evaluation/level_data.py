@@ -1,7 +1,7 @@
 """What each level of an evaluation shows: the videos a user gives per level, checked against the benchmark's data set,
 and the ``data`` / ``stand_in`` columns of its rows, known before any episode runs.
 
-A video level plays the benchmark's data once fetched (``python -m vigen.data fetch ...``), else
+A video level plays the benchmark's data once fetched (``python -m vigen.datasets fetch ...``), else
 vigen's procedural stand-ins; ``examples/evaluate.py --videos`` gives folders per level instead,
 as ``(pattern, folder)`` pairs (:func:`video_folders`): a level name or a shell pattern, the first
 match wins. A folder given for a level of a benchmark data set must hold as many videos as that
@@ -15,7 +15,7 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
-import vigen.data
+import vigen.datasets
 from vigen.assets.video_source import folder_videos
 from vigen.envs import get_suite, level_label
 from vigen.envs.level_types import FetchedData
@@ -85,7 +85,7 @@ def level_data_set(env: str, level: Any) -> tuple[str, str, int] | None:
     for step in named.steps if named is not None else ():
         rule = step.params.get("videos")
         if isinstance(rule, FetchedData) and rule.part is not None:
-            dataset = vigen.data.get_dataset(rule.dataset)
+            dataset = vigen.datasets.get_dataset(rule.dataset)
             if dataset.files:
                 return dataset.name, rule.part, len(dataset.files_of(rule.part))
     return None
@@ -107,7 +107,7 @@ def check_video_counts(levels: dict[str, list[Any]], videos: list[tuple[str, Pat
                                 f"{dataset}/{part}, {count} videos")
     if problems and not allow_partial_data:
         parts = sorted({problem.split(" plays ")[1].split(",")[0] for problem in problems})
-        fetch = "; ".join(f"python -m vigen.data fetch {name.split('/')[0]} --part {name.split('/')[1]}" for name in parts)
+        fetch = "; ".join(f"python -m vigen.datasets fetch {name.split('/')[0]} --part {name.split('/')[1]}" for name in parts)
         raise ValueError("--videos: a folder does not hold its level's data set:\n" + "\n".join(f"  - {p}" for p in problems)
                          + f"\nFetch the data set ({fetch}) and drop --videos for these levels (they find it), give a folder "
                            "holding all of it, or pass --allow-partial-data to evaluate on these videos anyway (each row "
