@@ -35,6 +35,7 @@ def load_module():
 
 
 @pytest.mark.slow
+@pytest.mark.device_prep
 def test_the_dry_check_runs_every_tier_in_order_and_writes_its_figures(tmp_path):
     result, seconds = gpu_check("--carry", "none", "--out", str(tmp_path))
     assert result.returncode == 0, result.stdout + result.stderr

@@ -66,6 +66,7 @@ def test_the_learning_comparison_calls_a_difference_noise_only_within_two_standa
 
 @pytest.mark.slow
 @pytest.mark.render
+@pytest.mark.device_prep
 def test_the_device_checks_throughput_tier_runs_the_quick_benchmark_on_the_cpu(tmp_path):
     env = {**os.environ, "PYTHON": sys.executable, "OMP_NUM_THREADS": "1"}
     env.pop("GPU_CHECK_T0", None)

@@ -54,11 +54,14 @@ def test_factor_gallery_grid(tmp_path):
 
 
 @pytest.mark.slow
-def test_factor_gallery_refuses_bad_arguments(tmp_path):
-    base = [sys.executable, str(ROOT / "examples/gallery.py"), "--factors", "--out", str(tmp_path / "g.png")]
+def test_factor_gallery_refuses_bad_arguments(tmp_path, monkeypatch, capsys, gallery_script):
+    base = ["gallery.py", "--factors", "--out", str(tmp_path / "g.png")]
     for extra, message in ((["--intensities", "0.2", "1.5"], "--intensities must be in [0, 1]"),
                            (["--intensities", "0.2", "0.2"], "intensities repeat [0.2]"),
                            (["--levels", "train"], "--levels and --factors")):
-        result = subprocess.run(base + extra, capture_output=True, text=True)
-        assert result.returncode == 2 and message in result.stderr, result.stderr
+        monkeypatch.setattr(sys, "argv", base + extra)  # the gallery reads its flags from sys.argv, as argparse does
+        with pytest.raises(SystemExit) as stopped:
+            gallery_script.main()
+        said = capsys.readouterr().err
+        assert stopped.value.code == 2 and message in said, said
     assert not any(tmp_path.iterdir())

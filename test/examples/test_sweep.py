@@ -74,10 +74,10 @@ def test_evaluate_example_with_sweeps(trained, tmp_path):
 
 @pytest.mark.render
 @pytest.mark.slow
-def test_evaluate_example_refuses_a_bad_sweep(trained, tmp_path):
+def test_evaluate_example_refuses_a_bad_sweep(trained, tmp_path, evaluate_script, stopped):
     for args, message in ((["--sweep", "camera_rotation"], "give the intensities after the factor"),
                           (["--sweep", "camera_rotation", "0.1", "1.2"], "[0, 1]"),
                           (["--sweep", "camera_rotaton", "0.1"], "not a factor of dmc/cartpole-balance")):
-        result = run("evaluate.py", trained, *args, "--out", tmp_path / "report", ok=False)
-        assert message in result.stderr, result.stderr
+        said = stopped(evaluate_script.main, [trained, *args, "--out", tmp_path / "report"])
+        assert message in said, said
     assert not (tmp_path / "report").exists()

@@ -194,13 +194,6 @@ def test_robosuite_train_then_evaluate_reports_success(tmp_path):
     assert "## Success rate (%)" in (out / "report.md").read_text() and (out / "summary_success.csv").exists()
 
 
-def _fails(*args: str | Path) -> subprocess.CompletedProcess:
-    result = subprocess.run([sys.executable, str(ROOT / "examples" / "train.py"), *map(str, args)],
-                            capture_output=True, text=True, cwd=ROOT)
-    assert result.returncode != 0, result.stdout[-2000:]
-    return result
-
-
 @pytest.mark.render
 @pytest.mark.parametrize("flags, message", [
     (["--eval-levels", "colour_hard"], "--eval-levels"),
@@ -215,19 +208,19 @@ def _fails(*args: str | Path) -> subprocess.CompletedProcess:
     (["--device", "cuda:7"], "--device: device 'cuda:7': this machine has"),
     (["--device", "gpu"], "'gpu' is not a device name"),
 ])
-def test_bad_arguments_stop_the_run_before_it_starts(flags, message, tmp_path):
+def test_bad_arguments_stop_the_run_before_it_starts(flags, message, tmp_path, train_script, stopped):
     """Each setting is checked before the first frame; the failed start leaves no run folder."""
-    result = _fails("--frames", "400", "--out", tmp_path / "run", *TINY, *flags)
-    assert message in result.stderr
+    said = stopped(train_script.main, ["--frames", "400", "--out", tmp_path / "run", *TINY, *flags])
+    assert message in said
     assert not (tmp_path / "run").exists()
 
 
 @pytest.mark.render
-def test_resume_refuses_flags_that_contradict_the_run(trained, tmp_path):
+def test_resume_refuses_flags_that_contradict_the_run(trained, tmp_path, train_script, stopped):
     run_dir = tmp_path / "resumed"
     subprocess.run(["cp", "-r", str(trained), str(run_dir)], check=True)
-    result = _fails("--resume", run_dir, "--frames", "800", "--algo", "svea", "--batch-size", "16")
-    assert "--algo svea (the run has drqv2)" in result.stderr and "--batch-size 16 (the run has 8)" in result.stderr
+    said = stopped(train_script.main, ["--resume", run_dir, "--frames", "800", "--algo", "svea", "--batch-size", "16"])
+    assert "--algo svea (the run has drqv2)" in said and "--batch-size 16 (the run has 8)" in said
     assert not (run_dir / "checkpoints" / "frames_00000800.pt").exists()
 
 
@@ -253,23 +246,20 @@ def test_protocol_sets_the_papers_settings_and_records_overrides(tmp_path):
 
 
 @pytest.mark.render
-def test_compare_refuses_another_protocol_before_evaluating(trained, tmp_path):
-    result = subprocess.run([sys.executable, str(ROOT / "examples/evaluate.py"), str(trained), "--compare", "dmcgb",
-                             "--out", str(tmp_path / "report")], capture_output=True, text=True, cwd=ROOT)
-    assert result.returncode != 0
-    assert "dmc/cartpole-balance: action repeat 2 in the run, 8 in protocol dmcgb" in result.stderr
+def test_compare_refuses_another_protocol_before_evaluating(trained, tmp_path, evaluate_script, stopped):
+    said = stopped(evaluate_script.main, [trained, "--compare", "dmcgb", "--out", tmp_path / "report"])
+    assert "dmc/cartpole-balance: action repeat 2 in the run, 8 in protocol dmcgb" in said
     assert not (tmp_path / "report").exists(), "the check comes before any episode"
 
 
 @pytest.mark.render
-def test_compare_puts_the_run_beside_the_published_curve(trained, tmp_path):
+def test_compare_puts_the_run_beside_the_published_curve(trained, tmp_path, evaluate_script, stopped):
     out = tmp_path / "report"
 
     def refused(*flags: str) -> str:
-        result = subprocess.run([sys.executable, str(ROOT / "examples/evaluate.py"), str(trained), "--compare", "drqv2",
-                                 *flags, "--out", str(out)], capture_output=True, text=True, cwd=ROOT)
-        assert result.returncode != 0 and not out.exists(), "refused before any episode"
-        return result.stderr
+        said = stopped(evaluate_script.main, [trained, "--compare", "drqv2", *flags, "--out", out])
+        assert not out.exists(), "refused before any episode"
+        return said
 
     assert "episode length 100 in the run, 1000 in protocol drqv2" in refused(), "the run's 100-step episodes"
     # DrQ-v2 publishes its curve at 0 and 20,000 frames: compare() sets the 400-frame run beside the mean interpolated
