@@ -52,18 +52,8 @@ def test_each_video_level_plays_its_own_folder_and_the_rows_say_so(tmp_path):
     assert all(row["shown"].startswith("preset=") for row in by_level["color_hard"])
 
 
-def evaluate_script():
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("evaluate_script", ROOT / "examples" / "evaluate.py")
-    script = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = script  # its dataclasses look their module up
-    spec.loader.exec_module(script)
-    return script
-
-
-def test_videos_are_given_per_level_pattern():
-    script = evaluate_script()
+def test_videos_are_given_per_level_pattern(evaluate_script):
+    script = evaluate_script
     pairs = [("video_easy", Path("/e")), ("dcs_*", Path("/davis")), ("*", Path("/any"))]
     assert script.videos_for("dmc/walker-walk", "video_easy", pairs) == {"videos": "/e"}
     assert script.videos_for("dmc/walker-walk", "dcs_0.2", pairs) == {"videos": "/davis"}
@@ -118,8 +108,8 @@ def test_a_videos_folder_is_checked_against_its_levels_data_set_before_any_work(
         check_video_counts({"dmc/walker-walk": ["video_hard"]}, videos, allow_partial_data=False)
 
 
-def test_under_dmcgb_the_env_seeds_are_seed_plus_42():
-    script = evaluate_script()
+def test_under_dmcgb_the_env_seeds_are_seed_plus_42(evaluate_script):
+    script = evaluate_script
     from vigen.protocols import PROTOCOLS
 
     assert script.env_seeds((0, 1), PROTOCOLS["dmcgb"]) == [42, 43], "DMC-GB src/eval.py:53: make_env(seed=args.seed + 42)"

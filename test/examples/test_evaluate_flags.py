@@ -3,8 +3,6 @@ default: test_script_flags.py), and the command's checks stop with the flag and 
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import pytest
@@ -14,13 +12,8 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
-def evaluate():
-    spec = importlib.util.spec_from_file_location("evaluate_example", ROOT / "examples" / "evaluate.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up there
-    spec.loader.exec_module(module)
-    yield module
-    del sys.modules[spec.name]
+def evaluate(evaluate_script):
+    return evaluate_script  # examples/evaluate.py, loaded once (test/examples/conftest.py)
 
 
 def test_the_flags_keep_their_meanings(evaluate):

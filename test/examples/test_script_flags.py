@@ -7,9 +7,7 @@ value it has when not typed. The scripts now parse with tyro; each test below ch
 
 from __future__ import annotations
 
-import importlib.util
 import re
-import sys
 from pathlib import Path
 
 import pytest
@@ -98,20 +96,9 @@ ADDED = {"train": {"--ray": ("Launch", "optional value (bare: local)", "str", No
 SAMPLES = {"int": ("7", 7), "float": ("0.5", 0.5), "str": ("x", "x"), "Path": ("some/folder", Path("some/folder"))}
 
 
-def load(name: str):
-    spec = importlib.util.spec_from_file_location(f"{name}_flags_script", ROOT / "examples" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses and tyro look their module up there
-    spec.loader.exec_module(module)
-    return module
-
-
 @pytest.fixture(scope="module")
-def scripts():
-    loaded = {name: load(name) for name in MAIN}
-    yield loaded
-    for name in MAIN:
-        del sys.modules[f"{name}_flags_script"]
+def scripts(train_script, evaluate_script):
+    return {"train": train_script, "evaluate": evaluate_script}  # loaded once (test/examples/conftest.py)
 
 
 def settings_of(script) -> dict[str, type]:

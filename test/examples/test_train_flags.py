@@ -3,7 +3,6 @@ any work, one writer per run folder (every flag's name, meaning and default: tes
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import os
 import socket
@@ -20,13 +19,8 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
-def train():
-    spec = importlib.util.spec_from_file_location("train_example", ROOT / "examples" / "train.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up there
-    spec.loader.exec_module(module)
-    yield module
-    del sys.modules[spec.name]
+def train(train_script):
+    return train_script  # examples/train.py, loaded once (test/examples/conftest.py)
 
 
 def test_recipe_list_prints_every_recipe_and_stops(train, capsys):
