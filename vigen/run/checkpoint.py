@@ -17,6 +17,34 @@ consistent with each other whatever moment the run is killed at:
 Random states (:func:`random_states`), seeded augmentation generators (:func:`generator_states`)
 and the n-step window of TorchRL's ``MultiStepTransform`` (:func:`multistep_state`) are saved as
 plain tensors and lists too.
+
+Examples:
+    A run folder as a killed run leaves it: a good checkpoint, a newer one cut short, the temporary
+    file of a write that never finished, and a log that went on after the last good checkpoint.
+    Resuming takes the newest checkpoint that loads, removes the temporary files and rewinds the
+    logs to the checkpoint's step:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from vigen.run.checkpoint import (checkpoint_files, checkpoint_path, newest_checkpoint,
+    ...                                   remove_temporary_files, save_checkpoint, truncate_csv_logs)
+    >>> run = Path(tempfile.mkdtemp())
+    >>> checkpoints, logs = run / "checkpoints", run / "logs"
+    >>> checkpoints.mkdir(), logs.mkdir()
+    (None, None)
+    >>> _ = save_checkpoint(checkpoint_path(checkpoints, 10), {"frames": 10})
+    >>> _ = checkpoint_path(checkpoints, 20).write_bytes(b"PK\\x03\\x04 cut short")
+    >>> _ = (checkpoints / ".frames_00000030.pt.tmp-7").write_bytes(b"half")
+    >>> _ = (logs / "loss.csv").write_text("5,0.5\\n10,0.4\\n20,0.3\\n")
+    >>> [path.name for path in checkpoint_files(checkpoints)]  # newest first; temporary files are not checkpoints
+    ['frames_00000020.pt', 'frames_00000010.pt']
+    >>> path, state, skipped = newest_checkpoint(checkpoints)  # the newest that loads, and why the newer ones did not
+    >>> path.name, state["frames"], [(skip.name, "truncated" in why) for skip, why in skipped]
+    ('frames_00000010.pt', 10, [('frames_00000020.pt', True)])
+    >>> [path.name for path in remove_temporary_files(checkpoints)]
+    ['.frames_00000030.pt.tmp-7']
+    >>> truncate_csv_logs(logs, state["frames"]), (logs / "loss.csv").read_text()
+    (['loss.csv: dropped 1 rows logged after step 10'], '5,0.5\\n10,0.4\\n')
 """
 
 from __future__ import annotations
@@ -153,15 +181,7 @@ def load_checkpoint(path: str | Path) -> dict[str, Any]:
 def checkpoint_files(folder: str | Path) -> list[Path]:
     """The ``frames_*.pt`` files of ``folder``, newest (most frames) first; temporary files are not listed.
 
-    Examples:
-        >>> import tempfile
-        >>> from pathlib import Path
-        >>> from vigen.run.checkpoint import checkpoint_files
-        >>> folder = Path(tempfile.mkdtemp())
-        >>> for name in ["frames_00000200.pt", "frames_00001000.pt", ".frames_00001200.pt.tmp-7"]:
-        ...     _ = (folder / name).write_bytes(b"")
-        >>> [p.name for p in checkpoint_files(folder)]
-        ['frames_00001000.pt', 'frames_00000200.pt']
+    Example: the module's.
     """
     folder = Path(folder)
     if not folder.is_dir():
@@ -176,16 +196,7 @@ def newest_checkpoint(folder: str | Path) -> tuple[Path, dict[str, Any], list[tu
     Raises:
         CheckpointError: no checkpoint in ``folder`` loads (the message lists why for each).
 
-    Examples:
-        >>> import tempfile, torch
-        >>> from pathlib import Path
-        >>> from vigen.run.checkpoint import newest_checkpoint, save_checkpoint
-        >>> folder = Path(tempfile.mkdtemp())
-        >>> _ = save_checkpoint(folder / "frames_00000010.pt", {"frames": 10})
-        >>> _ = (folder / "frames_00000020.pt").write_bytes(b"PK\\x03\\x04 cut short")
-        >>> path, state, skipped = newest_checkpoint(folder)
-        >>> path.name, state["frames"], [(p.name, "truncated" in why) for p, why in skipped]
-        ('frames_00000010.pt', 10, [('frames_00000020.pt', True)])
+    Example: the module's.
     """
     skipped: list[tuple[Path, str]] = []
     for path in checkpoint_files(folder):
@@ -202,14 +213,7 @@ def newest_checkpoint(folder: str | Path) -> tuple[Path, dict[str, Any], list[tu
 def remove_temporary_files(folder: str | Path) -> list[Path]:
     """Delete the temporary files a killed :func:`vigen.io.atomic_write` left in ``folder``; return them.
 
-    Examples:
-        >>> import tempfile
-        >>> from pathlib import Path
-        >>> from vigen.run.checkpoint import remove_temporary_files
-        >>> folder = Path(tempfile.mkdtemp())
-        >>> _ = (folder / ".frames_00000010.pt.tmp-123").write_bytes(b"half")
-        >>> [p.name for p in remove_temporary_files(folder)], list(folder.iterdir())
-        (['.frames_00000010.pt.tmp-123'], [])
+    Example: the module's.
     """
     folder = Path(folder)
     if not folder.is_dir():
@@ -560,16 +564,7 @@ def truncate_csv_logs(folder: str | Path, step: int) -> list[str]:
     checkpoint has logged rows the resumed run logs again: rewinding the files to the checkpoint's
     step first keeps each step once. Each file is rewritten atomically, and only if it changes.
 
-    Examples:
-        >>> import tempfile
-        >>> from pathlib import Path
-        >>> from vigen.run.checkpoint import truncate_csv_logs
-        >>> folder = Path(tempfile.mkdtemp())
-        >>> _ = (folder / "loss.csv").write_text("200,0.5\\n400,0.4\\n600,0.3\\n")
-        >>> truncate_csv_logs(folder, 400)
-        ['loss.csv: dropped 1 rows logged after step 400']
-        >>> (folder / "loss.csv").read_text()
-        '200,0.5\\n400,0.4\\n'
+    Example: the module's.
     """
     if not isinstance(step, int):
         raise TypeError(f"truncate_csv_logs: step must be an integer, got {type(step).__name__}.")
