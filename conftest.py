@@ -1,11 +1,13 @@
 """Doctest collection over the package (modules of an extra that is not installed are skipped: their tests skip with the
-reason), and the test run's parallel workers (``scripts/test.sh`` runs pytest-xdist, one worker per core)."""
+reason; their temporary folders go in pytest's), and the test run's parallel workers (``scripts/test.sh`` runs
+pytest-xdist, one worker per core)."""
 
 import importlib.util
 import os
 import tempfile
 
 import pytest
+from _pytest.doctest import DoctestItem
 
 collect_ignore = [] if importlib.util.find_spec("ray") else ["vigen/ray_cluster.py", "vigen/evaluation/ray_backend.py"]
 
@@ -69,6 +71,13 @@ def pytest_configure(config: pytest.Config) -> None:
         import torch
 
         torch.set_num_threads(max(1, (os.cpu_count() or 1) // workers))
+
+
+@pytest.fixture(autouse=True)
+def doctest_temporary_folders(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The examples' ``tempfile.mkdtemp()`` folders go in the doctest's ``tmp_path``, which pytest prunes, not in /tmp for good."""
+    if isinstance(request.node, DoctestItem):
+        monkeypatch.setattr(tempfile, "tempdir", str(request.getfixturevalue("tmp_path")))
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest's -m deselection reads the markers
