@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import importlib
+import inspect
 import subprocess
 import sys
 
@@ -128,6 +130,20 @@ def test_level_options_are_checked_against_the_transforms_signatures():
         make_env("dmc/walker-walk", generalization="camera_hard", level_options={"fov_deg": (-1.0, 1.0), "videos": None}, **FAST)
     with pytest.raises(ValueError, match=r"'fov_deg' do nothing at level 'train'.*camera_hard"):
         make_env("dmc/walker-walk", level_options={"fov_deg": (-1.0, 1.0)}, **FAST)
+
+
+ENV_CLASSES = {"dmc": "vigen.envs.dmc.env:DMCPixelEnv", "loco": "vigen.envs.loco.env:LocoPixelEnv",
+               "adroit": "vigen.envs.adroit.env:AdroitPixelEnv", "robosuite": "vigen.envs.robosuite.env:RobosuitePixelEnv"}
+
+
+@pytest.mark.parametrize("suite", SUITES.values(), ids=list(SUITES))
+def test_a_suites_env_options_are_its_env_classs_keyword_defaults(suite: Suite):
+    """The record repeats the env's defaults so that reading it imports no simulator; they must not drift apart."""
+    module, _, name = ENV_CLASSES[suite.name].partition(":")
+    env_class = getattr(importlib.import_module(module), name)
+    parameters = inspect.signature(env_class.__init__).parameters.values()
+    defaults = {p.name: p.default for p in parameters if p.kind is p.KEYWORD_ONLY and p.name != "seed"}
+    assert dict(suite.env_options) == defaults
 
 
 def test_unknown_env_options_and_scene_ids_are_refused_before_building():
