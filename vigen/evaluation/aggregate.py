@@ -89,8 +89,29 @@ def stratified_bootstrap_ci(
     array = as_scores(scores)
     check_confidence(confidence)
     resamples = resample_runs(array, stratified_picks(np.random.default_rng(seed), reps, *array.shape))
-    low, high = percentile_interval(np.array([statistic(resample) for resample in resamples]), confidence)
+    low, high = percentile_interval(statistic_of_each(statistic, resamples), confidence)
     return float(low), float(high)
+
+
+def statistic_of_each(statistic: Statistic, resamples: np.ndarray) -> np.ndarray:
+    """``statistic`` of each ``[runs, tasks]`` resample of ``resamples`` (``[reps, runs, tasks]``), as a ``[reps]`` array.
+
+    The IQM and the mean are taken over all resamples in one numpy call, with the same values as
+    one call per resample (the same sort and sum on each row); other statistics are called per resample.
+
+    Examples:
+        >>> import numpy as np
+        >>> from vigen.evaluation.aggregate import iqm, statistic_of_each
+        >>> resamples = np.random.default_rng(0).normal(size=(50, 5, 3))
+        >>> bool((statistic_of_each(iqm, resamples) == [iqm(resample) for resample in resamples]).all())
+        True
+    """
+    rows = resamples.reshape(len(resamples), -1)
+    if statistic is iqm:
+        return stats.trim_mean(rows, proportiontocut=0.25, axis=1)
+    if statistic is mean or statistic is np.mean:
+        return rows.mean(axis=1)
+    return np.array([statistic(resample) for resample in resamples])
 
 
 def check_confidence(confidence: float) -> None:
