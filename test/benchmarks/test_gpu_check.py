@@ -1,5 +1,8 @@
 """The device check (``benchmarks/gpu_check.sh``) runs on the CPU in its dry mode, so that it cannot rot between the
-sessions that have a GPU: its figures' structure, the tiers' order, its deadline, and a missing dependency named fast."""
+sessions that have a GPU: its figures' structure, the tiers' order, its deadline, and a missing dependency named fast.
+
+The whole dry runs (about a minute each) are marked ``device_prep``: ``bash scripts/test.sh -m device_prep`` runs them
+before a device session; the default run keeps the failure paths, the budgets and the calls' order."""
 
 from __future__ import annotations
 
@@ -135,6 +138,7 @@ def test_the_table_reader_takes_the_rows_benchmarks_losses_prints(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.device_prep
 def test_the_learner_call_runs_the_device_tests_the_gap_and_every_loss_in_parallel(tmp_path):
     """issue 48's second call (--call learner) on the CPU: tiers 1, 7, 6 in that order; tier 6 compiles in parallel processes
     (here two at once, no compile), times each alone, the named variants first, and names their options."""
@@ -151,6 +155,7 @@ def test_the_learner_call_runs_the_device_tests_the_gap_and_every_loss_in_parall
 
 
 @pytest.mark.slow
+@pytest.mark.device_prep
 @pytest.mark.render
 def test_the_end_to_end_call_runs_the_throughput_tier_with_several_runs(tmp_path):
     """issue 48's first call (--call e2e) on the CPU: tier 5 alone, a multi-worker configuration, then two runs at once."""
