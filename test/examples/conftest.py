@@ -1,4 +1,4 @@
-"""The example scripts loaded as modules, so a test can call their ``main`` in this process.
+"""The example scripts loaded as modules (``in_process.py``), so a test can call their ``main`` in this process.
 
 A script's error paths stop before any work: calling ``main(argv)`` here checks the same message and exit as a
 subprocess would, without paying the interpreter's start and torch's import again for each case.
@@ -6,24 +6,11 @@ subprocess would, without paying the interpreter's start and torch's import agai
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from collections.abc import Callable, Iterator
-from pathlib import Path
+from collections.abc import Callable
 from types import ModuleType
 
 import pytest
-
-ROOT = Path(__file__).resolve().parents[2]
-
-
-def load_example(name: str) -> ModuleType:
-    """``examples/<name>.py`` as a module (registered in ``sys.modules``: dataclasses look their module up there)."""
-    spec = importlib.util.spec_from_file_location(f"{name}_example_under_test", ROOT / "examples" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+from in_process import load_example
 
 
 @pytest.fixture
@@ -42,21 +29,15 @@ def stopped(capsys: pytest.CaptureFixture[str]) -> Callable[[Callable[[list[str]
 
 
 @pytest.fixture(scope="module")
-def train_script() -> Iterator[ModuleType]:
-    module = load_example("train")
-    yield module
-    del sys.modules[module.__name__]
+def train_script() -> ModuleType:
+    return load_example("train")
 
 
 @pytest.fixture(scope="module")
-def evaluate_script() -> Iterator[ModuleType]:
-    module = load_example("evaluate")
-    yield module
-    del sys.modules[module.__name__]
+def evaluate_script() -> ModuleType:
+    return load_example("evaluate")
 
 
 @pytest.fixture(scope="module")
-def gallery_script() -> Iterator[ModuleType]:
-    module = load_example("gallery")
-    yield module
-    del sys.modules[module.__name__]
+def gallery_script() -> ModuleType:
+    return load_example("gallery")

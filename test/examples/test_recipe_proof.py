@@ -11,21 +11,18 @@ from __future__ import annotations
 
 import csv
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 import torch
+from in_process import Finished, run_example
 
 from vigen.results import RecipeMismatch, compare
 
-ROOT = Path(__file__).resolve().parents[2]
 
-
-def run(script: str, *args: str | Path) -> subprocess.CompletedProcess:
-    result = subprocess.run([sys.executable, str(ROOT / "examples" / script), *map(str, args)], capture_output=True, text=True,
-                            cwd=ROOT)
+def run(script: str, *args: str | Path) -> Finished:
+    """``python examples/<script> args`` in this process (``in_process.py``), which must exit 0."""
+    result = run_example(script.removesuffix(".py"), *args)
     assert result.returncode == 0, result.stderr[-3000:]
     return result
 

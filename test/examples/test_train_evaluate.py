@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 import torch
+from in_process import Finished, run_example
 
 ROOT = Path(__file__).resolve().parents[2]
 # config.json as examples/train.py wrote it before vigen.run.TrainConfig, for `--algo drqv2 *TINY`
@@ -18,9 +19,18 @@ TINY = ["--env", "dmc/cartpole-balance", "--seed-frames", "200", "--eval-every",
         "--batch-size", "8", "--hidden-dim", "32", "--buffer-size", "2000", "--episode-length", "100"]
 
 
-def run(script: str, *args: str | Path) -> subprocess.CompletedProcess:
-    cmd = [sys.executable, str(ROOT / "examples" / script), *map(str, args)]
-    result = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+def run(script: str, *args: str | Path) -> Finished:
+    """``python examples/<script> args`` in this process (``in_process.py``), which must exit 0."""
+    result = run_example(script.removesuffix(".py"), *args)
+    assert result.returncode == 0, result.stderr[-3000:]
+    return result
+
+
+def run_process(script: str, *args: str | Path) -> subprocess.CompletedProcess:
+    """The same in a process of its own: for scripts with no ``main(argv)``, and for runs whose worker processes import
+    the script's functions by its module name."""
+    result = subprocess.run([sys.executable, str(ROOT / "examples" / script), *map(str, args)], capture_output=True,
+                            text=True, cwd=ROOT)
     assert result.returncode == 0, result.stderr[-3000:]
     return result
 
@@ -113,18 +123,16 @@ def test_an_exported_agent_evaluates_as_its_run_does(trained, tmp_path):
     assert episodes["exported"] == episodes["run"], "float32 export: the same actions, so the same episodes"
 
 
-def test_evaluate_names_a_missing_checkpoint(tmp_path):
-    result = subprocess.run([sys.executable, str(ROOT / "examples/evaluate.py"), str(tmp_path)],
-                            capture_output=True, text=True)
-    assert result.returncode != 0 and "has no checkpoints" in result.stderr
+def test_evaluate_names_a_missing_checkpoint(tmp_path, evaluate_script, stopped):
+    assert "has no checkpoints" in stopped(evaluate_script.main, [tmp_path])
 
 
 @pytest.mark.render
-def test_evaluate_names_a_checkpoint_moved_out_of_its_run_folder(trained, tmp_path):
+def test_evaluate_names_a_checkpoint_moved_out_of_its_run_folder(trained, tmp_path, evaluate_script, stopped):
     moved = tmp_path / "frames_00000400.pt"
     moved.write_bytes((trained / "checkpoints" / "frames_00000400.pt").read_bytes())
-    result = subprocess.run([sys.executable, str(ROOT / "examples/evaluate.py"), str(moved)], capture_output=True, text=True)
-    assert result.returncode != 0 and "no config.json at" in result.stderr and "keep the checkpoint in its run folder" in result.stderr
+    said = stopped(evaluate_script.main, [moved])
+    assert "no config.json at" in said and "keep the checkpoint in its run folder" in said
 
 
 @pytest.mark.slow
@@ -159,7 +167,7 @@ def test_a_gpu_run_resumes_on_the_gpu_and_evaluates_on_the_cpu(tmp_path):
 
 @pytest.mark.render
 def test_compose_example_trains_and_tests(tmp_path):
-    result = run("compose_torchrl.py", "--frames", "300", "--batch-size", "8", "--eval-steps", "30")
+    result = run_process("compose_torchrl.py", "--frames", "300", "--batch-size", "8", "--eval-steps", "30")
     assert "loss_critic" in result.stdout
     assert "| level | svea |" in result.stdout and "| gaussian_noise |" in result.stdout
 
@@ -168,7 +176,7 @@ def test_compose_example_trains_and_tests(tmp_path):
 @pytest.mark.render
 def test_train_with_worker_processes(tmp_path):
     """--workers 2: a MultiSyncCollector; n-step returns per worker, every transition stored once."""
-    run("train.py", "--workers", "2", "--frames", "800", "--out", tmp_path / "run", *TINY)
+    run_process("train.py", "--workers", "2", "--frames", "800", "--out", tmp_path / "run", *TINY)
     checkpoint = torch.load(tmp_path / "run" / "checkpoints" / "frames_00000800.pt", weights_only=True)
     assert (checkpoint["steps"], checkpoint["updates"]) == (400, 150)
     assert checkpoint["replay"]["len"] == 400 - 2 * 3, "each worker's last 3 steps wait for their n-step window"
