@@ -58,3 +58,10 @@ def run_example(name: str, *args: str | Path) -> Finished:
             torch.set_num_threads(threads)
             torch.set_rng_state(rng)
     return Finished(code, out.getvalue(), err.getvalue())
+
+
+def run(script: str, *args: str | Path) -> Finished:
+    """``python examples/<script> args`` in this process (:func:`run_example`), which must exit 0."""
+    result = run_example(script.removesuffix(".py"), *args)
+    assert result.returncode == 0, result.stderr[-3000:]
+    return result

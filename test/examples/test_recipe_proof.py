@@ -11,20 +11,12 @@ from __future__ import annotations
 
 import csv
 import json
-from pathlib import Path
 
 import pytest
 import torch
-from in_process import Finished, run_example
+from in_process import run
 
 from vigen.results import RecipeMismatch, compare
-
-
-def run(script: str, *args: str | Path) -> Finished:
-    """``python examples/<script> args`` in this process (``in_process.py``), which must exit 0."""
-    result = run_example(script.removesuffix(".py"), *args)
-    assert result.returncode == 0, result.stderr[-3000:]
-    return result
 
 
 @pytest.mark.slow

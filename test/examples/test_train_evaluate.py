@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 import torch
-from in_process import Finished, run_example
+from in_process import run
 
 ROOT = Path(__file__).resolve().parents[2]
 # config.json as examples/train.py wrote it before vigen.run.TrainConfig, for `--algo drqv2 *TINY`
@@ -19,16 +19,10 @@ TINY = ["--env", "dmc/cartpole-balance", "--seed-frames", "200", "--eval-every",
         "--batch-size", "8", "--hidden-dim", "32", "--buffer-size", "2000", "--episode-length", "100"]
 
 
-def run(script: str, *args: str | Path) -> Finished:
-    """``python examples/<script> args`` in this process (``in_process.py``), which must exit 0."""
-    result = run_example(script.removesuffix(".py"), *args)
-    assert result.returncode == 0, result.stderr[-3000:]
-    return result
-
-
 def run_process(script: str, *args: str | Path) -> subprocess.CompletedProcess:
-    """The same in a process of its own: for scripts with no ``main(argv)``, and for runs whose worker processes import
-    the script's functions by its module name."""
+    """``python examples/<script> args`` in a process of its own, which must exit 0: for scripts with no ``main(argv)``,
+    and for runs whose worker processes import the script's functions by its module name (``in_process.run`` runs the
+    others in this process)."""
     result = subprocess.run([sys.executable, str(ROOT / "examples" / script), *map(str, args)], capture_output=True,
                             text=True, cwd=ROOT)
     assert result.returncode == 0, result.stderr[-3000:]
