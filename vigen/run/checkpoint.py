@@ -41,8 +41,8 @@ Examples:
     >>> path, state, skipped = newest_checkpoint(checkpoints)  # the newest that loads, and why the newer ones did not
     >>> path.name, state["frames"], [(skip.name, "truncated" in why) for skip, why in skipped]
     ('frames_00000010.pt', 10, [('frames_00000020.pt', True)])
-    >>> [path.name for path in remove_temporary_files(checkpoints)]
-    ['.frames_00000030.pt.tmp-7']
+    >>> [path.name for path in remove_temporary_files(checkpoints)], sorted(path.name for path in checkpoints.iterdir())
+    (['.frames_00000030.pt.tmp-7'], ['frames_00000010.pt', 'frames_00000020.pt'])
     >>> truncate_csv_logs(logs, state["frames"]), (logs / "loss.csv").read_text()
     (['loss.csv: dropped 1 rows logged after step 10'], '5,0.5\\n10,0.4\\n')
 """
